@@ -1,0 +1,149 @@
+#pragma once
+// Sparse Gauss-Newton / Levenberg-Marquardt for SE(2) pose graphs, solved with CHOLMOD.
+//
+// Built for repeated use (RRR runs thousands of optimizations on one graph): constraints are
+// switched on and off instead of rebuilding the problem, every call starts from the current
+// poses (warm start), and the sparsity pattern with its fill-reducing ordering is kept as long
+// as it covers the active constraints. Switching a constraint off keeps the pattern; switching
+// on one that is not in it rebuilds it once.
+//
+// Gauge: the fixed nodes (node 0 unless others are fixed) are not variables. A connected part
+// of the active graph without a fixed node (another session, or a node without active
+// constraints) is held by a weak prior on its first node, so it stays solvable without
+// biasing its shape.
+//
+// chi2 is the sum over active constraints of e^T * Omega * e, with e as in g2o's EdgeSE2.
+// Not thread-safe: one thread per Optimizer.
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "rrr_graphslam/core/block_hessian.h"
+#include "rrr_graphslam/core/pose_graph.h"
+#include "rrr_graphslam/core/se2.h"
+#include "rrr_graphslam/core/sparse_solver.h"
+
+namespace rrr_graphslam::core {
+
+struct OptimizerParams {
+  enum class Method { kGaussNewton, kLevenbergMarquardt };
+  Method method = Method::kGaussNewton;  ///< default: Gauss-Newton
+  int max_iterations = 50;               ///< accepted steps; default 50
+  /// Converged when chi2 drops by less than this fraction in one step; default 1e-9.
+  double relative_tolerance = 1e-9;
+  /// Converged when no state entry moves by more than this (m or rad); default 1e-9.
+  double step_tolerance = 1e-9;
+  /// LM: initial damping = lm_tau * max(diag(H)); default 1e-5 (as g2o).
+  double lm_tau = 1e-5;
+  /// Information (per axis) of the weak prior that anchors unanchored components; default 1e-6.
+  double anchor_information = 1e-6;
+  /// Fill OptimizationResult::constraint_chi2 for every constraint; default false.
+  bool compute_constraint_chi2 = false;
+};
+
+enum class StopReason {
+  kConverged,      ///< chi2 or step below tolerance
+  kMaxIterations,  ///< max_iterations reached
+  kSolverFailure,  ///< the normal matrix was not positive definite (GN), or LM damping exploded
+  kNoVariables,    ///< every node is fixed
+};
+
+std::string toString(StopReason reason);
+
+struct OptimizationResult {
+  int iterations = 0;        ///< accepted steps
+  double initial_chi2 = 0.0;
+  double final_chi2 = 0.0;
+  double time_sec = 0.0;
+  StopReason stop_reason = StopReason::kConverged;
+  /// Per constraint (active or not) at the final poses, if compute_constraint_chi2.
+  std::vector<double> constraint_chi2;
+};
+
+class Optimizer {
+ public:
+  explicit Optimizer(const OptimizerParams& params = {}) : params_(params) {}
+
+  OptimizerParams& params() { return params_; }
+  const OptimizerParams& params() const { return params_; }
+
+  /// Returns the new node's index (0, 1, 2, ...).
+  int addNode(const Pose2& initial_pose);
+  /// Returns the new constraint's index. `information` must be symmetric positive definite.
+  int addConstraint(int from, int to, const Pose2& measurement, const Eigen::Matrix3d& information,
+                    bool active = true);
+
+  void setActive(int constraint, bool active) { active_[static_cast<std::size_t>(constraint)] = active; }
+  bool isActive(int constraint) const { return active_[static_cast<std::size_t>(constraint)]; }
+  void setFixed(int node, bool fixed);
+  bool isFixed(int node) const { return fixed_[static_cast<std::size_t>(node)]; }
+
+  int numNodes() const { return static_cast<int>(poses_.size()); }
+  int numConstraints() const { return static_cast<int>(constraints_.size()); }
+  int from(int constraint) const { return constraints_[static_cast<std::size_t>(constraint)].from; }
+  int to(int constraint) const { return constraints_[static_cast<std::size_t>(constraint)].to; }
+
+  const std::vector<Pose2>& poses() const { return poses_; }
+  void setPoses(const std::vector<Pose2>& poses);
+
+  /// chi2 of the active constraints at the current poses.
+  double chi2() const;
+  /// e^T Omega e of one constraint at the current poses, whether active or not.
+  double constraintChi2(int constraint) const;
+
+  /// Iterates from the current poses and leaves the result in poses().
+  OptimizationResult optimize();
+
+  /// Symbolic analyses done so far (one per sparsity pattern).
+  int symbolicAnalyses() const { return solver_.analysisCount(); }
+
+ private:
+  struct Constraint {
+    int from;
+    int to;
+    Pose2 measurement;
+    Eigen::Matrix3d information;
+  };
+  // Where one constraint's blocks live in H; a fixed end has variable -1.
+  struct ConstraintSlots {
+    int from_var = -1;
+    int to_var = -1;
+    BlockHessian::OffDiagonalSlots off_diagonal{};
+  };
+
+  void prepareStructure();
+  void rebuildPattern();
+  void chooseAnchors();
+  double assemble();  // H and gradient at the current poses; returns chi2
+  void applyStep(const Eigen::VectorXd& step);
+
+  OptimizerParams params_;
+  std::vector<Pose2> poses_;
+  std::vector<Constraint> constraints_;
+  std::vector<char> active_;
+  std::vector<char> fixed_;
+
+  // Structure, valid until the fixed set changes or an active constraint is not in the pattern.
+  bool variables_valid_ = false;
+  std::vector<int> variable_of_node_;  // -1 for fixed nodes
+  int num_variables_ = 0;
+  bool pattern_valid_ = false;
+  std::vector<char> in_pattern_;
+  int pattern_size_ = 0;
+  std::vector<ConstraintSlots> slots_;
+  BlockHessian hessian_;
+  SparseSolver solver_;
+
+  std::vector<int> anchors_;  // nodes held by a weak prior, with their anchor poses
+  std::vector<Pose2> anchor_poses_;
+  Eigen::VectorXd gradient_;
+};
+
+/// An optimizer holding `graph`: node k is the k-th smallest id, constraint k is edge k.
+Optimizer makeOptimizer(const PoseGraph& graph, const OptimizerParams& params = {});
+/// Writes the optimizer's poses back into the graph (same node order as makeOptimizer).
+void copyPosesToGraph(const Optimizer& optimizer, PoseGraph& graph);
+
+}  // namespace rrr_graphslam::core

@@ -1,0 +1,39 @@
+#pragma once
+// Line-by-line reading of text files that may be gzip-compressed (zlib reads plain files
+// transparently), and atomic whole-file writes (temp file in the same directory + rename),
+// so a reader never sees a half-written graph, decision table or map.
+
+#include <cstddef>
+#include <functional>
+#include <ostream>
+#include <string>
+
+namespace rrr_graphslam::core {
+
+class LineReader {
+ public:
+  /// Throws InputError (line 0) if the file cannot be opened.
+  explicit LineReader(const std::string& path);
+  ~LineReader();
+  LineReader(const LineReader&) = delete;
+  LineReader& operator=(const LineReader&) = delete;
+
+  /// Reads the next line without its end-of-line characters; false at end of file.
+  /// Throws InputError on a read error (e.g. a truncated .gz).
+  bool next(std::string& line);
+  /// 1-based number of the line last returned.
+  std::size_t lineNumber() const { return line_number_; }
+  const std::string& path() const { return path_; }
+
+ private:
+  std::string path_;
+  void* file_;  // gzFile; kept opaque so zlib.h stays out of the header
+  std::size_t line_number_ = 0;
+};
+
+/// Writes `path` atomically: `write` fills a temporary file next to it, which is flushed,
+/// synced and renamed over `path`. Throws std::runtime_error naming the path on failure;
+/// the previous file is then left untouched.
+void writeFileAtomically(const std::string& path, const std::function<void(std::ostream&)>& write);
+
+}  // namespace rrr_graphslam::core

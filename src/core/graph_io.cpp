@@ -1,0 +1,272 @@
+#include "rrr_graphslam/core/graph_io.h"
+
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <deque>
+#include <limits>
+#include <map>
+#include <sstream>
+#include <string_view>
+#include <unordered_map>
+#include <vector>
+
+#include "rrr_graphslam/core/input_error.h"
+#include "rrr_graphslam/core/text_file.h"
+
+namespace rrr_graphslam::core {
+namespace {
+
+using NodeId = PoseGraph::NodeId;
+
+struct ParsedEdge {
+  NodeId from;
+  NodeId to;
+  Pose2 measurement;
+  Eigen::Matrix3d information;
+  std::size_t line;
+};
+
+std::vector<std::string_view> splitFields(std::string_view line) {
+  std::vector<std::string_view> fields;
+  std::size_t i = 0;
+  while (i < line.size()) {
+    while (i < line.size() && std::isspace(static_cast<unsigned char>(line[i]))) ++i;
+    const std::size_t start = i;
+    while (i < line.size() && !std::isspace(static_cast<unsigned char>(line[i]))) ++i;
+    if (i > start) fields.push_back(line.substr(start, i - start));
+  }
+  return fields;
+}
+
+// Parses the fields of one line, after its tag, with errors that name the line.
+class LineParser {
+ public:
+  LineParser(const LineReader& reader, std::string_view tag,
+             const std::vector<std::string_view>& fields)
+      : reader_(reader), tag_(tag), fields_(fields) {}
+
+  void expectCount(std::size_t count) const {
+    if (fields_.size() - 1 != count) {
+      fail(std::string(tag_) + " expects " + std::to_string(count) + " fields after the tag, found " +
+           std::to_string(fields_.size() - 1));
+    }
+  }
+
+  NodeId id(std::size_t k) const {
+    const std::string_view f = fields_[k];
+    NodeId value = 0;
+    const auto [end, ec] = std::from_chars(f.data(), f.data() + f.size(), value);
+    if (ec != std::errc() || end != f.data() + f.size()) {
+      fail("field " + std::to_string(k) + " of " + std::string(tag_) + " ('" + std::string(f) +
+           "') is not a node id (a non-negative integer)");
+    }
+    return value;
+  }
+
+  double number(std::size_t k) const {
+    const std::string_view f = fields_[k];
+    double value = 0.0;
+    const auto [end, ec] = std::from_chars(f.data(), f.data() + f.size(), value);
+    if ((ec != std::errc() && ec != std::errc::result_out_of_range) ||
+        end != f.data() + f.size()) {
+      fail("field " + std::to_string(k) + " of " + std::string(tag_) + " ('" + std::string(f) +
+           "') is not a number");
+    }
+    if (!std::isfinite(value) || ec == std::errc::result_out_of_range) {
+      fail("field " + std::to_string(k) + " of " + std::string(tag_) + " ('" + std::string(f) +
+           "') is not finite");
+    }
+    return value;
+  }
+
+  Pose2 pose(std::size_t first) const { return {number(first), number(first + 1), number(first + 2)}; }
+
+  // Reads the six upper-triangle values starting at `first`; `order` gives the (row, col) of each.
+  Eigen::Matrix3d information(std::size_t first, const int (&order)[6][2]) const {
+    Eigen::Matrix3d info;
+    for (int k = 0; k < 6; ++k) {
+      const double v = number(first + static_cast<std::size_t>(k));
+      info(order[k][0], order[k][1]) = v;
+      info(order[k][1], order[k][0]) = v;
+    }
+    if (Eigen::LLT<Eigen::Matrix3d>(info).info() != Eigen::Success) {
+      std::ostringstream what;
+      what << "information matrix of " << tag_ << " is not positive definite (eigenvalues "
+           << Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(info).eigenvalues().transpose()
+           << ")";
+      fail(what.str());
+    }
+    return info;
+  }
+
+  [[noreturn]] void fail(const std::string& what) const {
+    throw InputError(reader_.path(), reader_.lineNumber(), what);
+  }
+
+ private:
+  const LineReader& reader_;
+  std::string_view tag_;
+  const std::vector<std::string_view>& fields_;
+};
+
+constexpr int kG2oOrder[6][2] = {{0, 0}, {0, 1}, {0, 2}, {1, 1}, {1, 2}, {2, 2}};
+constexpr int kToroOrder[6][2] = {{0, 0}, {0, 1}, {1, 1}, {2, 2}, {0, 2}, {1, 2}};
+
+// Initial poses for a file without vertices: a 0-1 breadth-first search from the smallest id
+// in which odometry edges cost nothing, so every node is reached through as few loop
+// candidates as possible (none when the odometry chain is connected).
+void chainInitialPoses(const std::vector<ParsedEdge>& edges, PoseGraph& graph) {
+  std::map<NodeId, Pose2> poses;
+  std::unordered_map<NodeId, std::vector<std::size_t>> incident;
+  for (std::size_t k = 0; k < edges.size(); ++k) {
+    incident[edges[k].from].push_back(k);
+    incident[edges[k].to].push_back(k);
+    poses.emplace(edges[k].from, Pose2::Zero());
+    poses.emplace(edges[k].to, Pose2::Zero());
+  }
+  std::unordered_map<NodeId, bool> placed;
+  for (const auto& [root, unused] : poses) {
+    if (placed[root]) continue;  // each disconnected part starts at its own smallest id
+    placed[root] = true;
+    std::deque<NodeId> queue{root};
+    while (!queue.empty()) {
+      const NodeId n = queue.front();
+      queue.pop_front();
+      for (std::size_t k : incident[n]) {
+        const ParsedEdge& e = edges[k];
+        const NodeId other = e.from == n ? e.to : e.from;
+        if (placed[other]) continue;
+        placed[other] = true;
+        poses[other] = e.from == n ? compose(poses[n], e.measurement)
+                                   : compose(poses[n], inverse(e.measurement));
+        if (PoseGraph::defaultKind(e.from, e.to) == EdgeKind::kOdometry) {
+          queue.push_front(other);
+        } else {
+          queue.push_back(other);
+        }
+      }
+    }
+  }
+  for (const auto& [id, pose] : poses) graph.addNode(id, pose);
+}
+
+std::string formatNumber(double value) {
+  char buffer[64];
+  const auto [end, ec] = std::to_chars(buffer, buffer + sizeof(buffer), value);
+  return std::string(buffer, end);
+}
+
+std::string describeRange(const std::vector<NodeId>& ids) {
+  const bool contiguous = ids.back() - ids.front() + 1 == ids.size();
+  std::string text = "{" + std::to_string(ids.front());
+  if (ids.size() > 1) text += (contiguous ? ".." : ",...,") + std::to_string(ids.back());
+  return text + "} (" + std::to_string(ids.size()) + (ids.size() == 1 ? " node)" : " nodes)");
+}
+
+}  // namespace
+
+GraphFormat formatFromPath(const std::string& path) {
+  std::string p = path;
+  if (p.size() > 3 && p.compare(p.size() - 3, 3, ".gz") == 0) p.resize(p.size() - 3);
+  for (const std::string ext : {".graph", ".toro"}) {
+    if (p.size() > ext.size() && p.compare(p.size() - ext.size(), ext.size(), ext) == 0) {
+      return GraphFormat::kToro;
+    }
+  }
+  return GraphFormat::kG2o;
+}
+
+std::string describeComponents(const PoseGraph& graph) {
+  const auto components = graph.connectedComponents();
+  std::string text = std::to_string(components.size()) + " components: ";
+  const std::size_t shown = std::min<std::size_t>(components.size(), 8);
+  for (std::size_t c = 0; c < shown; ++c) text += (c ? ", " : "") + describeRange(components[c]);
+  if (shown < components.size()) text += ", ...";
+  return text;
+}
+
+PoseGraph readPoseGraph(const std::string& path, const GraphReadOptions& options) {
+  LineReader reader(path);
+  PoseGraph graph;
+  std::unordered_map<NodeId, std::size_t> vertex_line;
+  std::vector<ParsedEdge> edges;
+  std::string line;
+  while (reader.next(line)) {
+    const auto fields = splitFields(line);
+    if (fields.empty() || fields[0].front() == '#') continue;
+    const std::string_view tag = fields[0];
+    const LineParser parse(reader, tag, fields);
+    if (tag == "VERTEX_SE2" || tag == "VERTEX2") {
+      parse.expectCount(4);
+      const NodeId id = parse.id(1);
+      const Pose2 pose = parse.pose(2);
+      const auto [it, inserted] = vertex_line.emplace(id, reader.lineNumber());
+      if (!inserted) {
+        parse.fail("duplicate vertex id " + std::to_string(id) + " (first defined on line " +
+                   std::to_string(it->second) + ")");
+      }
+      graph.addNode(id, pose);
+    } else if (tag == "EDGE_SE2" || tag == "EDGE2") {
+      parse.expectCount(11);
+      ParsedEdge e;
+      e.from = parse.id(1);
+      e.to = parse.id(2);
+      if (e.from == e.to) parse.fail("self-loop: edge from node " + std::to_string(e.from) + " to itself");
+      e.measurement = parse.pose(3);
+      e.measurement.z() = normalizeAngle(e.measurement.z());
+      e.information = parse.information(6, tag == "EDGE_SE2" ? kG2oOrder : kToroOrder);
+      e.line = reader.lineNumber();
+      edges.push_back(e);
+    } else {
+      parse.fail("unknown tag '" + std::string(tag) +
+                 "' (expected VERTEX_SE2, EDGE_SE2, VERTEX2 or EDGE2)");
+    }
+  }
+
+  if (vertex_line.empty()) {
+    chainInitialPoses(edges, graph);
+  }
+  for (const ParsedEdge& e : edges) {
+    for (NodeId end : {e.from, e.to}) {
+      if (!graph.hasNode(end)) {
+        throw InputError(path, e.line, "edge refers to unknown node " + std::to_string(end));
+      }
+    }
+    graph.addEdge(e.from, e.to, e.measurement, e.information, PoseGraph::defaultKind(e.from, e.to));
+  }
+  if (graph.numNodes() == 0) throw InputError(path, 0, "no vertices or edges in the file");
+  if (!options.allow_disconnected && graph.connectedComponents().size() > 1) {
+    throw InputError(path, 0, "graph is disconnected: " + describeComponents(graph));
+  }
+  return graph;
+}
+
+void writePoseGraph(const PoseGraph& graph, const std::string& path, GraphFormat format) {
+  const bool g2o = format == GraphFormat::kG2o;
+  writeFileAtomically(path, [&](std::ostream& out) {
+    for (NodeId id : graph.nodeIds()) {
+      const Pose2 p = graph.pose(id);
+      out << (g2o ? "VERTEX_SE2 " : "VERTEX2 ") << id << ' ' << formatNumber(p.x()) << ' '
+          << formatNumber(p.y()) << ' ' << formatNumber(p.z()) << '\n';
+    }
+    const auto& order = g2o ? kG2oOrder : kToroOrder;
+    for (std::size_t k = 0; k < graph.numEdges(); ++k) {
+      const auto& e = graph.edge(k);
+      const Pose2 z = graph.measurement(k);
+      const Eigen::Matrix3d info = graph.information(k);
+      out << (g2o ? "EDGE_SE2 " : "EDGE2 ") << e.from << ' ' << e.to << ' ' << formatNumber(z.x())
+          << ' ' << formatNumber(z.y()) << ' ' << formatNumber(z.z());
+      for (const auto& rc : order) out << ' ' << formatNumber(info(rc[0], rc[1]));
+      out << '\n';
+    }
+  });
+}
+
+void writePoseGraph(const PoseGraph& graph, const std::string& path) {
+  writePoseGraph(graph, path, formatFromPath(path));
+}
+
+}  // namespace rrr_graphslam::core

@@ -1,0 +1,315 @@
+#include "rrr_graphslam/core/optimizer.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <stdexcept>
+
+#include "rrr_graphslam/core/union_find.h"
+
+namespace rrr_graphslam::core {
+
+std::string toString(StopReason reason) {
+  switch (reason) {
+    case StopReason::kConverged:
+      return "converged";
+    case StopReason::kMaxIterations:
+      return "max-iterations";
+    case StopReason::kSolverFailure:
+      return "solver-failure";
+    case StopReason::kNoVariables:
+      return "no-variables";
+  }
+  return "unknown";
+}
+
+int Optimizer::addNode(const Pose2& initial_pose) {
+  poses_.push_back(initial_pose);
+  fixed_.push_back(0);
+  variables_valid_ = false;
+  pattern_valid_ = false;
+  return numNodes() - 1;
+}
+
+int Optimizer::addConstraint(int from, int to, const Pose2& measurement,
+                             const Eigen::Matrix3d& information, bool active) {
+  if (from < 0 || to < 0 || from >= numNodes() || to >= numNodes() || from == to) {
+    throw std::invalid_argument("Optimizer::addConstraint: bad node index");
+  }
+  constraints_.push_back(Constraint{from, to, measurement, information});
+  active_.push_back(active ? 1 : 0);
+  in_pattern_.push_back(0);
+  slots_.emplace_back();
+  return numConstraints() - 1;
+}
+
+void Optimizer::setFixed(int node, bool fixed) {
+  if (static_cast<bool>(fixed_[static_cast<std::size_t>(node)]) == fixed) return;
+  fixed_[static_cast<std::size_t>(node)] = fixed ? 1 : 0;
+  variables_valid_ = false;
+  pattern_valid_ = false;
+}
+
+void Optimizer::setPoses(const std::vector<Pose2>& poses) {
+  if (poses.size() != poses_.size()) throw std::invalid_argument("Optimizer::setPoses: wrong size");
+  poses_ = poses;
+}
+
+double Optimizer::constraintChi2(int constraint) const {
+  const Constraint& c = constraints_[static_cast<std::size_t>(constraint)];
+  const Eigen::Vector3d e = edgeError(poses_[static_cast<std::size_t>(c.from)],
+                                      poses_[static_cast<std::size_t>(c.to)], c.measurement);
+  return e.dot(c.information * e);
+}
+
+double Optimizer::chi2() const {
+  double sum = 0.0;
+  for (int k = 0; k < numConstraints(); ++k) {
+    if (active_[static_cast<std::size_t>(k)]) sum += constraintChi2(k);
+  }
+  return sum;
+}
+
+void Optimizer::prepareStructure() {
+  if (!variables_valid_) {
+    const bool any_fixed = std::any_of(fixed_.begin(), fixed_.end(), [](char f) { return f; });
+    variable_of_node_.assign(poses_.size(), -1);
+    num_variables_ = 0;
+    for (std::size_t n = 0; n < poses_.size(); ++n) {
+      const bool fixed = any_fixed ? fixed_[n] != 0 : n == 0;  // default gauge: node 0
+      if (!fixed) variable_of_node_[n] = num_variables_++;
+    }
+    variables_valid_ = true;
+    pattern_valid_ = false;
+  }
+  if (pattern_valid_) {
+    // Keep the pattern while it covers every active constraint and is not mostly dead weight.
+    int active_count = 0;
+    for (std::size_t k = 0; k < constraints_.size(); ++k) {
+      if (!active_[k]) continue;
+      ++active_count;
+      if (!in_pattern_[k]) {
+        pattern_valid_ = false;
+        break;
+      }
+    }
+    if (pattern_size_ > 2 * active_count + 64) pattern_valid_ = false;
+  }
+  if (!pattern_valid_) rebuildPattern();
+}
+
+void Optimizer::rebuildPattern() {
+  std::vector<std::pair<int, int>> pairs;
+  pairs.reserve(constraints_.size());
+  pattern_size_ = 0;
+  for (std::size_t k = 0; k < constraints_.size(); ++k) {
+    in_pattern_[k] = active_[k];
+    if (!active_[k]) continue;
+    ++pattern_size_;
+    const int a = variable_of_node_[static_cast<std::size_t>(constraints_[k].from)];
+    const int b = variable_of_node_[static_cast<std::size_t>(constraints_[k].to)];
+    if (a >= 0 && b >= 0) pairs.emplace_back(a, b);
+  }
+  hessian_.build(num_variables_, pairs);
+  for (std::size_t k = 0; k < constraints_.size(); ++k) {
+    ConstraintSlots& s = slots_[k];
+    s.from_var = variable_of_node_[static_cast<std::size_t>(constraints_[k].from)];
+    s.to_var = variable_of_node_[static_cast<std::size_t>(constraints_[k].to)];
+    if (in_pattern_[k] && s.from_var >= 0 && s.to_var >= 0) {
+      s.off_diagonal = hessian_.offDiagonalSlots(std::min(s.from_var, s.to_var),
+                                                 std::max(s.from_var, s.to_var));
+    }
+  }
+  solver_.analyze(hessian_.matrix());
+  pattern_valid_ = true;
+}
+
+void Optimizer::chooseAnchors() {
+  UnionFind sets(poses_.size());
+  for (std::size_t k = 0; k < constraints_.size(); ++k) {
+    if (active_[k]) sets.unite(static_cast<std::size_t>(constraints_[k].from),
+                               static_cast<std::size_t>(constraints_[k].to));
+  }
+  std::vector<char> held(poses_.size(), 0);
+  for (std::size_t n = 0; n < poses_.size(); ++n) {
+    if (variable_of_node_[n] < 0) held[sets.find(n)] = 1;
+  }
+  anchors_.clear();
+  anchor_poses_.clear();
+  for (std::size_t n = 0; n < poses_.size(); ++n) {
+    const std::size_t root = sets.find(n);
+    if (held[root]) continue;
+    held[root] = 1;  // n is the first node of an unanchored component
+    anchors_.push_back(static_cast<int>(n));
+    anchor_poses_.push_back(poses_[n]);
+  }
+}
+
+double Optimizer::assemble() {
+  hessian_.setZero();
+  gradient_.setZero(3 * num_variables_);
+  double chi2_sum = 0.0;
+  for (std::size_t k = 0; k < constraints_.size(); ++k) {
+    if (!active_[k]) continue;
+    const Constraint& c = constraints_[k];
+    const ConstraintSlots& s = slots_[k];
+    const EdgeLinearization lin = linearizeEdge(poses_[static_cast<std::size_t>(c.from)],
+                                                poses_[static_cast<std::size_t>(c.to)], c.measurement);
+    const Eigen::Vector3d omega_e = c.information * lin.error;
+    chi2_sum += lin.error.dot(omega_e);
+    const Eigen::Matrix3d JfT_omega = lin.J_from.transpose() * c.information;
+    const Eigen::Matrix3d JtT_omega = lin.J_to.transpose() * c.information;
+    if (s.from_var >= 0) {
+      hessian_.addDiagonal(s.from_var, JfT_omega * lin.J_from);
+      gradient_.segment<3>(3 * s.from_var) += lin.J_from.transpose() * omega_e;
+    }
+    if (s.to_var >= 0) {
+      hessian_.addDiagonal(s.to_var, JtT_omega * lin.J_to);
+      gradient_.segment<3>(3 * s.to_var) += lin.J_to.transpose() * omega_e;
+    }
+    if (s.from_var >= 0 && s.to_var >= 0) {
+      if (s.from_var < s.to_var) {
+        hessian_.addOffDiagonal(s.off_diagonal, JfT_omega * lin.J_to);
+      } else {
+        hessian_.addOffDiagonal(s.off_diagonal, JtT_omega * lin.J_from);
+      }
+    }
+  }
+  const double w = params_.anchor_information;
+  for (std::size_t a = 0; a < anchors_.size(); ++a) {
+    const int n = anchors_[a];
+    const int v = variable_of_node_[static_cast<std::size_t>(n)];
+    Eigen::Vector3d d = poses_[static_cast<std::size_t>(n)] - anchor_poses_[a];
+    d.z() = normalizeAngle(d.z());
+    hessian_.addDiagonal(v, w * Eigen::Matrix3d::Identity());
+    gradient_.segment<3>(3 * v) += w * d;
+  }
+  return chi2_sum;
+}
+
+void Optimizer::applyStep(const Eigen::VectorXd& step) {
+  for (std::size_t n = 0; n < poses_.size(); ++n) {
+    const int v = variable_of_node_[n];
+    if (v < 0) continue;
+    poses_[n] += step.segment<3>(3 * v);
+    poses_[n].z() = normalizeAngle(poses_[n].z());
+  }
+}
+
+OptimizationResult Optimizer::optimize() {
+  const auto start = std::chrono::steady_clock::now();
+  OptimizationResult result;
+  prepareStructure();
+  chooseAnchors();
+
+  double chi2_now = assemble();
+  result.initial_chi2 = chi2_now;
+  result.stop_reason = StopReason::kMaxIterations;
+  const bool lm = params_.method == OptimizerParams::Method::kLevenbergMarquardt;
+
+  if (num_variables_ == 0) {
+    result.stop_reason = StopReason::kNoVariables;
+  } else if (!lm) {
+    for (int it = 0; it < params_.max_iterations; ++it) {
+      if (!solver_.factorize(hessian_.matrix())) {
+        result.stop_reason = StopReason::kSolverFailure;
+        break;
+      }
+      const Eigen::VectorXd step = solver_.solve(-gradient_);
+      applyStep(step);
+      ++result.iterations;
+      const double chi2_next = assemble();
+      const bool small_decrease = chi2_now - chi2_next <= params_.relative_tolerance * chi2_now;
+      const bool small_step = step.lpNorm<Eigen::Infinity>() <= params_.step_tolerance;
+      chi2_now = chi2_next;
+      if (small_step || (small_decrease && chi2_next <= result.initial_chi2)) {
+        result.stop_reason = StopReason::kConverged;
+        break;
+      }
+    }
+  } else {
+    double max_diagonal = 0.0;
+    const auto& H = hessian_.matrix();
+    for (int j = 0; j < H.outerSize(); ++j) {
+      max_diagonal = std::max(max_diagonal, H.valuePtr()[H.outerIndexPtr()[j + 1] - 1]);
+    }
+    double lambda = params_.lm_tau * max_diagonal;
+    double nu = 2.0;
+    int attempts = 0;
+    while (result.iterations < params_.max_iterations) {
+      if (++attempts > 10 * params_.max_iterations + 50 || lambda > 1e30) {
+        result.stop_reason = StopReason::kSolverFailure;
+        break;
+      }
+      hessian_.addToDiagonal(lambda);
+      const bool factorized = solver_.factorize(hessian_.matrix());
+      hessian_.addToDiagonal(-lambda);
+      if (!factorized) {
+        lambda *= nu;
+        nu *= 2.0;
+        continue;
+      }
+      const Eigen::VectorXd step = solver_.solve(-gradient_);
+      const std::vector<Pose2> saved = poses_;
+      applyStep(step);
+      const double chi2_next = chi2();
+      const double predicted = step.dot(lambda * step - gradient_);
+      const double rho = (chi2_now - chi2_next) / std::max(predicted, 1e-300);
+      if (rho > 0.0 && std::isfinite(chi2_next)) {
+        ++result.iterations;
+        const bool small_decrease = chi2_now - chi2_next <= params_.relative_tolerance * chi2_now;
+        const bool small_step = step.lpNorm<Eigen::Infinity>() <= params_.step_tolerance;
+        chi2_now = assemble();
+        lambda *= std::max(1.0 / 3.0, 1.0 - std::pow(2.0 * rho - 1.0, 3));
+        nu = 2.0;
+        if (small_decrease || small_step) {
+          result.stop_reason = StopReason::kConverged;
+          break;
+        }
+      } else {
+        poses_ = saved;
+        const bool no_progress_possible =
+            step.lpNorm<Eigen::Infinity>() <= params_.step_tolerance;
+        if (no_progress_possible) {
+          result.stop_reason = StopReason::kConverged;
+          break;
+        }
+        lambda *= nu;
+        nu *= 2.0;
+      }
+    }
+  }
+
+  result.final_chi2 = chi2_now;
+  if (params_.compute_constraint_chi2) {
+    result.constraint_chi2.resize(constraints_.size());
+    for (int k = 0; k < numConstraints(); ++k) {
+      result.constraint_chi2[static_cast<std::size_t>(k)] = constraintChi2(k);
+    }
+  }
+  result.time_sec =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return result;
+}
+
+Optimizer makeOptimizer(const PoseGraph& graph, const OptimizerParams& params) {
+  Optimizer optimizer(params);
+  std::unordered_map<PoseGraph::NodeId, int> index_of;
+  for (PoseGraph::NodeId id : graph.nodeIds()) index_of.emplace(id, optimizer.addNode(graph.pose(id)));
+  for (std::size_t k = 0; k < graph.numEdges(); ++k) {
+    const auto& e = graph.edge(k);
+    optimizer.addConstraint(index_of.at(e.from), index_of.at(e.to), graph.measurement(k),
+                            graph.information(k));
+  }
+  return optimizer;
+}
+
+void copyPosesToGraph(const Optimizer& optimizer, PoseGraph& graph) {
+  const auto ids = graph.nodeIds();
+  if (ids.size() != optimizer.poses().size()) {
+    throw std::invalid_argument("copyPosesToGraph: optimizer and graph differ in node count");
+  }
+  for (std::size_t k = 0; k < ids.size(); ++k) graph.setPose(ids[k], optimizer.poses()[k]);
+}
+
+}  // namespace rrr_graphslam::core
