@@ -66,12 +66,23 @@ BlockHessian::OffDiagonalSlots BlockHessian::offDiagonalSlots(int row_block, int
   return s;
 }
 
-void BlockHessian::addToDiagonal(double lambda) {
+Eigen::VectorXd BlockHessian::diagonal() const {
+  Eigen::VectorXd d(3 * num_blocks_);
+  const double* v = matrix_.valuePtr();
+  for (int b = 0; b < num_blocks_; ++b) {
+    const DiagonalSlots& s = diagonal_slots_[static_cast<std::size_t>(b)];
+    d.segment<3>(3 * b) << v[s[0]], v[s[3]], v[s[5]];
+  }
+  return d;
+}
+
+void BlockHessian::setDiagonal(const Eigen::VectorXd& diagonal) {
   double* v = values();
-  for (const DiagonalSlots& s : diagonal_slots_) {
-    v[s[0]] += lambda;
-    v[s[3]] += lambda;
-    v[s[5]] += lambda;
+  for (int b = 0; b < num_blocks_; ++b) {
+    const DiagonalSlots& s = diagonal_slots_[static_cast<std::size_t>(b)];
+    v[s[0]] = diagonal(3 * b);
+    v[s[3]] = diagonal(3 * b + 1);
+    v[s[5]] = diagonal(3 * b + 2);
   }
 }
 

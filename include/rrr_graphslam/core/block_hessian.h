@@ -51,8 +51,9 @@ class BlockHessian {
       for (int c = 0; c < 3; ++c) v[s[3 * r + c]] += M(r, c);
     }
   }
-  /// Adds `lambda` to every diagonal entry (Levenberg-Marquardt damping).
-  void addToDiagonal(double lambda);
+  /// The scalar diagonal of H, and writing it back (Levenberg-Marquardt damping).
+  Eigen::VectorXd diagonal() const;
+  void setDiagonal(const Eigen::VectorXd& diagonal);
 
  private:
   double* values() { return matrix_.valuePtr(); }

@@ -35,7 +35,7 @@ struct OptimizerParams {
   double relative_tolerance = 1e-9;
   /// Converged when no state entry moves by more than this (m or rad); default 1e-9.
   double step_tolerance = 1e-9;
-  /// LM: initial damping = lm_tau * max(diag(H)); default 1e-5 (as g2o).
+  /// LM: initial damping factor on diag(H) (Marquardt scaling); default 1e-5.
   double lm_tau = 1e-5;
   /// Information (per axis) of the weak prior that anchors unanchored components; default 1e-6.
   double anchor_information = 1e-6;
