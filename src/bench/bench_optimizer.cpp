@@ -1,0 +1,174 @@
+// rrr_bench_optimizer: this package's optimizer against MRPT's optimize_graph_spa_levmarq on the
+// same graphs in the same process, plus warm re-optimization after switching loop edges on.
+// Prints Markdown tables; scripts/bench_optimizer runs it on the bundled graphs.
+//
+// usage: rrr_bench_optimizer [--repeat N] [--mrpt-max-iterations N] [--skip-mrpt]
+//                            [--reopt GRAPH] [--reopt-edges K] GRAPH...
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <iostream>
+#include <mrpt/graphslam/levmarq.h>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "rrr_graphslam/core/graph_io.h"
+#include "rrr_graphslam/core/optimizer.h"
+
+namespace {
+
+namespace core = rrr_graphslam::core;
+
+struct Options {
+  int repeat = 3;
+  int mrpt_max_iterations = 100;
+  bool skip_mrpt = false;
+  std::string reopt_graph;
+  int reopt_edges = 10;
+  std::vector<std::string> graphs;
+};
+
+double secondsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return v[v.size() / 2];
+}
+
+std::string nameOf(const std::string& path) {
+  std::string name = std::filesystem::path(path).filename().string();
+  for (const std::string ext : {".gz", ".g2o", ".toro", ".graph"}) {
+    if (name.size() > ext.size() && name.compare(name.size() - ext.size(), ext.size(), ext) == 0) {
+      name.resize(name.size() - ext.size());
+    }
+  }
+  return name;
+}
+
+void benchGraph(const std::string& path, const Options& options) {
+  const core::PoseGraph graph = core::readPoseGraph(path);
+
+  std::vector<double> times;
+  core::OptimizationResult ours;
+  for (int r = 0; r < options.repeat; ++r) {
+    const auto start = std::chrono::steady_clock::now();
+    core::Optimizer optimizer = core::makeOptimizer(graph);
+    ours = optimizer.optimize();
+    times.push_back(secondsSince(start));
+    std::fprintf(stderr, "%s: total %.1f ms, %d factorizations, optimize %.1f (structure %.1f, assemble %.1f, factorize %.1f, solve %.1f)\n",
+                 nameOf(path).c_str(), 1e3 * times.back(), ours.factorizations, 1e3 * ours.time_sec, 1e3 * ours.timing.structure_sec,
+                 1e3 * ours.timing.assemble_sec, 1e3 * ours.timing.factorize_sec, 1e3 * ours.timing.solve_sec);
+  }
+  const double our_time = median(times);
+
+  double mrpt_time = 0.0, mrpt_chi2 = 0.0;
+  std::size_t mrpt_iterations = 0;
+  if (!options.skip_mrpt) {
+    core::PoseGraph::Network network = graph.network();
+    network.root = graph.nodeIds().front();
+    mrpt::graphslam::TResultInfoSpaLevMarq info{};
+    mrpt::containers::yaml params = mrpt::containers::yaml::Map();
+    params["max_iterations"] = static_cast<uint64_t>(options.mrpt_max_iterations);
+    const auto start = std::chrono::steady_clock::now();
+    mrpt::graphslam::optimize_graph_spa_levmarq(network, info, nullptr, params);
+    mrpt_time = secondsSince(start);
+    mrpt_iterations = info.num_iters;
+    // Score MRPT's poses with our chi2 (sum of e^T Omega e), the same measure as ours.
+    core::Optimizer scorer = core::makeOptimizer(graph);
+    std::vector<core::Pose2> poses;
+    for (const auto& [id, p] : network.nodes) poses.emplace_back(p.x(), p.y(), p.phi());
+    scorer.setPoses(poses);
+    mrpt_chi2 = scorer.chi2();
+  }
+
+  std::printf("| %s | %zu | %zu | %.1f | %.3f | %d |", nameOf(path).c_str(), graph.numNodes(),
+              graph.numEdges(), 1e3 * our_time, ours.final_chi2, ours.iterations);
+  if (options.skip_mrpt) {
+    std::printf(" - | - | - | - |\n");
+  } else {
+    std::printf(" %.1f | %.3f | %zu | %.1fx |\n", 1e3 * mrpt_time, mrpt_chi2, mrpt_iterations,
+                mrpt_time / our_time);
+  }
+  std::fflush(stdout);
+}
+
+void benchReoptimization(const std::string& path, const Options& options) {
+  const core::PoseGraph graph = core::readPoseGraph(path);
+  std::vector<int> loops;
+  for (std::size_t k = 0; k < graph.numEdges(); ++k) {
+    if (graph.edge(k).kind == core::EdgeKind::kLoopCandidate) loops.push_back(static_cast<int>(k));
+  }
+  core::Optimizer optimizer = core::makeOptimizer(graph);
+  optimizer.optimize();  // converged with every edge; the pattern covers all of them
+
+  std::mt19937 rng(1);
+  std::vector<double> times;
+  int iterations = 0;
+  for (int trial = 0; trial < 5; ++trial) {
+    std::shuffle(loops.begin(), loops.end(), rng);
+    const std::vector<int> chosen(loops.begin(), loops.begin() + options.reopt_edges);
+    for (int c : chosen) optimizer.setActive(c, false);
+    optimizer.optimize();  // converged without them
+    for (int c : chosen) optimizer.setActive(c, true);
+    const core::OptimizationResult r = optimizer.optimize();
+    times.push_back(r.time_sec);
+    iterations += r.iterations;
+    std::fprintf(stderr, "reopt trial %d: %.1f ms (structure %.1f, assemble %.1f, factorize %.1f, solve %.1f)\n",
+                 trial, 1e3 * r.time_sec, 1e3 * r.timing.structure_sec, 1e3 * r.timing.assemble_sec,
+                 1e3 * r.timing.factorize_sec, 1e3 * r.timing.solve_sec);
+  }
+  std::printf("\n| re-optimization | graph | edges switched on | median ms | max ms | iterations |\n");
+  std::printf("|---|---|---|---|---|---|\n");
+  std::printf("| warm, converged start | %s | %d | %.1f | %.1f | %.1f |\n", nameOf(path).c_str(),
+              options.reopt_edges, 1e3 * median(times), 1e3 * *std::max_element(times.begin(), times.end()),
+              iterations / 5.0);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options options;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    auto value = [&]() -> std::string {
+      if (i + 1 >= argc) {
+        std::cerr << "rrr_bench_optimizer: " << a << " needs a value\n";
+        std::exit(2);
+      }
+      return argv[++i];
+    };
+    if (a == "--repeat") {
+      options.repeat = std::max(1, std::atoi(value().c_str()));
+    } else if (a == "--mrpt-max-iterations") {
+      options.mrpt_max_iterations = std::max(1, std::atoi(value().c_str()));
+    } else if (a == "--skip-mrpt") {
+      options.skip_mrpt = true;
+    } else if (a == "--reopt") {
+      options.reopt_graph = value();
+    } else if (a == "--reopt-edges") {
+      options.reopt_edges = std::max(1, std::atoi(value().c_str()));
+    } else if (!a.empty() && a[0] == '-') {
+      std::cerr << "rrr_bench_optimizer: unknown option " << a << "\n";
+      return 2;
+    } else {
+      options.graphs.push_back(a);
+    }
+  }
+  try {
+    std::printf("| graph | nodes | edges | ours ms | ours chi2 | ours iters | MRPT ms | MRPT chi2 | "
+                "MRPT iters | speed-up |\n");
+    std::printf("|---|---|---|---|---|---|---|---|---|---|\n");
+    for (const std::string& g : options.graphs) benchGraph(g, options);
+    if (!options.reopt_graph.empty()) benchReoptimization(options.reopt_graph, options);
+  } catch (const std::exception& e) {
+    std::cerr << "rrr_bench_optimizer: " << e.what() << "\n";
+    return 1;
+  }
+  return 0;
+}
