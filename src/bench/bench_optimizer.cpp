@@ -87,12 +87,12 @@ void benchGraph(const std::string& path, const Options& options) {
     mrpt_chi2 = scorer.chi2();
   }
 
-  std::printf("| %s | %zu | %zu | %.1f | %.3f | %d |", nameOf(path).c_str(), graph.numNodes(),
+  std::printf("| %s | %zu | %zu | %.1f | %.6g | %d |", nameOf(path).c_str(), graph.numNodes(),
               graph.numEdges(), 1e3 * our_time, ours.final_chi2, ours.iterations);
   if (options.skip_mrpt) {
     std::printf(" - | - | - | - |\n");
   } else {
-    std::printf(" %.1f | %.3f | %zu | %.1fx |\n", 1e3 * mrpt_time, mrpt_chi2, mrpt_iterations,
+    std::printf(" %.1f | %.6g | %zu | %.1fx |\n", 1e3 * mrpt_time, mrpt_chi2, mrpt_iterations,
                 mrpt_time / our_time);
   }
   std::fflush(stdout);

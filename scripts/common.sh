@@ -1,0 +1,48 @@
+# Sourced by demo.sh, test.sh and the bench scripts: installs the Debian 12 packages that are
+# missing, builds the catkin workspace and sources it. Not meant to be run directly.
+#
+# Environment: RRR_WS (catkin workspace, default ~/.cache/rrr_graphslam/ws: outside the source
+# tree, since a workspace inside it would let rosrun/rospack crawl it through the src symlink),
+# RRR_SKIP_INSTALL=1,
+# RRR_CMAKE_ARGS (extra arguments for catkin_make).
+
+set -euo pipefail
+# pyenv's python3 lacks catkin_pkg/rospkg: Debian's tools must come first.
+export PATH=/usr/bin:/bin:/usr/sbin:/sbin:${PATH}
+export ROSCONSOLE_STDOUT_LINE_BUFFERED=1
+
+RRR_REPO=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+RRR_WS=${RRR_WS:-${XDG_CACHE_HOME:-${HOME}/.cache}/rrr_graphslam/ws}
+
+RRR_APT_PACKAGES=(
+  build-essential cmake catkin python3-catkin-pkg python3-rospkg
+  ros-core-dev libnodeletlib-dev libnodeletlib-tools libtf2-ros-dev libtf2-eigen-dev
+  python3-roslaunch python3-rostest python3-rosbag rosbash
+  libmrpt-graphslam-dev libmrpt-slam-dev libmrpt-maps-dev libmrpt-ros1bridge-dev mrpt-apps
+  libsuitesparse-dev libopenblas0-serial libeigen3-dev libboost-math-dev zlib1g-dev
+  libgtest-dev googletest
+  python3-numpy python3-matplotlib python3-pytest
+)
+
+rrr_install_missing() {
+  [[ "${RRR_SKIP_INSTALL:-0}" == 1 ]] && return 0
+  local missing=()
+  for p in "${RRR_APT_PACKAGES[@]}"; do
+    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+  done
+  [[ ${#missing[@]} -eq 0 ]] && return 0
+  echo "[rrr] installing ${#missing[@]} missing packages: ${missing[*]}"
+  local sudo=()
+  [[ $(id -u) -ne 0 ]] && sudo=(sudo)
+  "${sudo[@]}" env DEBIAN_FRONTEND=noninteractive apt-get update -q
+  "${sudo[@]}" env DEBIAN_FRONTEND=noninteractive apt-get install -y -q --no-install-recommends "${missing[@]}"
+}
+
+rrr_build() {
+  mkdir -p "${RRR_WS}/src"
+  ln -sfn "${RRR_REPO}" "${RRR_WS}/src/rrr_graphslam"
+  echo "[rrr] building in ${RRR_WS}"
+  (cd "${RRR_WS}" && catkin_make -DCMAKE_BUILD_TYPE=Release ${RRR_CMAKE_ARGS:-} "$@")
+  # shellcheck disable=SC1091
+  set +u; source "${RRR_WS}/devel/setup.bash"; set -u
+}

@@ -1,0 +1,28 @@
+#!/usr/bin/env bash
+# Installs what is missing, builds, and runs every test: the gtests (core), then the same gtests
+# built with AddressSanitizer + UndefinedBehaviorSanitizer in a second workspace.
+# The last line is catkin_test_results' summary of the normal build.
+# Usage: scripts/test.sh [--no-sanitize]
+source "$(dirname "$0")/common.sh"
+rrr_install_missing
+
+sanitize=1
+[[ "${1:-}" == "--no-sanitize" ]] && sanitize=0
+
+if [[ $sanitize == 1 ]]; then
+  echo "[rrr] sanitizer build (ASan + UBSan) of the core tests"
+  (
+    RRR_WS=${RRR_WS}_asan RRR_CMAKE_ARGS="-DRRR_SANITIZE=ON" rrr_build >/dev/null
+    # libgomp keeps its thread pool alive at exit; leak checks would only report that.
+    export ASAN_OPTIONS=detect_leaks=0:abort_on_error=1 UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1
+    cd "${RRR_WS}_asan" && catkin_make run_tests >/dev/null 2>&1 || true
+    catkin_test_results build/test_results | tail -n 1
+    catkin_test_results build/test_results >/dev/null
+  ) || { echo "[rrr] sanitizer tests failed"; exit 1; }
+fi
+
+rrr_build >/dev/null
+cd "${RRR_WS}"
+catkin_make run_tests 2>&1 | grep -E '^\[ +(RUN|OK|FAILED|PASSED) +\]|Failure|error' || true
+catkin_test_results build/test_results --verbose >/dev/null 2>&1 || true
+catkin_test_results build/test_results
