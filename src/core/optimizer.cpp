@@ -38,6 +38,7 @@ int Optimizer::addConstraint(int from, int to, const Pose2& measurement,
   }
   constraints_.push_back(Constraint{from, to, measurement, information});
   active_.push_back(active ? 1 : 0);
+  weight_.push_back(1.0);
   in_pattern_.push_back(0);
   slots_.emplace_back();
   return numConstraints() - 1;
@@ -70,6 +71,14 @@ double Optimizer::chi2() const {
   return sum;
 }
 
+double Optimizer::weightedChi2() const {
+  double sum = 0.0;
+  for (int k = 0; k < numConstraints(); ++k) {
+    if (active_[static_cast<std::size_t>(k)]) sum += weight_[static_cast<std::size_t>(k)] * constraintChi2(k);
+  }
+  return sum;
+}
+
 void Optimizer::prepareStructure() {
   if (!variables_valid_) {
     const bool any_fixed = std::any_of(fixed_.begin(), fixed_.end(), [](char f) { return f; });
@@ -93,7 +102,9 @@ void Optimizer::prepareStructure() {
         break;
       }
     }
-    if (pattern_size_ > 2 * active_count + 64) pattern_valid_ = false;
+    // Switched-off constraints still cost fill-in; long-range outliers cost a lot of it, so a
+    // pattern more than 10% dead is rebuilt (the ordering costs less than one bloated factor).
+    if (pattern_size_ - active_count > std::max(16, active_count / 10)) pattern_valid_ = false;
   }
   if (!pattern_valid_) rebuildPattern();
 }
@@ -155,10 +166,12 @@ double Optimizer::assemble() {
     const ConstraintSlots& s = slots_[k];
     const EdgeLinearization lin = linearizeEdge(poses_[static_cast<std::size_t>(c.from)],
                                                 poses_[static_cast<std::size_t>(c.to)], c.measurement);
-    const Eigen::Vector3d omega_e = c.information * lin.error;
+    const double w = weight_[k];
+    const Eigen::Matrix3d omega = w == 1.0 ? c.information : Eigen::Matrix3d(w * c.information);
+    const Eigen::Vector3d omega_e = omega * lin.error;
     chi2_sum += lin.error.dot(omega_e);
-    const Eigen::Matrix3d JfT_omega = lin.J_from.transpose() * c.information;
-    const Eigen::Matrix3d JtT_omega = lin.J_to.transpose() * c.information;
+    const Eigen::Matrix3d JfT_omega = lin.J_from.transpose() * omega;
+    const Eigen::Matrix3d JtT_omega = lin.J_to.transpose() * omega;
     if (s.from_var >= 0) {
       hessian_.addDiagonal(s.from_var, JfT_omega * lin.J_from);
       gradient_.segment<3>(3 * s.from_var) += lin.J_from.transpose() * omega_e;
@@ -175,14 +188,14 @@ double Optimizer::assemble() {
       }
     }
   }
-  const double w = params_.anchor_information;
+  const double anchor = params_.anchor_information;
   for (std::size_t a = 0; a < anchors_.size(); ++a) {
     const int n = anchors_[a];
     const int v = variable_of_node_[static_cast<std::size_t>(n)];
     Eigen::Vector3d d = poses_[static_cast<std::size_t>(n)] - anchor_poses_[a];
     d.z() = normalizeAngle(d.z());
-    hessian_.addDiagonal(v, w * Eigen::Matrix3d::Identity());
-    gradient_.segment<3>(3 * v) += w * d;
+    hessian_.addDiagonal(v, anchor * Eigen::Matrix3d::Identity());
+    gradient_.segment<3>(3 * v) += anchor * d;
   }
   return chi2_sum;
 }
@@ -196,128 +209,36 @@ void Optimizer::applyStep(const Eigen::VectorXd& step) {
   }
 }
 
+namespace {
+
+double secondsSince(std::chrono::steady_clock::time_point& since) {
+  const auto now = std::chrono::steady_clock::now();
+  const double sec = std::chrono::duration<double>(now - since).count();
+  since = now;
+  return sec;
+}
+
+}  // namespace
+
 OptimizationResult Optimizer::optimize() {
   const auto start = std::chrono::steady_clock::now();
   OptimizationResult result;
-  auto& timing = result.timing;
-  auto lap = [](std::chrono::steady_clock::time_point& since) {
-    const auto now = std::chrono::steady_clock::now();
-    const double sec = std::chrono::duration<double>(now - since).count();
-    since = now;
-    return sec;
-  };
   auto clock = start;
   prepareStructure();
   chooseAnchors();
-  timing.structure_sec += lap(clock);
+  result.timing.structure_sec += secondsSince(clock);
 
   double chi2_now = assemble();
-  timing.assemble_sec += lap(clock);
+  result.timing.assemble_sec += secondsSince(clock);
   result.initial_chi2 = chi2_now;
   result.stop_reason = StopReason::kMaxIterations;
-  const bool lm = params_.method == OptimizerParams::Method::kLevenbergMarquardt;
 
   if (num_variables_ == 0) {
     result.stop_reason = StopReason::kNoVariables;
-  } else if (!lm) {
-    // Near the minimum H hardly changes between steps, so the last factorization is reused
-    // (chord steps: new gradient, old factor) while that still shrinks the chi2 decrease fast.
-    // The fixed point is the same (gradient = 0); a chord step that does not lower chi2 is
-    // undone and followed by a fresh factorization.
-    bool reuse_factor = false;
-    double last_decrease = 0.0;
-    while (result.iterations < params_.max_iterations) {
-      if (!reuse_factor) {
-        const bool factorized = solver_.factorize(hessian_.matrix());
-        timing.factorize_sec += lap(clock);
-        if (!factorized) {
-          result.stop_reason = StopReason::kSolverFailure;
-          break;
-        }
-        ++result.factorizations;
-      }
-      const Eigen::VectorXd step = solver_.solve(-gradient_);
-      const std::vector<Pose2> saved = poses_;
-      applyStep(step);
-      timing.solve_sec += lap(clock);
-      const double chi2_next = assemble();
-      timing.assemble_sec += lap(clock);
-      const double decrease = chi2_now - chi2_next;
-      if (reuse_factor && !(decrease > 0.0)) {
-        poses_ = saved;  // the stale factor overshot: undo and refactorize here
-        chi2_now = assemble();
-        timing.assemble_sec += lap(clock);
-        reuse_factor = false;
-        continue;
-      }
-      ++result.iterations;
-      const bool small_decrease = decrease <= params_.relative_tolerance * chi2_now;
-      const bool small_step = step.lpNorm<Eigen::Infinity>() <= params_.step_tolerance;
-      reuse_factor = params_.reuse_factorization && decrease > 0.0 &&
-                     (reuse_factor ? decrease < 0.5 * last_decrease : decrease < 0.3 * chi2_now);
-      last_decrease = decrease;
-      chi2_now = chi2_next;
-      if (small_step || (small_decrease && chi2_next <= result.initial_chi2)) {
-        result.stop_reason = StopReason::kConverged;
-        break;
-      }
-    }
+  } else if (params_.method == OptimizerParams::Method::kGaussNewton) {
+    gaussNewton(result, chi2_now, clock);
   } else {
-    // Marquardt's scaling: damp each variable in proportion to its own curvature, which copes
-    // with the mix of metres and radians and with far-off initial guesses (City10000, ringCity).
-    Eigen::VectorXd diagonal = hessian_.diagonal();
-    double lambda = params_.lm_tau;
-    double nu = 2.0;
-    int attempts = 0;
-    while (result.iterations < params_.max_iterations) {
-      if (++attempts > 10 * params_.max_iterations + 50 || lambda > 1e30) {
-        result.stop_reason = StopReason::kSolverFailure;
-        break;
-      }
-      const Eigen::VectorXd damping = lambda * diagonal.cwiseMax(1e-12);
-      hessian_.setDiagonal(diagonal + damping);
-      const bool factorized = solver_.factorize(hessian_.matrix());
-      hessian_.setDiagonal(diagonal);
-      timing.factorize_sec += lap(clock);
-      ++result.factorizations;
-      if (!factorized) {
-        lambda *= nu;
-        nu *= 2.0;
-        continue;
-      }
-      const Eigen::VectorXd step = solver_.solve(-gradient_);
-      const std::vector<Pose2> saved = poses_;
-      applyStep(step);
-      const double chi2_next = chi2();
-      timing.solve_sec += lap(clock);
-      const double predicted = step.dot(damping.cwiseProduct(step) - gradient_);
-      const double rho = (chi2_now - chi2_next) / std::max(predicted, 1e-300);
-      const bool small_step = step.lpNorm<Eigen::Infinity>() <= params_.step_tolerance;
-      if (rho > 0.0 && std::isfinite(chi2_next)) {
-        ++result.iterations;
-        // A small decrease means convergence only when the quadratic model predicted it well;
-        // a heavily damped step also decreases chi2 little, without being near the minimum.
-        const bool small_decrease =
-            chi2_now - chi2_next <= params_.relative_tolerance * chi2_now && rho > 0.25;
-        chi2_now = assemble();
-        diagonal = hessian_.diagonal();
-        timing.assemble_sec += lap(clock);
-        lambda *= std::max(1.0 / 3.0, 1.0 - std::pow(2.0 * rho - 1.0, 3));
-        nu = 2.0;
-        if (small_decrease || small_step) {
-          result.stop_reason = StopReason::kConverged;
-          break;
-        }
-      } else {
-        poses_ = saved;
-        if (small_step) {
-          result.stop_reason = StopReason::kConverged;
-          break;
-        }
-        lambda *= nu;
-        nu *= 2.0;
-      }
-    }
+    levenbergMarquardt(result, chi2_now, clock);
   }
 
   result.final_chi2 = chi2_now;
@@ -327,9 +248,123 @@ OptimizationResult Optimizer::optimize() {
       result.constraint_chi2[static_cast<std::size_t>(k)] = constraintChi2(k);
     }
   }
-  result.time_sec =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  result.time_sec = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return result;
+}
+
+void Optimizer::gaussNewton(OptimizationResult& result, double& chi2_now,
+                            std::chrono::steady_clock::time_point& clock) {
+  auto& timing = result.timing;
+  // Near the minimum H hardly changes between steps, so the last factorization is reused
+  // (chord steps: new gradient, old factor) while that still shrinks the chi2 decrease fast.
+  // The fixed point is the same (gradient = 0); a chord step that does not lower chi2 is
+  // undone and followed by a fresh factorization. A full step that raises chi2 (far from the
+  // minimum, e.g. with gross outliers switched on) is undone and Levenberg-Marquardt takes over.
+  bool reuse_factor = false;
+  double last_decrease = 0.0;
+  while (result.iterations < params_.max_iterations) {
+    if (!reuse_factor) {
+      const bool factorized = solver_.factorize(hessian_.matrix());
+      timing.factorize_sec += secondsSince(clock);
+      ++result.factorizations;
+      if (!factorized) {
+        result.stop_reason = StopReason::kSolverFailure;
+        return;
+      }
+    }
+    const Eigen::VectorXd step = solver_.solve(-gradient_);
+    const std::vector<Pose2> saved = poses_;
+    applyStep(step);
+    timing.solve_sec += secondsSince(clock);
+    const double chi2_next = assemble();
+    timing.assemble_sec += secondsSince(clock);
+    const double decrease = chi2_now - chi2_next;
+    if (!(decrease > 0.0) && (reuse_factor || decrease < -params_.relative_tolerance * chi2_now)) {
+      poses_ = saved;
+      chi2_now = assemble();
+      timing.assemble_sec += secondsSince(clock);
+      if (reuse_factor) {
+        reuse_factor = false;  // the stale factor overshot: refactorize here
+        continue;
+      }
+      levenbergMarquardt(result, chi2_now, clock);
+      return;
+    }
+    ++result.iterations;
+    const bool small_decrease = decrease <= params_.relative_tolerance * chi2_now;
+    const bool small_step = step.lpNorm<Eigen::Infinity>() <= params_.step_tolerance;
+    reuse_factor = params_.reuse_factorization && decrease > 0.0 &&
+                   (reuse_factor ? decrease < 0.5 * last_decrease : decrease < 0.3 * chi2_now);
+    last_decrease = decrease;
+    chi2_now = chi2_next;
+    if (small_step || small_decrease) {
+      result.stop_reason = StopReason::kConverged;
+      return;
+    }
+  }
+}
+
+void Optimizer::levenbergMarquardt(OptimizationResult& result, double& chi2_now,
+                                   std::chrono::steady_clock::time_point& clock) {
+  auto& timing = result.timing;
+  // Marquardt's scaling: damp each variable in proportion to its own curvature, which copes
+  // with the mix of metres and radians and with far-off initial guesses (City10000, ringCity).
+  Eigen::VectorXd diagonal = hessian_.diagonal();
+  double lambda = params_.lm_tau;
+  double nu = 2.0;
+  int attempts = 0;
+  while (result.iterations < params_.max_iterations) {
+    if (++attempts > 10 * params_.max_iterations + 50 || lambda > 1e30) {
+      result.stop_reason = StopReason::kSolverFailure;
+      return;
+    }
+    const Eigen::VectorXd damping = lambda * diagonal.cwiseMax(1e-12);
+    hessian_.setDiagonal(diagonal + damping);
+    const bool factorized = solver_.factorize(hessian_.matrix());
+    hessian_.setDiagonal(diagonal);
+    timing.factorize_sec += secondsSince(clock);
+    ++result.factorizations;
+    if (!factorized) {
+      lambda *= nu;
+      nu *= 2.0;
+      continue;
+    }
+    const Eigen::VectorXd step = solver_.solve(-gradient_);
+    const std::vector<Pose2> saved = poses_;
+    applyStep(step);
+    const double chi2_next = weightedChi2();
+    timing.solve_sec += secondsSince(clock);
+    const double predicted = step.dot(damping.cwiseProduct(step) - gradient_);
+    const double rho = (chi2_now - chi2_next) / std::max(predicted, 1e-300);
+    // Also done when even the quadratic model sees nothing left to gain: near the minimum rho
+    // is a ratio of rounding errors.
+    const bool small_step = step.lpNorm<Eigen::Infinity>() <= params_.step_tolerance ||
+                            predicted <= params_.relative_tolerance * chi2_now;
+    if (rho > 0.0 && std::isfinite(chi2_next)) {
+      ++result.iterations;
+      // A small decrease means convergence only when the quadratic model predicted it well;
+      // a heavily damped step also decreases chi2 little, without being near the minimum.
+      const bool small_decrease =
+          chi2_now - chi2_next <= params_.relative_tolerance * chi2_now && rho > 0.25;
+      chi2_now = assemble();
+      diagonal = hessian_.diagonal();
+      timing.assemble_sec += secondsSince(clock);
+      lambda *= std::max(1.0 / 3.0, 1.0 - std::pow(2.0 * rho - 1.0, 3));
+      nu = 2.0;
+      if (small_decrease || small_step) {
+        result.stop_reason = StopReason::kConverged;
+        return;
+      }
+    } else {
+      poses_ = saved;
+      if (small_step) {
+        result.stop_reason = StopReason::kConverged;
+        return;
+      }
+      lambda *= nu;
+      nu *= 2.0;
+    }
+  }
 }
 
 Optimizer makeOptimizer(const PoseGraph& graph, const OptimizerParams& params) {

@@ -39,6 +39,14 @@ Pose2 between(const Pose2& a, const Pose2& b) {
   return out;
 }
 
+Eigen::Matrix3d adjoint(const Pose2& T) {
+  Eigen::Matrix3d Ad = Eigen::Matrix3d::Identity();
+  Ad.topLeftCorner<2, 2>() = rotation(T.z());
+  Ad(0, 2) = T.y();
+  Ad(1, 2) = -T.x();
+  return Ad;
+}
+
 Eigen::Vector3d edgeError(const Pose2& x_from, const Pose2& x_to, const Pose2& z) {
   return between(z, between(x_from, x_to));
 }

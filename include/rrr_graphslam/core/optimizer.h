@@ -13,8 +13,10 @@
 // biasing its shape.
 //
 // chi2 is the sum over active constraints of e^T * Omega * e, with e as in g2o's EdgeSE2.
+// Gauss-Newton hands over to Levenberg-Marquardt when a full step raises chi2.
 // Not thread-safe: one thread per Optimizer.
 
+#include <chrono>
 #include <string>
 #include <vector>
 
@@ -87,6 +89,9 @@ class Optimizer {
                     bool active = true);
 
   void setActive(int constraint, bool active) { active_[static_cast<std::size_t>(constraint)] = active; }
+  /// Scales a constraint's information (iteratively reweighted least squares); default 1.
+  /// chi2() and constraintChi2() stay unweighted; OptimizationResult's chi2 values are weighted.
+  void setWeight(int constraint, double weight) { weight_[static_cast<std::size_t>(constraint)] = weight; }
   bool isActive(int constraint) const { return active_[static_cast<std::size_t>(constraint)]; }
   void setFixed(int node, bool fixed);
   bool isFixed(int node) const { return fixed_[static_cast<std::size_t>(node)]; }
@@ -95,12 +100,17 @@ class Optimizer {
   int numConstraints() const { return static_cast<int>(constraints_.size()); }
   int from(int constraint) const { return constraints_[static_cast<std::size_t>(constraint)].from; }
   int to(int constraint) const { return constraints_[static_cast<std::size_t>(constraint)].to; }
+  const Pose2& measurement(int constraint) const {
+    return constraints_[static_cast<std::size_t>(constraint)].measurement;
+  }
 
   const std::vector<Pose2>& poses() const { return poses_; }
   void setPoses(const std::vector<Pose2>& poses);
 
   /// chi2 of the active constraints at the current poses.
   double chi2() const;
+  /// Same, with each constraint's weight applied.
+  double weightedChi2() const;
   /// e^T Omega e of one constraint at the current poses, whether active or not.
   double constraintChi2(int constraint) const;
 
@@ -127,13 +137,18 @@ class Optimizer {
   void prepareStructure();
   void rebuildPattern();
   void chooseAnchors();
-  double assemble();  // H and gradient at the current poses; returns chi2
+  double assemble();  // H and gradient at the current poses; returns the weighted chi2
+  void gaussNewton(OptimizationResult& result, double& chi2_now,
+                   std::chrono::steady_clock::time_point& clock);
+  void levenbergMarquardt(OptimizationResult& result, double& chi2_now,
+                          std::chrono::steady_clock::time_point& clock);
   void applyStep(const Eigen::VectorXd& step);
 
   OptimizerParams params_;
   std::vector<Pose2> poses_;
   std::vector<Constraint> constraints_;
   std::vector<char> active_;
+  std::vector<double> weight_;
   std::vector<char> fixed_;
 
   // Structure, valid until the fixed set changes or an active constraint is not in the pattern.

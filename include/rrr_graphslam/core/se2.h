@@ -28,6 +28,9 @@ Pose2 inverse(const Pose2& a);
 /// a^-1 * b: the pose of b in a's frame.
 Pose2 between(const Pose2& a, const Pose2& b);
 
+/// Adjoint of SE(2) acting on (x, y, theta) tangent vectors: T * exp(xi) = exp(Ad(T) xi) * T.
+Eigen::Matrix3d adjoint(const Pose2& T);
+
 /// Error of a relative-pose measurement z (pose of `to` in `from`'s frame).
 Eigen::Vector3d edgeError(const Pose2& x_from, const Pose2& x_to, const Pose2& z);
 

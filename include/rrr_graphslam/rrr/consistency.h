@@ -1,0 +1,80 @@
+#pragma once
+// The two consistency tests of RRR (Latif, Cadena, Neira, "Robust loop closing over time for
+// pose graph SLAM", IJRR 2013).
+//
+// Degrees of freedom: every SE(2) loop link adds 3 residual dimensions to the odometry chain,
+// which alone fits exactly. So a link has dof 3, a cluster 3 * links, a set of clusters
+// 3 * all their links; the residual D^2 of a set is the optimized chi2 of odometry + those links.
+
+#include <functional>
+#include <vector>
+
+#include "rrr_graphslam/core/optimizer.h"
+#include "rrr_graphslam/rrr/verification_graph.h"
+
+namespace rrr_graphslam::rrr {
+
+/// Optimized chi2 of odometry + some links: in total and per link.
+struct LinkResiduals {
+  double total_chi2 = 0.0;
+  std::vector<double> link_chi2;  ///< in the order the links were given
+};
+
+/// Odometry + `links` on a reduced graph: only the nodes the links touch, joined by the odometry
+/// between them compounded into one constraint (OdometryChain). Equal, to first order in the
+/// odometry noise, to fullGraphResiduals at a small fraction of the cost.
+LinkResiduals reducedGraphResiduals(const VerificationGraph& graph, const std::vector<int>& links,
+                                    const core::OptimizerParams& params);
+
+/// The slow, obvious version: the whole graph with exactly `links` switched on, optimized from the
+/// initial poses. Leaves the graph's optimizer in that state.
+LinkResiduals fullGraphResiduals(VerificationGraph& graph, const std::vector<int>& links);
+
+struct IntraClusterResult {
+  std::vector<int> kept;     ///< links that survive, in the cluster's order
+  std::vector<int> dropped;  ///< links removed, in removal order
+  int optimizations = 0;
+};
+
+using ResidualFunction = std::function<LinkResiduals(const std::vector<int>& links)>;
+
+/// Intra-cluster consistency (the paper's Algorithm 1), with one change: a cluster whose D^2_G
+/// fails chi2(alpha, dof_G) is not dropped whole; its worst link goes and the rest is tested
+/// again, so a cluster mixing true and false links keeps the true ones. Once D^2_G passes,
+/// links with D^2_l >= chi2(alpha, 3) are dropped as in the paper.
+IntraClusterResult intraClusterConsistency(const std::vector<int>& cluster, double alpha,
+                                           const ResidualFunction& residuals);
+
+struct InterClusterResult {
+  std::vector<int> consistent;  ///< cluster ids jointly consistent, in the given order
+  std::vector<int> removed;     ///< cluster ids removed, in removal order
+  int optimizations = 0;
+};
+
+/// Inter-cluster consistency (the paper's Algorithm 2): optimizes odometry + the links of
+/// `clusters` from `start`, and while the set is inconsistent (D^2_G >= chi2(alpha, dof_G), or
+/// some cluster's consistency index D^2_C / chi2(alpha, dof_C) >= 1) removes the cluster with
+/// the highest index, together with every cluster whose index is at least
+/// `batch_fraction` * the highest (1.0 removes one at a time, as in the paper; removed clusters
+/// get another chance in RRR's recover step). On return the graph's optimizer holds the
+/// solution of the consistent set.
+InterClusterResult interClusterConsistency(VerificationGraph& graph,
+                                           const std::vector<std::vector<int>>& cluster_links,
+                                           const std::vector<int>& clusters,
+                                           const std::vector<core::Pose2>& start, double alpha,
+                                           double batch_fraction);
+
+}  // namespace rrr_graphslam::rrr
+
+namespace rrr_graphslam::rrr {
+
+/// A map that gross outliers cannot bend: odometry + `links` optimized from `start` by iteratively
+/// reweighted least squares with Dynamic Covariance Scaling weights (Agarwal et al., "Robust map
+/// optimization using dynamic covariance scaling", ICRA 2013): a link with chi2 x gets its
+/// information scaled by min(1, 2 phi / (phi + x))^2. RRR uses it only to choose which clusters
+/// to test jointly first; every decision is still a chi-square test. Weights are reset on return.
+std::vector<core::Pose2> robustMap(VerificationGraph& graph, const std::vector<int>& links,
+                                   const std::vector<core::Pose2>& start, double phi,
+                                   int& optimizations);
+
+}  // namespace rrr_graphslam::rrr

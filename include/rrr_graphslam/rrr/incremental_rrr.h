@@ -1,0 +1,53 @@
+#pragma once
+// Incremental RRR (Latif, Cadena, Neira, "Realizing, reversing, recovering: incremental robust
+// loop closing over time using the iRRR algorithm", IROS 2012): loop candidates arrive while the
+// robot moves, in node order. A cluster is closed once the robot is more than `gap` nodes past
+// its newest link (no later candidate can then join it, so clusters equal the batch ones); it is
+// tested on its own at once, and the joint decision is revised (realize / reverse / recover) with
+// each closed cluster, so an accepted cluster can be reversed later. finish() closes the rest and
+// decides every cluster again from the initial estimate: the batch decision.
+
+#include <vector>
+
+#include "rrr_graphslam/rrr/rrr.h"
+
+namespace rrr_graphslam::rrr {
+
+class IncrementalRrr {
+ public:
+  IncrementalRrr(VerificationGraph& graph, const RrrParams& params, int cluster_gap);
+
+  /// A candidate arrives; its newest end is the robot's current node. Candidates must come in
+  /// non-decreasing order of their newest end; throws std::invalid_argument otherwise.
+  /// Returns true if a cluster was closed (and a decision made).
+  bool addCandidate(int candidate);
+  /// The robot reached `node`: closes and decides the clusters it has left behind.
+  bool advanceTo(int node);
+  /// After the last candidate: closes every open cluster and decides all of them from scratch.
+  void finish();
+
+  const Rrr& rrr() const { return rrr_; }
+  Rrr& rrr() { return rrr_; }
+  int numOpenClusters() const { return static_cast<int>(open_.size()); }
+
+ private:
+  struct OpenCluster {
+    std::vector<int> members;
+    int newest = -1;  // largest node index among the members' ends
+  };
+
+  VerificationGraph& graph_;
+  Rrr rrr_;
+  int gap_;
+  int current_node_ = 0;
+  std::vector<OpenCluster> open_;
+};
+
+/// Feeds every candidate of `graph` in node order (newest end, then input order) and records the
+/// time each call takes; verdicts and cluster_of as in runBatchRrr.
+RrrSummary runIncrementalRrr(VerificationGraph& graph, const RrrParams& params,
+                             std::vector<Verdict>& verdicts, std::vector<int>& cluster_of,
+                             const ProgressFunction& progress = {},
+                             std::vector<double>* latencies_sec = nullptr);
+
+}  // namespace rrr_graphslam::rrr

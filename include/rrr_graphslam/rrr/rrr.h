@@ -1,0 +1,120 @@
+#pragma once
+// RRR: Realizing, Reversing, Recovering (Latif, Cadena, Neira, "Robust loop closing over time for
+// pose graph SLAM", IJRR 2013, Algorithm 3). Loop candidates are grouped into clusters; each
+// cluster is checked on its own (intra-cluster consistency) when it is added; decide() then
+//   realizes: the largest jointly consistent set of good + pending clusters becomes the good set
+//             (inter-cluster consistency);
+//   reverses: a good cluster that is no longer consistent with the others leaves the good set;
+//   recovers: while the good set grows, rejected clusters that agree with its map get another
+//             joint test.
+// Batch RRR adds every cluster and decides once; incremental RRR (IncrementalRrr) adds clusters
+// as the robot leaves them and decides after each.
+//
+// Not thread-safe; one thread drives an Rrr and its VerificationGraph.
+
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "rrr_graphslam/core/optimizer.h"
+#include "rrr_graphslam/rrr/verification_graph.h"
+
+namespace rrr_graphslam::rrr {
+
+struct RrrParams {
+  /// Confidence of every chi-square test; default 0.95 (the paper's).
+  double alpha = 0.95;
+  /// Clustering gap in nodes; default 0 = derived from the candidates (deriveClusterGap).
+  int cluster_gap = 0;
+  /// Inter-cluster: also remove clusters whose consistency index is at least this fraction of the
+  /// worst; default 0.5. 1.0 removes one cluster per optimization, as in the paper.
+  double batch_removal_fraction = 0.5;
+  /// Recover: retry a rejected cluster jointly when its consistency index against the good set's
+  /// map, without moving any pose, is below this; default 10.
+  double recover_gate = 10.0;
+  /// Dynamic Covariance Scaling parameter of the robust map that orders batch decisions; default 1.
+  double dcs_phi = 1.0;
+  /// Realize/reverse/recover rounds per decide(); default 50.
+  int max_rounds = 50;
+  /// Intra-cluster tests on the reduced graph (true) or the whole graph (false); default true.
+  bool reduced_intra_graph = true;
+  /// Optimizer settings for every test; default Gauss-Newton.
+  core::OptimizerParams optimizer;
+};
+
+enum class Verdict : std::uint8_t { kAccepted, kRejected, kPending };
+std::string toString(Verdict verdict);
+
+/// Called with a stage name ("intra", "inter"), work done and total, for progress display.
+using ProgressFunction = std::function<void(const char* stage, int done, int total)>;
+
+class Rrr {
+ public:
+  Rrr(VerificationGraph& graph, const RrrParams& params);
+
+  /// Runs the intra-cluster test on `members` (candidate indices) and returns the cluster id.
+  int addCluster(const std::vector<int>& members);
+  /// Realize / reverse / recover over the clusters added so far, from the current good set.
+  void decide();
+  /// Every cluster that passed its intra test decided again from the initial estimate: the batch
+  /// decision, independent of the order clusters arrived in. The clusters that agree with a robust
+  /// (DCS) map are tested jointly first; the others go through the recover step.
+  void decideFromScratch();
+
+  Verdict verdict(int candidate) const;
+  /// -1 while the candidate is in no cluster.
+  int clusterOf(int candidate) const { return cluster_of_[static_cast<std::size_t>(candidate)]; }
+  int numClusters() const { return static_cast<int>(clusters_.size()); }
+  const std::vector<int>& clusterMembers(int cluster) const { return clusters_[static_cast<std::size_t>(cluster)].members; }
+  /// Optimizations run so far (intra tests on reduced graphs included).
+  int optimizations() const { return optimizations_; }
+  /// Links of the good clusters that survived their intra test: the accepted loops.
+  std::vector<int> acceptedCandidates() const;
+
+  void setProgress(ProgressFunction progress) { progress_ = std::move(progress); }
+
+ private:
+  enum class Status : std::uint8_t { kPending, kGood, kRejected, kInconsistent };
+  struct Cluster {
+    std::vector<int> members;
+    std::vector<int> kept;  // after the intra test
+    Status status = Status::kPending;
+  };
+
+  /// Makes `consistent` the good set; the other `tested` clusters are rejected. Returns true if
+  /// a cluster became good that was not before.
+  bool apply(const std::vector<int>& tested, const std::vector<int>& consistent);
+  std::vector<int> clustersWith(Status status) const;
+  /// Consistency index of a cluster's kept links at fixed poses.
+  double indexAt(int cluster, const std::vector<core::Pose2>& poses) const;
+  void realizeReverseRecover(const std::vector<core::Pose2>& initial, bool robust_ordering);
+
+  VerificationGraph& graph_;
+  RrrParams params_;
+  std::vector<Cluster> clusters_;
+  std::vector<std::vector<int>> kept_links_;  // per cluster, for interClusterConsistency
+  std::vector<int> cluster_of_;
+  std::vector<core::Pose2> base_;  // solution of the good set
+  std::vector<int> previous_good_;  // good set before the current joint test
+  int optimizations_ = 0;
+  ProgressFunction progress_;
+};
+
+struct RrrSummary {
+  int candidates = 0;
+  int clusters = 0;
+  int cluster_gap = 0;
+  int accepted = 0;
+  int rejected = 0;
+  int optimizations = 0;
+  double time_sec = 0.0;
+};
+
+/// Batch RRR over every candidate of `graph`. On return graph.optimizer() holds odometry +
+/// the accepted loops, optimized; `verdicts` and `cluster_of` have one entry per candidate.
+RrrSummary runBatchRrr(VerificationGraph& graph, const RrrParams& params,
+                       std::vector<Verdict>& verdicts, std::vector<int>& cluster_of,
+                       const ProgressFunction& progress = {});
+
+}  // namespace rrr_graphslam::rrr

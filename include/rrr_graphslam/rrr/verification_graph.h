@@ -1,0 +1,52 @@
+#pragma once
+// What RRR works on: one optimizer holding the whole pose graph, in which odometry is always
+// active and every loop candidate can be switched on and off, plus the odometry chain for the
+// intra-cluster tests. Node k is the k-th smallest node id of the PoseGraph; candidate k is the
+// k-th loop-candidate edge in edge order.
+
+#include <cstddef>
+#include <vector>
+
+#include "rrr_graphslam/core/optimizer.h"
+#include "rrr_graphslam/core/pose_graph.h"
+#include "rrr_graphslam/rrr/odometry_chain.h"
+
+namespace rrr_graphslam::rrr {
+
+struct LoopCandidate {
+  std::size_t edge;  ///< index in the PoseGraph's edges
+  int from;          ///< dense node index
+  int to;            ///< dense node index
+  int constraint;    ///< index in the optimizer
+  core::Pose2 measurement;
+  Eigen::Matrix3d information;
+};
+
+class VerificationGraph {
+ public:
+  /// Uses the graph's edge kinds: odometry edges must join consecutive node ids (in id order);
+  /// throws std::invalid_argument naming the edge otherwise. Candidates start switched off.
+  VerificationGraph(const core::PoseGraph& graph, const core::OptimizerParams& params);
+
+  int numNodes() const { return static_cast<int>(node_ids_.size()); }
+  int numCandidates() const { return static_cast<int>(candidates_.size()); }
+  const LoopCandidate& candidate(int k) const { return candidates_[static_cast<std::size_t>(k)]; }
+  const std::vector<core::PoseGraph::NodeId>& nodeIds() const { return node_ids_; }
+  const std::vector<core::Pose2>& initialPoses() const { return initial_poses_; }
+
+  core::Optimizer& optimizer() { return optimizer_; }
+  const core::Optimizer& optimizer() const { return optimizer_; }
+  const OdometryChain& chain() const { return chain_; }
+
+  /// Switches on exactly the given candidates (all others off).
+  void activateOnly(const std::vector<int>& candidates);
+
+ private:
+  std::vector<core::PoseGraph::NodeId> node_ids_;
+  std::vector<core::Pose2> initial_poses_;
+  std::vector<LoopCandidate> candidates_;
+  core::Optimizer optimizer_;
+  OdometryChain chain_;
+};
+
+}  // namespace rrr_graphslam::rrr

@@ -1,0 +1,196 @@
+#include "rrr_graphslam/rrr/consistency.h"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <deque>
+#include <map>
+#include <cstdio>
+#include <cstdlib>
+
+#include "rrr_graphslam/core/chi2.h"
+
+namespace rrr_graphslam::rrr {
+namespace {
+
+// Initial poses for a small optimizer: compose along a breadth-first spanning tree from node 0,
+// so nodes of another session start where the links put them.
+void initializeBySpanningTree(core::Optimizer& opt) {
+  const int n = opt.numNodes();
+  std::vector<std::vector<int>> incident(static_cast<std::size_t>(n));
+  for (int c = 0; c < opt.numConstraints(); ++c) {
+    incident[static_cast<std::size_t>(opt.from(c))].push_back(c);
+    incident[static_cast<std::size_t>(opt.to(c))].push_back(c);
+  }
+  std::vector<core::Pose2> poses = opt.poses();
+  std::vector<char> placed(static_cast<std::size_t>(n), 0);
+  for (int root = 0; root < n; ++root) {
+    if (placed[static_cast<std::size_t>(root)]) continue;
+    placed[static_cast<std::size_t>(root)] = 1;
+    std::deque<int> queue{root};
+    while (!queue.empty()) {
+      const int a = queue.front();
+      queue.pop_front();
+      for (int c : incident[static_cast<std::size_t>(a)]) {
+        const bool forward = opt.from(c) == a;
+        const int b = forward ? opt.to(c) : opt.from(c);
+        if (placed[static_cast<std::size_t>(b)]) continue;
+        placed[static_cast<std::size_t>(b)] = 1;
+        const core::Pose2& z = opt.measurement(c);
+        poses[static_cast<std::size_t>(b)] =
+            core::compose(poses[static_cast<std::size_t>(a)], forward ? z : core::inverse(z));
+        queue.push_back(b);
+      }
+    }
+  }
+  opt.setPoses(poses);
+}
+
+}  // namespace
+
+LinkResiduals reducedGraphResiduals(const VerificationGraph& graph, const std::vector<int>& links,
+                                    const core::OptimizerParams& params) {
+  const OdometryChain& chain = graph.chain();
+  std::vector<int> touched;
+  for (int k : links) {
+    touched.push_back(graph.candidate(k).from);
+    touched.push_back(graph.candidate(k).to);
+  }
+  std::sort(touched.begin(), touched.end());
+  touched.erase(std::unique(touched.begin(), touched.end()), touched.end());
+  std::map<int, int> local;
+  core::Optimizer opt(params);
+  for (int node : touched) local.emplace(node, opt.addNode(chain.chainPose(node)));
+  for (std::size_t i = 0; i + 1 < touched.size(); ++i) {
+    const int a = touched[i], b = touched[i + 1];
+    if (!chain.sameSession(a, b)) continue;
+    opt.addConstraint(local.at(a), local.at(b), chain.relativePose(a, b),
+                      chain.relativeCovariance(a, b).inverse());
+  }
+  std::vector<int> link_constraint;
+  for (int k : links) {
+    const LoopCandidate& c = graph.candidate(k);
+    link_constraint.push_back(
+        opt.addConstraint(local.at(c.from), local.at(c.to), c.measurement, c.information));
+  }
+  initializeBySpanningTree(opt);
+  LinkResiduals out;
+  out.total_chi2 = opt.optimize().final_chi2;
+  for (int c : link_constraint) out.link_chi2.push_back(opt.constraintChi2(c));
+  return out;
+}
+
+LinkResiduals fullGraphResiduals(VerificationGraph& graph, const std::vector<int>& links) {
+  graph.activateOnly(links);
+  core::Optimizer& opt = graph.optimizer();
+  opt.setPoses(graph.initialPoses());
+  LinkResiduals out;
+  out.total_chi2 = opt.optimize().final_chi2;
+  for (int k : links) out.link_chi2.push_back(opt.constraintChi2(graph.candidate(k).constraint));
+  return out;
+}
+
+IntraClusterResult intraClusterConsistency(const std::vector<int>& cluster, double alpha,
+                                           const ResidualFunction& residuals) {
+  IntraClusterResult result;
+  std::vector<int> links = cluster;
+  const double link_threshold = core::chi2Quantile(alpha, 3);
+  while (!links.empty()) {
+    const LinkResiduals r = residuals(links);
+    ++result.optimizations;
+    const int dof = 3 * static_cast<int>(links.size());
+    if (r.total_chi2 < core::chi2Quantile(alpha, dof)) {
+      for (std::size_t i = 0; i < links.size(); ++i) {
+        (r.link_chi2[i] < link_threshold ? result.kept : result.dropped).push_back(links[i]);
+      }
+      return result;
+    }
+    const auto worst = static_cast<std::size_t>(
+        std::max_element(r.link_chi2.begin(), r.link_chi2.end()) - r.link_chi2.begin());
+    result.dropped.push_back(links[worst]);
+    links.erase(links.begin() + static_cast<long>(worst));
+  }
+  return result;
+}
+
+InterClusterResult interClusterConsistency(VerificationGraph& graph,
+                                           const std::vector<std::vector<int>>& cluster_links,
+                                           const std::vector<int>& clusters,
+                                           const std::vector<core::Pose2>& start, double alpha,
+                                           double batch_fraction) {
+  InterClusterResult result;
+  std::vector<int> active = clusters;
+  core::Optimizer& opt = graph.optimizer();
+  opt.setPoses(start);
+  while (true) {
+    std::vector<int> links;
+    for (int c : active) {
+      const auto& l = cluster_links[static_cast<std::size_t>(c)];
+      links.insert(links.end(), l.begin(), l.end());
+    }
+    graph.activateOnly(links);
+    // After removing clusters, continue from the last solution: it already fits the clusters
+    // that remain, so a few iterations suffice.
+    const core::OptimizationResult r = opt.optimize();
+    ++result.optimizations;
+    if (std::getenv("RRR_DEBUG")) std::fprintf(stderr, "  inter opt: %zu clusters, %zu links, %d it, %d fact, %.1f ms (struct %.1f), chi2 %.1f -> %.1f %s\n", active.size(), links.size(), r.iterations, r.factorizations, 1e3*r.time_sec, 1e3*r.timing.structure_sec, r.initial_chi2, r.final_chi2, core::toString(r.stop_reason).c_str());
+    if (active.empty()) break;
+
+    std::vector<double> index(active.size());
+    for (std::size_t i = 0; i < active.size(); ++i) {
+      const auto& l = cluster_links[static_cast<std::size_t>(active[i])];
+      double d2 = 0.0;
+      for (int k : l) d2 += opt.constraintChi2(graph.candidate(k).constraint);
+      index[i] = d2 / core::chi2Quantile(alpha, 3 * static_cast<int>(l.size()));
+    }
+    const double worst = *std::max_element(index.begin(), index.end());
+    const bool joint_ok = opt.chi2() < core::chi2Quantile(alpha, 3 * static_cast<int>(links.size()));
+    if (joint_ok && worst < 1.0) break;
+
+    // Remove the worst cluster and those nearly as bad; with every index below 1 (only the
+    // joint test failed) that is the worst alone.
+    const double threshold = worst < 1.0 ? worst : std::max(1.0, batch_fraction * worst);
+    std::vector<int> keep;
+    for (std::size_t i = 0; i < active.size(); ++i) {
+      (index[i] >= threshold ? result.removed : keep).push_back(active[i]);
+    }
+    active.swap(keep);
+  }
+  result.consistent = active;
+  return result;
+}
+
+}  // namespace rrr_graphslam::rrr
+
+namespace rrr_graphslam::rrr {
+
+std::vector<core::Pose2> robustMap(VerificationGraph& graph, const std::vector<int>& links,
+                                   const std::vector<core::Pose2>& start, double phi,
+                                   int& optimizations) {
+  constexpr int kMaxReweightings = 30;
+  core::Optimizer& opt = graph.optimizer();
+  graph.activateOnly(links);
+  opt.setPoses(start);
+  const int saved_iterations = opt.params().max_iterations;
+  opt.params().max_iterations = 1;  // one step per reweighting (IRLS)
+  double previous_chi2 = -1.0;
+  for (int round = 0; round < kMaxReweightings; ++round) {
+    for (int k : links) {
+      const int c = graph.candidate(k).constraint;
+      const double s = std::min(1.0, 2.0 * phi / (phi + opt.constraintChi2(c)));
+      opt.setWeight(c, s * s);
+    }
+    const core::OptimizationResult r = opt.optimize();
+    ++optimizations;
+    if (std::getenv("RRR_DEBUG")) std::fprintf(stderr, "  dcs round %d: %d it %d fact %.1f ms chi2 %.1f -> %.1f\n", round, r.iterations, r.factorizations, 1e3*r.time_sec, r.initial_chi2, r.final_chi2);
+    // The map only orders RRR's tests, so 1% is settled enough.
+    const bool settled = previous_chi2 >= 0.0 &&
+                         std::abs(previous_chi2 - r.final_chi2) <= 1e-2 * std::max(1.0, r.final_chi2);
+    previous_chi2 = r.final_chi2;
+    if (settled) break;
+  }
+  opt.params().max_iterations = saved_iterations;
+  for (int k : links) opt.setWeight(graph.candidate(k).constraint, 1.0);
+  return opt.poses();
+}
+
+}  // namespace rrr_graphslam::rrr

@@ -1,0 +1,60 @@
+#include "rrr_graphslam/rrr/verification_graph.h"
+
+#include <stdexcept>
+#include <string>
+#include <unordered_map>
+
+namespace rrr_graphslam::rrr {
+namespace {
+
+std::vector<OdometryChain::Link> odometryLinks(
+    const core::PoseGraph& graph,
+    const std::unordered_map<core::PoseGraph::NodeId, int>& index_of) {
+  std::vector<OdometryChain::Link> links;
+  for (std::size_t k = 0; k < graph.numEdges(); ++k) {
+    const auto& e = graph.edge(k);
+    if (e.kind != core::EdgeKind::kOdometry) continue;
+    const int from = index_of.at(e.from);
+    const int to = index_of.at(e.to);
+    if (std::abs(from - to) != 1) {
+      throw std::invalid_argument("odometry edge " + std::to_string(k) + " (" +
+                                  std::to_string(e.from) + " -> " + std::to_string(e.to) +
+                                  ") does not join consecutive nodes; mark it as a loop candidate");
+    }
+    links.push_back({from, to, graph.measurement(k), graph.information(k)});
+  }
+  return links;
+}
+
+std::unordered_map<core::PoseGraph::NodeId, int> indexIds(
+    const std::vector<core::PoseGraph::NodeId>& ids) {
+  std::unordered_map<core::PoseGraph::NodeId, int> index_of;
+  for (std::size_t i = 0; i < ids.size(); ++i) index_of.emplace(ids[i], static_cast<int>(i));
+  return index_of;
+}
+
+}  // namespace
+
+VerificationGraph::VerificationGraph(const core::PoseGraph& graph,
+                                     const core::OptimizerParams& params)
+    : node_ids_(graph.nodeIds()),
+      optimizer_(core::makeOptimizer(graph, params)),
+      chain_(static_cast<int>(node_ids_.size()), odometryLinks(graph, indexIds(node_ids_))) {
+  initial_poses_ = optimizer_.poses();
+  const auto index_of = indexIds(node_ids_);
+  for (std::size_t k = 0; k < graph.numEdges(); ++k) {
+    const auto& e = graph.edge(k);
+    if (e.kind != core::EdgeKind::kLoopCandidate) continue;
+    const int c = static_cast<int>(k);  // makeOptimizer: constraint k is edge k
+    optimizer_.setActive(c, false);
+    candidates_.push_back(LoopCandidate{k, index_of.at(e.from), index_of.at(e.to), c,
+                                        graph.measurement(k), graph.information(k)});
+  }
+}
+
+void VerificationGraph::activateOnly(const std::vector<int>& candidates) {
+  for (const LoopCandidate& c : candidates_) optimizer_.setActive(c.constraint, false);
+  for (int k : candidates) optimizer_.setActive(candidate(k).constraint, true);
+}
+
+}  // namespace rrr_graphslam::rrr

@@ -1,0 +1,173 @@
+// rrr_offline INPUT [--decisions DECISIONS.tsv] [--output OPTIMIZED.g2o]
+//             [--mode batch|incremental] [--alpha 0.95] [--cluster-gap N] ...
+// Decides which loop candidates of a pose graph are real (RRR) and writes the decisions and the
+// graph optimized with the accepted loops.
+
+#include <unistd.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <exception>
+#include <iostream>
+#include <string>
+
+#include "rrr_graphslam/core/graph_io.h"
+#include "rrr_graphslam/core/text_file.h"
+#include "rrr_graphslam/rrr/incremental_rrr.h"
+#include "rrr_graphslam/rrr/rrr.h"
+
+namespace {
+
+namespace core = rrr_graphslam::core;
+namespace rrr = rrr_graphslam::rrr;
+
+const char* const kUsage =
+    "usage: rrr_offline INPUT [--decisions DECISIONS.tsv] [--output OPTIMIZED.g2o]\n"
+    "                   [--mode batch|incremental] [--alpha 0.95] [--cluster-gap N]\n"
+    "                   [--batch-removal-fraction F] [--recover-gate G] [--quiet]\n"
+    "  INPUT            g2o or TORO pose graph (.gz allowed); edges with |from-to| != 1 are\n"
+    "                   loop candidates, the others trusted odometry\n"
+    "  --decisions      TSV with header 'from to cluster verdict', one row per candidate\n"
+    "  --output         the graph with odometry and accepted loops, optimized\n"
+    "  --mode           batch (default) or incremental (candidates fed in node order)\n"
+    "  --alpha          confidence of the chi-square tests (default 0.95)\n"
+    "  --cluster-gap    nodes; default derived from the candidates\n"
+    "  --batch-removal-fraction   inter-cluster removal batch (default 0.5; 1 = one at a time)\n"
+    "  --recover-gate   consistency index below which rejected clusters are retried (default 10)\n"
+    "  --quiet          no progress line\n";
+
+struct Arguments {
+  std::string input;
+  std::string decisions;
+  std::string output;
+  bool incremental = false;
+  bool quiet = false;
+  rrr::RrrParams params;
+};
+
+[[noreturn]] void usageError(const std::string& what) {
+  std::cerr << "rrr_offline: " << what << "\n" << kUsage;
+  std::exit(2);
+}
+
+double parseNumber(const std::string& option, const std::string& text, double low, double high) {
+  char* end = nullptr;
+  const double v = std::strtod(text.c_str(), &end);
+  if (end == text.c_str() || *end != '\0' || !(v >= low && v <= high)) {
+    usageError(option + " must be a number in [" + std::to_string(low) + ", " +
+               std::to_string(high) + "], not '" + text + "'");
+  }
+  return v;
+}
+
+Arguments parseArguments(int argc, char** argv) {
+  Arguments args;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    auto value = [&]() -> std::string {
+      if (i + 1 >= argc) usageError(a + " needs a value");
+      return argv[++i];
+    };
+    if (a == "-h" || a == "--help") {
+      std::cout << kUsage;
+      std::exit(0);
+    } else if (a == "--decisions") {
+      args.decisions = value();
+    } else if (a == "--output" || a == "-o") {
+      args.output = value();
+    } else if (a == "--mode") {
+      const std::string m = value();
+      if (m != "batch" && m != "incremental") usageError("--mode must be batch or incremental");
+      args.incremental = m == "incremental";
+    } else if (a == "--alpha") {
+      args.params.alpha = parseNumber(a, value(), 1e-6, 1.0 - 1e-9);
+    } else if (a == "--cluster-gap") {
+      args.params.cluster_gap = static_cast<int>(parseNumber(a, value(), 1, 1e6));
+    } else if (a == "--batch-removal-fraction") {
+      args.params.batch_removal_fraction = parseNumber(a, value(), 0.0, 1.0);
+    } else if (a == "--recover-gate") {
+      args.params.recover_gate = parseNumber(a, value(), 0.0, 1e12);
+    } else if (a == "--quiet") {
+      args.quiet = true;
+    } else if (!a.empty() && a[0] == '-') {
+      usageError("unknown option " + a);
+    } else if (args.input.empty()) {
+      args.input = a;
+    } else {
+      usageError("more than one input file given");
+    }
+  }
+  if (args.input.empty()) usageError("no input file given");
+  return args;
+}
+
+rrr::ProgressFunction terminalProgress(bool quiet) {
+  if (quiet || !isatty(STDERR_FILENO)) return {};
+  return [](const char* stage, int done, int total) {
+    std::fprintf(stderr, "\r[%s] %d/%d   ", stage, done, total);
+    if (done == total) std::fprintf(stderr, "\n");
+  };
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const Arguments args = parseArguments(argc, argv);
+  try {
+    core::GraphReadOptions read_options;
+    read_options.allow_disconnected = true;  // sessions without an accepted link stay apart
+    core::PoseGraph graph = core::readPoseGraph(args.input, read_options);
+    rrr::VerificationGraph verification(graph, args.params.optimizer);
+
+    std::vector<rrr::Verdict> verdicts;
+    std::vector<int> cluster_of;
+    rrr::RrrSummary summary;
+    if (args.incremental) {
+      summary = rrr::runIncrementalRrr(verification, args.params, verdicts, cluster_of,
+                                       terminalProgress(args.quiet));
+    } else {
+      summary = rrr::runBatchRrr(verification, args.params, verdicts, cluster_of,
+                                 terminalProgress(args.quiet));
+    }
+
+    std::printf("input          %s: %zu nodes, %zu edges\n", args.input.c_str(), graph.numNodes(),
+                graph.numEdges());
+    std::printf("mode           %s\n", args.incremental ? "incremental" : "batch");
+    std::printf("candidates     %d\n", summary.candidates);
+    std::printf("clusters       %d (gap %d nodes)\n", summary.clusters, summary.cluster_gap);
+    std::printf("accepted       %d\n", summary.accepted);
+    std::printf("rejected       %d\n", summary.rejected);
+    std::printf("optimizations  %d\n", summary.optimizations);
+    std::printf("time           %.3f s\n", summary.time_sec);
+
+    if (!args.decisions.empty()) {
+      core::writeFileAtomically(args.decisions, [&](std::ostream& out) {
+        out << "from\tto\tcluster\tverdict\n";
+        for (int k = 0; k < verification.numCandidates(); ++k) {
+          const auto& edge = graph.edge(verification.candidate(k).edge);
+          out << edge.from << '\t' << edge.to << '\t' << cluster_of[static_cast<std::size_t>(k)]
+              << '\t' << rrr::toString(verdicts[static_cast<std::size_t>(k)]) << '\n';
+        }
+      });
+      std::printf("decisions      %s\n", args.decisions.c_str());
+    }
+    if (!args.output.empty()) {
+      core::PoseGraph optimized;
+      const auto& poses = verification.optimizer().poses();
+      const auto& ids = verification.nodeIds();
+      for (std::size_t n = 0; n < ids.size(); ++n) optimized.addNode(ids[n], poses[n]);
+      for (std::size_t k = 0; k < graph.numEdges(); ++k) {
+        const auto& e = graph.edge(k);
+        const bool keep = e.kind == core::EdgeKind::kOdometry ||
+                          verification.optimizer().isActive(static_cast<int>(k));
+        if (keep) optimized.addEdge(e.from, e.to, graph.measurement(k), graph.information(k), e.kind);
+      }
+      core::writePoseGraph(optimized, args.output);
+      std::printf("output         %s\n", args.output.c_str());
+    }
+    return 0;
+  } catch (const std::exception& e) {
+    std::cerr << "rrr_offline: " << e.what() << "\n";
+    return 1;
+  }
+}
