@@ -115,9 +115,10 @@ class LineParser {
 constexpr int kG2oOrder[6][2] = {{0, 0}, {0, 1}, {0, 2}, {1, 1}, {1, 2}, {2, 2}};
 constexpr int kToroOrder[6][2] = {{0, 0}, {0, 1}, {1, 1}, {2, 2}, {0, 2}, {1, 2}};
 
-// Initial poses for a file without vertices: a 0-1 breadth-first search from the smallest id
-// in which odometry edges cost nothing, so every node is reached through as few loop
-// candidates as possible (none when the odometry chain is connected).
+// Initial poses for a file without vertices: a 0-1 breadth-first search from the smallest id in
+// which odometry edges cost nothing and loop candidates cost one, so every node is placed along
+// a path with as few loop candidates as possible (none when the odometry chain is connected).
+// A node's pose is final when it leaves the queue; until then a cheaper path may replace it.
 void chainInitialPoses(const std::vector<ParsedEdge>& edges, PoseGraph& graph) {
   std::map<NodeId, Pose2> poses;
   std::unordered_map<NodeId, std::vector<std::size_t>> incident;
@@ -127,22 +128,29 @@ void chainInitialPoses(const std::vector<ParsedEdge>& edges, PoseGraph& graph) {
     poses.emplace(edges[k].from, Pose2::Zero());
     poses.emplace(edges[k].to, Pose2::Zero());
   }
-  std::unordered_map<NodeId, bool> placed;
+  std::unordered_map<NodeId, std::size_t> cost;
+  std::unordered_map<NodeId, bool> done;
   for (const auto& [root, unused] : poses) {
-    if (placed[root]) continue;  // each disconnected part starts at its own smallest id
-    placed[root] = true;
+    if (cost.count(root)) continue;  // each disconnected part starts at its own smallest id
+    cost[root] = 0;
     std::deque<NodeId> queue{root};
     while (!queue.empty()) {
       const NodeId n = queue.front();
       queue.pop_front();
+      if (done[n]) continue;
+      done[n] = true;
       for (std::size_t k : incident[n]) {
         const ParsedEdge& e = edges[k];
         const NodeId other = e.from == n ? e.to : e.from;
-        if (placed[other]) continue;
-        placed[other] = true;
+        if (done[other]) continue;
+        const bool odometry = PoseGraph::defaultKind(e.from, e.to) == EdgeKind::kOdometry;
+        const std::size_t through = cost[n] + (odometry ? 0 : 1);
+        const auto known = cost.find(other);
+        if (known != cost.end() && known->second <= through) continue;
+        cost[other] = through;
         poses[other] = e.from == n ? compose(poses[n], e.measurement)
                                    : compose(poses[n], inverse(e.measurement));
-        if (PoseGraph::defaultKind(e.from, e.to) == EdgeKind::kOdometry) {
+        if (odometry) {
           queue.push_front(other);
         } else {
           queue.push_back(other);

@@ -98,6 +98,7 @@ IntraClusterResult intraClusterConsistency(const std::vector<int>& cluster, doub
     const LinkResiduals r = residuals(links);
     ++result.optimizations;
     const int dof = 3 * static_cast<int>(links.size());
+    if (std::getenv("RRR_DEBUG_INTRA")) std::fprintf(stderr, "intra: %zu links, D2 %.2f vs %.2f, max link %.2f\n", links.size(), r.total_chi2, core::chi2Quantile(alpha, dof), *std::max_element(r.link_chi2.begin(), r.link_chi2.end()));
     if (r.total_chi2 < core::chi2Quantile(alpha, dof)) {
       for (std::size_t i = 0; i < links.size(); ++i) {
         (r.link_chi2[i] < link_threshold ? result.kept : result.dropped).push_back(links[i]);
@@ -166,27 +167,33 @@ namespace rrr_graphslam::rrr {
 std::vector<core::Pose2> robustMap(VerificationGraph& graph, const std::vector<int>& links,
                                    const std::vector<core::Pose2>& start, double phi,
                                    int& optimizations) {
-  constexpr int kMaxReweightings = 30;
+  constexpr int kMaxRounds = 40;
+  constexpr double kAnnealing = 4.0;  // phi shrinks by this factor per round
   core::Optimizer& opt = graph.optimizer();
   graph.activateOnly(links);
   opt.setPoses(start);
   const int saved_iterations = opt.params().max_iterations;
-  opt.params().max_iterations = 1;  // one step per reweighting (IRLS)
+  opt.params().max_iterations = 3;  // a few steps per reweighting, so the map keeps up with phi
+  // Graduated non-convexity: begin with phi above every residual (all weights ~1, plain least
+  // squares, which closes loops however far odometry drifted), then shrink it to `phi`.
+  double largest = 0.0;
+  for (int k : links) largest = std::max(largest, opt.constraintChi2(graph.candidate(k).constraint));
+  double current_phi = std::max(phi, largest);
   double previous_chi2 = -1.0;
-  for (int round = 0; round < kMaxReweightings; ++round) {
+  for (int round = 0; round < kMaxRounds; ++round) {
     for (int k : links) {
       const int c = graph.candidate(k).constraint;
-      const double s = std::min(1.0, 2.0 * phi / (phi + opt.constraintChi2(c)));
+      const double s = std::min(1.0, 2.0 * current_phi / (current_phi + opt.constraintChi2(c)));
       opt.setWeight(c, s * s);
     }
     const core::OptimizationResult r = opt.optimize();
     ++optimizations;
-    if (std::getenv("RRR_DEBUG")) std::fprintf(stderr, "  dcs round %d: %d it %d fact %.1f ms chi2 %.1f -> %.1f\n", round, r.iterations, r.factorizations, 1e3*r.time_sec, r.initial_chi2, r.final_chi2);
-    // The map only orders RRR's tests, so 1% is settled enough.
-    const bool settled = previous_chi2 >= 0.0 &&
+    // The map only orders RRR's tests, so 1% is settled enough once phi has reached its value.
+    const bool settled = current_phi <= phi && previous_chi2 >= 0.0 &&
                          std::abs(previous_chi2 - r.final_chi2) <= 1e-2 * std::max(1.0, r.final_chi2);
     previous_chi2 = r.final_chi2;
     if (settled) break;
+    current_phi = std::max(phi, current_phi / kAnnealing);
   }
   opt.params().max_iterations = saved_iterations;
   for (int k : links) opt.setWeight(graph.candidate(k).constraint, 1.0);

@@ -82,6 +82,20 @@ double Rrr::indexAt(int cluster, const std::vector<core::Pose2>& poses) const {
   return d2 / core::chi2Quantile(params_.alpha, 3 * static_cast<int>(kept.size()));
 }
 
+std::vector<int> Rrr::robustMapLinks(const std::vector<int>& pending) const {
+  // Random false links are mostly alone in their cluster, and long single links fill the
+  // Cholesky factor; when clusters of two or more links hold most links, they make the map.
+  std::vector<int> all, multi;
+  auto add = [&](int c) {
+    const auto& kept = kept_links_[static_cast<std::size_t>(c)];
+    all.insert(all.end(), kept.begin(), kept.end());
+    if (kept.size() >= 2) multi.insert(multi.end(), kept.begin(), kept.end());
+  };
+  for (int c : clustersWith(Status::kGood)) add(c);
+  for (int c : pending) add(c);
+  return 2 * multi.size() >= all.size() ? multi : all;
+}
+
 void Rrr::realizeReverseRecover(const std::vector<core::Pose2>& initial, bool robust_ordering) {
   // Realize (and reverse): good + pending clusters, tested jointly.
   previous_good_ = clustersWith(Status::kGood);
@@ -91,17 +105,19 @@ void Rrr::realizeReverseRecover(const std::vector<core::Pose2>& initial, bool ro
   if (robust_ordering && pending.size() > 1) {
     // Many clusters at once: test first those that agree with a map outliers cannot bend; the
     // others are tested in the recover step, against the good set's map.
-    std::vector<int> links;
-    for (int c : previous_good_) links.insert(links.end(), kept_links_[static_cast<std::size_t>(c)].begin(), kept_links_[static_cast<std::size_t>(c)].end());
-    for (int c : pending) links.insert(links.end(), kept_links_[static_cast<std::size_t>(c)].begin(), kept_links_[static_cast<std::size_t>(c)].end());
-    start = robustMap(graph_, links, initial, params_.dcs_phi, optimizations_);
+    start = robustMap(graph_, robustMapLinks(pending), initial, params_.dcs_phi, optimizations_);
+    std::vector<int> agreeing, set_aside;
     for (int c : pending) {
-      if (indexAt(c, start) < 1.0) {
-        tested.push_back(c);
-      } else {
-        clusters_[static_cast<std::size_t>(c)].status = Status::kRejected;
-      }
+      if (std::getenv("RRR_DEBUG_INDEX")) std::fprintf(stderr, "cluster %d size %zu index %.3g\n", c, kept_links_[static_cast<std::size_t>(c)].size(), indexAt(c, start));
+      (indexAt(c, start) < 1.0 ? agreeing : set_aside).push_back(c);
     }
+    if (agreeing.empty()) {
+      // The map agrees with nothing, so it orders nothing: test every cluster, as the paper does.
+      agreeing.swap(set_aside);
+      start = initial;
+    }
+    tested.insert(tested.end(), agreeing.begin(), agreeing.end());
+    for (int c : set_aside) clusters_[static_cast<std::size_t>(c)].status = Status::kRejected;
   } else {
     tested.insert(tested.end(), pending.begin(), pending.end());
   }

@@ -5,6 +5,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
@@ -24,7 +25,7 @@ namespace rrr = rrr_graphslam::rrr;
 const char* const kUsage =
     "usage: rrr_offline INPUT [--decisions DECISIONS.tsv] [--output OPTIMIZED.g2o]\n"
     "                   [--mode batch|incremental] [--alpha 0.95] [--cluster-gap N]\n"
-    "                   [--batch-removal-fraction F] [--recover-gate G] [--quiet]\n"
+    "                   [--batch-removal-fraction F] [--recover-gate G] [--full-intra] [--quiet]\n"
     "  INPUT            g2o or TORO pose graph (.gz allowed); edges with |from-to| != 1 are\n"
     "                   loop candidates, the others trusted odometry\n"
     "  --decisions      TSV with header 'from to cluster verdict', one row per candidate\n"
@@ -34,6 +35,8 @@ const char* const kUsage =
     "  --cluster-gap    nodes; default derived from the candidates\n"
     "  --batch-removal-fraction   inter-cluster removal batch (default 0.5; 1 = one at a time)\n"
     "  --recover-gate   consistency index below which rejected clusters are retried (default 10)\n"
+    "  --full-intra     intra-cluster tests on the whole graph (slow reference) instead of the\n"
+    "                   reduced graph\n"
     "  --quiet          no progress line\n";
 
 struct Arguments {
@@ -87,6 +90,8 @@ Arguments parseArguments(int argc, char** argv) {
       args.params.batch_removal_fraction = parseNumber(a, value(), 0.0, 1.0);
     } else if (a == "--recover-gate") {
       args.params.recover_gate = parseNumber(a, value(), 0.0, 1e12);
+    } else if (a == "--full-intra") {
+      args.params.reduced_intra_graph = false;
     } else if (a == "--quiet") {
       args.quiet = true;
     } else if (!a.empty() && a[0] == '-') {
@@ -122,9 +127,10 @@ int main(int argc, char** argv) {
     std::vector<rrr::Verdict> verdicts;
     std::vector<int> cluster_of;
     rrr::RrrSummary summary;
+    std::vector<double> latencies;
     if (args.incremental) {
       summary = rrr::runIncrementalRrr(verification, args.params, verdicts, cluster_of,
-                                       terminalProgress(args.quiet));
+                                       terminalProgress(args.quiet), &latencies);
     } else {
       summary = rrr::runBatchRrr(verification, args.params, verdicts, cluster_of,
                                  terminalProgress(args.quiet));
@@ -139,6 +145,14 @@ int main(int argc, char** argv) {
     std::printf("rejected       %d\n", summary.rejected);
     std::printf("optimizations  %d\n", summary.optimizations);
     std::printf("time           %.3f s\n", summary.time_sec);
+    if (!latencies.empty()) {
+      std::sort(latencies.begin(), latencies.end());
+      auto percentile = [&](double q) {
+        return latencies[std::min(latencies.size() - 1, static_cast<std::size_t>(q * latencies.size()))];
+      };
+      std::printf("latency        p50 %.2f ms, p99 %.2f ms, max %.2f ms per candidate\n",
+                  1e3 * percentile(0.5), 1e3 * percentile(0.99), 1e3 * latencies.back());
+    }
 
     if (!args.decisions.empty()) {
       core::writeFileAtomically(args.decisions, [&](std::ostream& out) {

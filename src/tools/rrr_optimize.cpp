@@ -9,6 +9,7 @@
 #include <string>
 
 #include "rrr_graphslam/core/graph_io.h"
+#include "rrr_graphslam/core/lago.h"
 #include "rrr_graphslam/core/optimizer.h"
 
 namespace {
@@ -16,16 +17,18 @@ namespace {
 using rrr_graphslam::core::OptimizerParams;
 
 const char* const kUsage =
-    "usage: rrr_optimize INPUT --output OUTPUT.g2o [--method gn|lm] [--max-iterations N]\n"
+    "usage: rrr_optimize INPUT --output OUTPUT.g2o [--method gn|lm] [--max-iterations N] [--lago]\n"
     "  INPUT            g2o (VERTEX_SE2/EDGE_SE2) or TORO (VERTEX2/EDGE2) file, .gz allowed\n"
     "  --output FILE    optimized graph; TORO if it ends in .graph or .toro, g2o otherwise\n"
     "  --method gn|lm   Gauss-Newton (default) or Levenberg-Marquardt\n"
-    "  --max-iterations N   default 50\n";
+    "  --max-iterations N   default 50\n"
+    "  --lago           start from the linear (LAGO) initialization instead of the file's poses\n";
 
 struct Arguments {
   std::string input;
   std::string output;
   OptimizerParams params;
+  bool lago = false;
 };
 
 [[noreturn]] void usageError(const std::string& what) {
@@ -55,12 +58,14 @@ Arguments parseArguments(int argc, char** argv) {
       } else {
         usageError("--method must be gn or lm, not '" + m + "'");
       }
+    } else if (a == "--lago") {
+      args.lago = true;
     } else if (a == "--max-iterations") {
       const std::string v = value();
       char* end = nullptr;
       const long n = std::strtol(v.c_str(), &end, 10);
-      if (end == v.c_str() || *end != '\0' || n < 1) {
-        usageError("--max-iterations must be a positive integer, not '" + v + "'");
+      if (end == v.c_str() || *end != '\0' || n < 0) {
+        usageError("--max-iterations must be a non-negative integer, not '" + v + "'");
       }
       args.params.max_iterations = static_cast<int>(n);
     } else if (!a.empty() && a[0] == '-') {
@@ -90,6 +95,7 @@ int main(int argc, char** argv) {
                 graph.numNodes(), graph.numEdges(), load_sec);
 
     core::Optimizer optimizer = core::makeOptimizer(graph, args.params);
+    if (args.lago) optimizer.setPoses(core::lagoInitialization(optimizer));
     const core::OptimizationResult result = optimizer.optimize();
     std::printf("method         %s\n",
                 args.params.method == OptimizerParams::Method::kGaussNewton ? "gauss-newton"

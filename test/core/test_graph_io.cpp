@@ -127,6 +127,21 @@ TEST(GraphIo, EdgeOnlyFileChainsOdometry) {
   }
 }
 
+TEST(GraphIo, EdgeOnlyFilePlacesNodesByOdometryEvenWhenALoopReachesThemFirst) {
+  // Node 3 is adjacent to node 0 through a (wrong) loop before odometry reaches it.
+  TempDir dir;
+  const std::string path = dir.file("loops_first.g2o",
+                                    "EDGE_SE2 0 3 9 9 0 1 0 0 1 0 1\n"
+                                    "EDGE_SE2 0 1 1 0 0 1 0 0 1 0 1\n"
+                                    "EDGE_SE2 1 2 1 0 0 1 0 0 1 0 1\n"
+                                    "EDGE_SE2 2 3 1 0 0 1 0 0 1 0 1\n"
+                                    "EDGE_SE2 3 4 1 0 0 1 0 0 1 0 1\n");
+  const PoseGraph g = readPoseGraph(path);
+  for (PoseGraph::NodeId id = 0; id <= 4; ++id) {
+    EXPECT_NEAR((g.pose(id) - Pose2(static_cast<double>(id), 0, 0)).norm(), 0.0, 1e-12) << id;
+  }
+}
+
 struct BadInput {
   const char* name;
   const char* content;

@@ -103,6 +103,9 @@ class Optimizer {
   const Pose2& measurement(int constraint) const {
     return constraints_[static_cast<std::size_t>(constraint)].measurement;
   }
+  const Eigen::Matrix3d& information(int constraint) const {
+    return constraints_[static_cast<std::size_t>(constraint)].information;
+  }
 
   const std::vector<Pose2>& poses() const { return poses_; }
   void setPoses(const std::vector<Pose2>& poses);

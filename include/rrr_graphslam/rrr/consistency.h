@@ -71,8 +71,10 @@ namespace rrr_graphslam::rrr {
 /// A map that gross outliers cannot bend: odometry + `links` optimized from `start` by iteratively
 /// reweighted least squares with Dynamic Covariance Scaling weights (Agarwal et al., "Robust map
 /// optimization using dynamic covariance scaling", ICRA 2013): a link with chi2 x gets its
-/// information scaled by min(1, 2 phi / (phi + x))^2. RRR uses it only to choose which clusters
-/// to test jointly first; every decision is still a chi-square test. Weights are reset on return.
+/// information scaled by min(1, 2 phi / (phi + x))^2. phi starts above every residual and
+/// shrinks to `phi` (graduated non-convexity), so a drifted start (ringCity) still closes its
+/// loops. RRR uses the map only to choose which clusters to test jointly first; every decision
+/// is still a chi-square test. Weights are reset on return.
 std::vector<core::Pose2> robustMap(VerificationGraph& graph, const std::vector<int>& links,
                                    const std::vector<core::Pose2>& start, double phi,
                                    int& optimizations);

@@ -86,6 +86,8 @@ class Rrr {
   /// a cluster became good that was not before.
   bool apply(const std::vector<int>& tested, const std::vector<int>& consistent);
   std::vector<int> clustersWith(Status status) const;
+  /// Links that make the robust map ordering a batch decision.
+  std::vector<int> robustMapLinks(const std::vector<int>& pending) const;
   /// Consistency index of a cluster's kept links at fixed poses.
   double indexAt(int cluster, const std::vector<core::Pose2>& poses) const;
   void realizeReverseRecover(const std::vector<core::Pose2>& initial, bool robust_ordering);

@@ -1,0 +1,21 @@
+#pragma once
+// Linear initialization of a 2D pose graph (LAGO: Carlone, Aragues, Castellanos, Bona, "A fast
+// and accurate approximation for planar pose graph optimization", IJRR 2014): orientations by
+// linear least squares on relative angles (each measured angle unwrapped against the current
+// estimate, unwrapped along node order), then positions by linear least squares given those
+// orientations. Far from the minimum (long drifted loops with tight angular information, e.g.
+// KITTI) Gauss-Newton started there reaches the global minimum where one started from odometry
+// stalls in a local one.
+
+#include <vector>
+
+#include "rrr_graphslam/core/optimizer.h"
+
+namespace rrr_graphslam::core {
+
+/// Poses for the optimizer's active constraints (weights ignored), starting from its current
+/// poses for the angle unwrapping and for nodes no active constraint reaches. Node 0 (or the
+/// optimizer's gauge) keeps its pose. Both linear solves go through CHOLMOD.
+std::vector<Pose2> lagoInitialization(const Optimizer& optimizer);
+
+}  // namespace rrr_graphslam::core

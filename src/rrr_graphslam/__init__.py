@@ -1,0 +1,1 @@
+"""Python side of rrr_graphslam: pose-graph files, outlier injection, evaluation, replay."""

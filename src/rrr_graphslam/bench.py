@@ -1,0 +1,102 @@
+"""The RRR benchmark (scripts/bench_rrr): rrr_offline on the bundled graphs with injected outliers
+of every kind and count, and on the KITTI loop-candidate sets, as a Markdown table.
+
+Outlier sets are generated once with a fixed seed into the cache folder and reused.
+"""
+
+import argparse
+import os
+import re
+import subprocess
+import sys
+import time
+
+from .evaluation import read_decisions, read_truth, score
+from .graph_io import read_graph, write_graph, write_text_atomically
+from .outliers import add_outliers
+
+SYNTHETIC = ("manhattanOlson3500_olson", "intel", "city10000", "ringCity", "csail")
+KINDS = ("random", "local", "random-grouped", "local-grouped")
+COUNTS = (100, 500, 1000)
+KITTI = ("00", "05", "06", "07")
+ALPHAS = ("0.00", "0.25", "0.50", "0.75", "1.00")
+
+
+def run_offline(binary, graph, decisions, extra=()):
+    start = time.monotonic()
+    out = subprocess.run([binary, graph, "--decisions", decisions, "--quiet", *extra],
+                         check=True, capture_output=True, text=True).stdout
+    wall = time.monotonic() - start
+    fields = dict(re.findall(r"^(\w+)\s+(.*)$", out, re.M))
+    return {
+        "time": float(fields["time"].split()[0]),
+        "optimizations": int(fields["optimizations"]),
+        "latency": fields.get("latency", ""),
+        "wall": wall,
+    }
+
+
+def synthetic_input(data, cache, name, kind, count):
+    path = os.path.join(cache, f"{name}_{kind}{count}_s1.g2o")
+    truth = path + ".labels"
+    if not (os.path.exists(path) and os.path.exists(truth)):
+        source = os.path.join(data, f"{name}.toro.gz" if name == "csail" else f"{name}.g2o.gz")
+        graph, labels = add_outliers(read_graph(source), kind, count, seed=1)
+        write_graph(graph, path)
+        write_text_atomically(truth, "".join(f"{i} {j} {label}\n" for i, j, label in labels))
+    return path, truth
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--rrr-offline", required=True, help="path of the rrr_offline binary")
+    parser.add_argument("--data", required=True, help="the package's test/data folder")
+    parser.add_argument("--cache", required=True, help="folder for generated inputs and decisions")
+    parser.add_argument("--datasets", nargs="*", default=list(SYNTHETIC))
+    parser.add_argument("--kinds", nargs="*", default=list(KINDS))
+    parser.add_argument("--counts", nargs="*", type=int, default=list(COUNTS))
+    parser.add_argument("--no-kitti", action="store_true")
+    parser.add_argument("--incremental", nargs="*", default=["city10000:random:1000"],
+                        help="NAME:KIND:COUNT inputs also run in incremental mode")
+    args = parser.parse_args(argv)
+    os.makedirs(args.cache, exist_ok=True)
+
+    print("| dataset | kind | outliers | mode | precision | recall | time s | optimizations |")
+    print("|---|---|---|---|---|---|---|---|")
+    worst = {"precision": 1.0, "recall": 1.0}
+
+    def report(dataset, kind, count, mode, graph, truth, extra=()):
+        decisions = graph + f".{mode}.tsv"
+        r = run_offline(args.rrr_offline, graph, decisions, ["--mode", mode, *extra])
+        d = read_decisions(decisions)
+        s = score(d, read_truth(truth, d))
+        worst["precision"] = min(worst["precision"], s.precision)
+        worst["recall"] = min(worst["recall"], s.recall)
+        latency = f" ({r['latency']})" if r["latency"] else ""
+        print(f"| {dataset} | {kind} | {count} | {mode} | {s.precision:.4f} | {s.recall:.4f} | "
+              f"{r['time']:.2f}{latency} | {r['optimizations']} |", flush=True)
+
+    for name in args.datasets:
+        for kind in args.kinds:
+            for count in args.counts:
+                graph, truth = synthetic_input(args.data, args.cache, name, kind, count)
+                report(name, kind, count, "batch", graph, truth)
+    for spec in args.incremental:
+        name, kind, count = spec.split(":")
+        graph, truth = synthetic_input(args.data, args.cache, name, kind, int(count))
+        report(name, kind, count, "incremental", graph, truth)
+    if not args.no_kitti:
+        for seq in KITTI:
+            for alpha in ALPHAS:
+                graph = os.path.join(args.data, "kitti", f"kitti_{seq}_alpha_{alpha}.g2o.gz")
+                truth = os.path.join(args.data, "kitti", f"kitti_{seq}_alpha_{alpha}_GT_LC.txt")
+                local = os.path.join(args.cache, os.path.basename(graph)[:-3])
+                if not os.path.exists(local):
+                    write_graph(read_graph(graph), local)
+                report(f"KITTI {seq}", f"alpha {alpha}", "DLoopDetector", "batch", local, truth)
+    print(f"\nworst precision {worst['precision']:.4f}, worst recall {worst['recall']:.4f}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,212 @@
+"""Scoring loop-closure decisions: precision, recall, F1 against a truth file, and the absolute
+trajectory error (ATE) after the SE(2) alignment that minimizes it (Umeyama without scale).
+
+Truth files, either
+  labels:  one line 'from to label' per loop edge of the graph, in the graph's order
+           (label 1 = true loop, 0 = false), as written by add_outliers and vertigo's sets;
+  pairs:   one line 'i j' per true loop, any order (KITTI's *_GT_LC.txt); every candidate not
+           listed is false.
+Decisions: the TSV of rrr_offline / replay_posegraph with header 'from to cluster verdict'.
+"""
+
+import math
+from dataclasses import dataclass
+from typing import Dict, List, Optional, Sequence, Tuple
+
+from .graph_io import GraphFileError, open_text, read_graph
+
+DECISION_HEADER = ["from", "to", "cluster", "verdict"]
+VERDICTS = ("accepted", "rejected", "pending")
+
+
+@dataclass
+class Decision:
+    source: int
+    target: int
+    cluster: int
+    verdict: str
+
+
+@dataclass
+class Score:
+    tp: int
+    fp: int
+    fn: int
+    tn: int
+
+    @property
+    def precision(self) -> float:
+        return self.tp / (self.tp + self.fp) if self.tp + self.fp else 1.0
+
+    @property
+    def recall(self) -> float:
+        return self.tp / (self.tp + self.fn) if self.tp + self.fn else 1.0
+
+    @property
+    def f1(self) -> float:
+        p, r = self.precision, self.recall
+        return 2 * p * r / (p + r) if p + r else 0.0
+
+
+def read_decisions(path: str) -> List[Decision]:
+    decisions = []
+    with open_text(path) as f:
+        header = f.readline().rstrip("\n").split("\t")
+        if header != DECISION_HEADER:
+            raise GraphFileError(path, 1, f"header must be '{chr(9).join(DECISION_HEADER)}'")
+        for number, line in enumerate(f, start=2):
+            fields = line.rstrip("\n").split("\t")
+            if len(fields) != 4:
+                raise GraphFileError(path, number, f"expected 4 tab-separated fields, found {len(fields)}")
+            try:
+                d = Decision(int(fields[0]), int(fields[1]), int(fields[2]), fields[3])
+            except ValueError:
+                raise GraphFileError(path, number, "from, to and cluster must be integers") from None
+            if d.verdict not in VERDICTS:
+                raise GraphFileError(path, number, f"verdict must be one of {', '.join(VERDICTS)}")
+            decisions.append(d)
+    return decisions
+
+
+def read_truth(path: str, decisions: Sequence[Decision]) -> List[bool]:
+    """One truth value per decision (same order)."""
+    rows = []
+    with open_text(path) as f:
+        for number, line in enumerate(f, start=1):
+            fields = line.split()
+            if not fields or fields[0].startswith("#"):
+                continue
+            if len(fields) not in (2, 3) or not all(x.lstrip("-").isdigit() for x in fields):
+                raise GraphFileError(path, number, "expected 'from to label' or 'i j' integers")
+            rows.append((number, [int(x) for x in fields]))
+    if rows and len(rows[0][1]) == 3:
+        if len(rows) != len(decisions):
+            raise GraphFileError(path, 0, f"{len(rows)} labels for {len(decisions)} decisions")
+        truth = []
+        for (number, (i, j, label)), d in zip(rows, decisions):
+            if (i, j) != (d.source, d.target):
+                raise GraphFileError(path, number, f"label for {i}->{j} but decision {d.source}->{d.target}")
+            truth.append(label == 1)
+        return truth
+    pairs = {(r[0], r[1]) for _, r in rows} | {(r[1], r[0]) for _, r in rows}
+    return [(d.source, d.target) in pairs for d in decisions]
+
+
+def score(decisions: Sequence[Decision], truth: Sequence[bool]) -> Score:
+    tp = fp = fn = tn = 0
+    for d, t in zip(decisions, truth):
+        accepted = d.verdict == "accepted"
+        tp += accepted and t
+        fp += accepted and not t
+        fn += (not accepted) and t
+        tn += (not accepted) and not t
+    return Score(tp, fp, fn, tn)
+
+
+def read_ground_truth_poses(path: str) -> Dict[int, Tuple[float, float, float]]:
+    """g2o/TORO (vertices, or edges chained), 'id x y theta' or 'x y theta' lines."""
+    with open_text(path) as f:
+        first = next((l.split() for l in f if l.strip() and not l.startswith("#")), [])
+    if first and first[0][0].isalpha():
+        return read_graph(path).poses
+    poses = {}
+    with open_text(path) as f:
+        k = 0
+        for number, line in enumerate(f, start=1):
+            fields = line.split()
+            if not fields or fields[0].startswith("#"):
+                continue
+            try:
+                values = [float(x) for x in fields]
+            except ValueError:
+                raise GraphFileError(path, number, "expected numbers") from None
+            if len(values) == 4:
+                poses[int(values[0])] = tuple(values[1:4])
+            elif len(values) == 3:
+                poses[k] = tuple(values)
+            else:
+                raise GraphFileError(path, number, "expected 'x y theta' or 'id x y theta'")
+            k += 1
+    return poses
+
+
+def align_se2(estimate: Sequence[Tuple[float, float]], truth: Sequence[Tuple[float, float]]):
+    """Rotation angle and translation that map estimate points onto truth (least squares)."""
+    n = len(estimate)
+    mx = sum(p[0] for p in estimate) / n
+    my = sum(p[1] for p in estimate) / n
+    tx = sum(q[0] for q in truth) / n
+    ty = sum(q[1] for q in truth) / n
+    sxx = sxy = 0.0
+    for (px, py), (qx, qy) in zip(estimate, truth):
+        ax, ay, bx, by = px - mx, py - my, qx - tx, qy - ty
+        sxx += ax * bx + ay * by
+        sxy += ax * by - ay * bx
+    angle = math.atan2(sxy, sxx)
+    c, s = math.cos(angle), math.sin(angle)
+    return angle, (tx - (c * mx - s * my), ty - (s * mx + c * my))
+
+
+def absolute_trajectory_error(estimate: Dict[int, Tuple[float, float, float]],
+                              truth: Dict[int, Tuple[float, float, float]]) -> Optional[float]:
+    """RMSE of positions after SE(2) alignment over the common node ids (ids are matched in
+    sorted order when the files number their nodes differently but have equal counts)."""
+    common = sorted(set(estimate) & set(truth))
+    if len(common) < 2 and len(estimate) == len(truth):
+        pairs = list(zip(sorted(estimate), sorted(truth)))
+    else:
+        pairs = [(i, i) for i in common]
+    if len(pairs) < 2:
+        return None
+    est = [estimate[a][:2] for a, _ in pairs]
+    gt = [truth[b][:2] for _, b in pairs]
+    angle, (dx, dy) = align_se2(est, gt)
+    c, s = math.cos(angle), math.sin(angle)
+    total = 0.0
+    for (px, py), (qx, qy) in zip(est, gt):
+        ex = c * px - s * py + dx - qx
+        ey = s * px + c * py + dy - qy
+        total += ex * ex + ey * ey
+    return math.sqrt(total / len(pairs))
+
+
+def plot_decisions(path: str, poses, decisions: Sequence[Decision], truth: Optional[Sequence[bool]],
+                   title: str = "") -> None:
+    """PNG of the trajectory with accepted loops green, rejected red, missed true loops dashed."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(8, 8), dpi=110)
+    ids = sorted(poses)
+    ax.plot([poses[i][0] for i in ids], [poses[i][1] for i in ids], color="0.35", lw=0.8,
+            label="trajectory", zorder=2)
+
+    def segments(selected):
+        xs, ys = [], []
+        for d in selected:
+            if d.source in poses and d.target in poses:
+                a, b = poses[d.source], poses[d.target]
+                xs += [a[0], b[0], None]
+                ys += [a[1], b[1], None]
+        return xs, ys
+
+    truth = truth if truth is not None else [None] * len(decisions)
+    rejected = [d for d, t in zip(decisions, truth) if d.verdict != "accepted" and t is not True]
+    accepted = [d for d in decisions if d.verdict == "accepted"]
+    missed = [d for d, t in zip(decisions, truth) if d.verdict != "accepted" and t is True]
+    xs, ys = segments(rejected)
+    ax.plot(xs, ys, color="tab:red", lw=0.4, alpha=0.5, label=f"rejected ({len(rejected)})", zorder=1)
+    xs, ys = segments(accepted)
+    ax.plot(xs, ys, color="tab:green", lw=0.8, label=f"accepted ({len(accepted)})", zorder=3)
+    if missed:
+        xs, ys = segments(missed)
+        ax.plot(xs, ys, color="tab:blue", lw=0.8, ls="--", label=f"missed true loops ({len(missed)})",
+                zorder=4)
+    ax.set_aspect("equal")
+    ax.legend(loc="best", fontsize=8)
+    ax.set_title(title, fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)

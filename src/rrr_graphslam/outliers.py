@@ -1,0 +1,67 @@
+"""False loop closures for robustness experiments, the four kinds of the robust-SLAM literature
+(Suenderhauf and Protzel's vertigo generator): random, local, random-grouped, local-grouped.
+
+random   both ends anywhere (from < to, not consecutive)
+local    the second end within `local_window` nodes of the first
+*-grouped  groups of `group_size` consecutive, mutually consistent links (from+k, to+k) that
+           share one measurement, like a place recognizer fooled along a stretch of corridor.
+Measurements are x, y ~ N(0, 0.3 m), theta ~ N(0, 10 deg); information is copied from the
+graph's first loop edge (or its first edge). Pairs that already are an edge are drawn again.
+"""
+
+import math
+import random
+from typing import List, Tuple
+
+from .graph_io import Edge, PoseGraph
+
+KINDS = ("random", "local", "random-grouped", "local-grouped")
+
+
+def add_outliers(graph: PoseGraph, kind: str, count: int, seed: int = 1, group_size: int = 10,
+                 local_window: int = 20) -> Tuple[PoseGraph, List[Tuple[int, int, int]]]:
+    """Returns the corrupted graph and labels (from, to, 1 = original loop / 0 = outlier) for
+    every loop edge in output order. Raises ValueError for impossible requests."""
+    if kind not in KINDS:
+        raise ValueError(f"unknown outlier kind '{kind}' (expected one of {', '.join(KINDS)})")
+    if count < 0 or group_size < 1 or local_window < 2:
+        raise ValueError("count must be >= 0, group_size >= 1 and local_window >= 2")
+    ids = sorted(graph.poses)
+    n = len(ids)
+    grouped = kind.endswith("grouped")
+    size = group_size if grouped else 1
+    if n < size + 3:
+        raise ValueError(f"graph has {n} nodes, too few for outliers in groups of {size}")
+    loops = graph.loops()
+    info = (loops[0] if loops else graph.edges[0]).information
+    rng = random.Random(seed)
+    existing = {(e.source, e.target) for e in graph.edges} | {(e.target, e.source) for e in graph.edges}
+
+    added: List[Edge] = []
+    attempts = 0
+    while len(added) < count:
+        attempts += 1
+        if attempts > 1000 * (count + 10):
+            raise ValueError(f"could not place {count} outliers of kind {kind} in this graph")
+        a = rng.randint(0, n - 1 - size)
+        if kind.startswith("random"):
+            b = rng.randint(0, n - 1 - size)
+        else:
+            b = a + rng.randint(2, local_window)
+            if b > n - 1 - size:
+                continue
+        a, b = min(a, b), max(a, b)
+        if b - a < 2:
+            continue
+        group = [(ids[a + k], ids[b + k]) for k in range(min(size, count - len(added)))]
+        if any(p in existing for p in group):
+            continue
+        z = (rng.gauss(0.0, 0.3), rng.gauss(0.0, 0.3), rng.gauss(0.0, math.radians(10.0)))
+        for p in group:
+            existing.add(p)
+            existing.add((p[1], p[0]))
+            added.append(Edge(p[0], p[1], z, info))
+
+    out = PoseGraph(dict(graph.poses), list(graph.edges) + added)
+    labels = [(e.source, e.target, 1) for e in graph.loops()] + [(e.source, e.target, 0) for e in added]
+    return out, labels
