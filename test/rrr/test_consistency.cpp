@@ -1,0 +1,118 @@
+// The intra-cluster test on the reduced graph against the whole-graph version, and the two
+// consistency tests on mixed and false clusters.
+
+#include <gtest/gtest.h>
+
+#include <numeric>
+
+#include "rrr_graphslam/core/chi2.h"
+#include "rrr_graphslam/rrr/clustering.h"
+#include "rrr_graphslam/core/optimizer.h"
+#include "rrr_graphslam/rrr/consistency.h"
+#include <set>
+
+#include "synthetic.h"
+
+namespace rrr_graphslam::rrr {
+namespace {
+
+const std::string kData = RRR_TEST_DATA_DIR;
+
+std::vector<std::vector<int>> clustersOf(const VerificationGraph& graph, int gap) {
+  std::vector<CandidateEnds> ends;
+  for (int k = 0; k < graph.numCandidates(); ++k) ends.emplace_back(graph.candidate(k).from, graph.candidate(k).to);
+  return clusterCandidates(ends, gap);
+}
+
+TEST(Consistency, ReducedGraphMatchesWholeGraph) {
+  const core::PoseGraph pose_graph = core::readPoseGraph(kData + "/intel.g2o.gz");
+  VerificationGraph graph(pose_graph, {});
+  const auto clusters = clustersOf(graph, 3);
+  int compared = 0;
+  for (std::size_t c = 0; c < clusters.size(); c += 4) {
+    const LinkResiduals reduced = reducedGraphResiduals(graph, clusters[c], {});
+    const LinkResiduals full = fullGraphResiduals(graph, clusters[c]);
+    // First order in the odometry noise: equal up to a small fraction plus rounding.
+    EXPECT_NEAR(reduced.total_chi2, full.total_chi2, 0.02 * full.total_chi2 + 1e-6) << "cluster " << c;
+    const double threshold = core::chi2Quantile(0.95, 3 * static_cast<int>(clusters[c].size()));
+    if (std::abs(full.total_chi2 - threshold) > 0.05 * threshold) {
+      EXPECT_EQ(reduced.total_chi2 < threshold, full.total_chi2 < threshold) << "cluster " << c;
+    }
+    ++compared;
+  }
+  EXPECT_GT(compared, 20);
+}
+
+TEST(Consistency, IntraDropsTheFalseLinkOfAMixedCluster) {
+  // A revisit's cluster plus one link between the same places with a 2 m error.
+  testing::LabelledGraph input{core::readPoseGraph(kData + "/intel.g2o.gz"), {}};
+  VerificationGraph plain(input.graph, {});
+  auto clusters = clustersOf(plain, 3);
+  const auto biggest = *std::max_element(clusters.begin(), clusters.end(),
+                                         [](const auto& a, const auto& b) { return a.size() < b.size(); });
+  ASSERT_GE(biggest.size(), 5u);
+  const LoopCandidate& model = plain.candidate(biggest[2]);
+  const auto ids = plain.nodeIds();
+  input.graph.addEdge(ids[static_cast<std::size_t>(model.from)], ids[static_cast<std::size_t>(model.to)],
+                      model.measurement + core::Pose2(2.0, 0.0, 0.0), model.information,
+                      core::EdgeKind::kLoopCandidate);
+  VerificationGraph graph(input.graph, {});
+  std::vector<int> mixed = biggest;
+  const int wrong = graph.numCandidates() - 1;
+  mixed.push_back(wrong);
+  const IntraClusterResult r = intraClusterConsistency(mixed, 0.95, [&](const std::vector<int>& links) {
+    return reducedGraphResiduals(graph, links, {});
+  });
+  EXPECT_NE(std::find(r.dropped.begin(), r.dropped.end(), wrong), r.dropped.end());
+  EXPECT_GE(r.kept.size(), biggest.size() - 1) << "the true links stay";
+}
+
+TEST(Consistency, InterRemovesAConsistentButFalseCluster) {
+  // The links of one revisit all shifted by the same rigid error: consistent among themselves
+  // (they only misplace one stretch of trajectory against another), so the cluster passes on its
+  // own; jointly with the other revisits of the same place it must go.
+  const core::PoseGraph original = core::readPoseGraph(kData + "/intel.g2o.gz");
+  VerificationGraph plain(original, {});
+  const auto clusters = clustersOf(plain, 3);
+  // A revisit of 5 to 20 links.
+  int biggest = -1;
+  for (std::size_t c = 0; c < clusters.size(); ++c) {
+    const std::size_t n = clusters[c].size();
+    if (n >= 5 && n <= 20 && (biggest < 0 || n > clusters[static_cast<std::size_t>(biggest)].size())) {
+      biggest = static_cast<int>(c);
+    }
+  }
+  ASSERT_GE(biggest, 0);
+  // Links implied by the optimized map with the revisiting stretch moved by W: exactly
+  // consistent among themselves.
+  core::Optimizer map = core::makeOptimizer(original);
+  map.optimize();
+  const core::Pose2 W(1.0, 0.5, 0.15);
+  std::set<std::size_t> shifted;
+  for (int k : clusters[static_cast<std::size_t>(biggest)]) shifted.insert(plain.candidate(k).edge);
+  core::PoseGraph corrupted;
+  for (auto id : original.nodeIds()) corrupted.addNode(id, original.pose(id));
+  for (std::size_t k = 0; k < original.numEdges(); ++k) {
+    core::Pose2 z = original.measurement(k);
+    if (shifted.count(k)) {
+      const auto from = static_cast<std::size_t>(plain.optimizer().from(static_cast<int>(k)));
+      const auto to = static_cast<std::size_t>(plain.optimizer().to(static_cast<int>(k)));
+      z = core::between(map.poses()[from], core::compose(W, map.poses()[to]));
+    }
+    corrupted.addEdge(original.edge(k).from, original.edge(k).to, z, original.information(k), original.edge(k).kind);
+  }
+  VerificationGraph graph(corrupted, {});
+  const auto& false_links = clusters[static_cast<std::size_t>(biggest)];
+  const IntraClusterResult alone = intraClusterConsistency(
+      false_links, 0.95, [&](const std::vector<int>& links) { return reducedGraphResiduals(graph, links, {}); });
+  EXPECT_EQ(alone.kept.size(), false_links.size()) << "consistent among themselves";
+  std::vector<int> all(clusters.size());
+  std::iota(all.begin(), all.end(), 0);
+  const InterClusterResult inter =
+      interClusterConsistency(graph, clusters, all, graph.initialPoses(), 0.95, 1.0);
+  EXPECT_NE(std::find(inter.removed.begin(), inter.removed.end(), biggest), inter.removed.end());
+  EXPECT_LE(inter.removed.size(), 3u) << "true clusters stay";
+}
+
+}  // namespace
+}  // namespace rrr_graphslam::rrr

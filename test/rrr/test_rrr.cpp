@@ -1,0 +1,126 @@
+// Batch and incremental RRR end to end: outliers rejected, true loops kept, incremental equal to
+// batch, several sessions.
+
+#include <gtest/gtest.h>
+
+#include "rrr_graphslam/rrr/incremental_rrr.h"
+#include "rrr_graphslam/rrr/rrr.h"
+#include "synthetic.h"
+
+namespace rrr_graphslam::rrr {
+namespace {
+
+const std::string kData = RRR_TEST_DATA_DIR;
+
+struct Counts {
+  int tp = 0, fp = 0, fn = 0;
+  double precision() const { return tp + fp ? double(tp) / (tp + fp) : 1.0; }
+  double recall() const { return tp + fn ? double(tp) / (tp + fn) : 1.0; }
+};
+
+Counts score(const std::vector<Verdict>& verdicts, const std::vector<bool>& truth) {
+  Counts c;
+  for (std::size_t k = 0; k < verdicts.size(); ++k) {
+    const bool accepted = verdicts[k] == Verdict::kAccepted;
+    c.tp += accepted && truth[k];
+    c.fp += accepted && !truth[k];
+    c.fn += !accepted && truth[k];
+  }
+  return c;
+}
+
+class RrrOnOutliers : public ::testing::TestWithParam<std::pair<int, int>> {};
+
+TEST_P(RrrOnOutliers, RejectsEveryOutlierAndKeepsTrueLoops) {
+  const auto [count, group] = GetParam();
+  const testing::LabelledGraph input = testing::withOutliers(kData + "/intel.g2o.gz", count, group, 7);
+  VerificationGraph graph(input.graph, {});
+  std::vector<Verdict> verdicts;
+  std::vector<int> cluster_of;
+  const RrrSummary summary = runBatchRrr(graph, {}, verdicts, cluster_of);
+  const Counts c = score(verdicts, input.candidate_is_true);
+  EXPECT_EQ(c.fp, 0);
+  EXPECT_GE(c.recall(), 0.95);
+  EXPECT_EQ(summary.accepted + summary.rejected, graph.numCandidates());
+  // The optimizer is left with exactly the accepted loops, converged.
+  for (int k = 0; k < graph.numCandidates(); ++k) {
+    EXPECT_EQ(graph.optimizer().isActive(graph.candidate(k).constraint),
+              verdicts[static_cast<std::size_t>(k)] == Verdict::kAccepted);
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Intel, RrrOnOutliers,
+                         ::testing::Values(std::make_pair(100, 1), std::make_pair(500, 1),
+                                           std::make_pair(200, 10)));
+
+TEST(Rrr, IncrementalReachesTheBatchDecisions) {
+  for (const auto& [count, group] : {std::make_pair(200, 1), std::make_pair(100, 10)}) {
+    const testing::LabelledGraph input = testing::withOutliers(kData + "/intel.g2o.gz", count, group, 9);
+    RrrParams params;
+    params.cluster_gap = 3;  // incremental needs it fixed in advance; batch uses the same
+    VerificationGraph batch_graph(input.graph, params.optimizer);
+    std::vector<Verdict> batch, incremental;
+    std::vector<int> batch_clusters, incremental_clusters;
+    runBatchRrr(batch_graph, params, batch, batch_clusters);
+    VerificationGraph incremental_graph(input.graph, params.optimizer);
+    std::vector<double> latencies;
+    runIncrementalRrr(incremental_graph, params, incremental, incremental_clusters, {}, &latencies);
+    EXPECT_EQ(incremental, batch) << count << " outliers in groups of " << group;
+    EXPECT_EQ(latencies.size(), static_cast<std::size_t>(incremental_graph.numCandidates()));
+  }
+}
+
+TEST(Rrr, IncrementalRejectsCandidatesBehindTheRobot) {
+  const testing::LabelledGraph input = testing::withOutliers(kData + "/intel.g2o.gz", 0, 1, 1);
+  VerificationGraph graph(input.graph, {});
+  IncrementalRrr incremental(graph, {}, 3);
+  int newest = 0, latest = 0;
+  for (int k = 0; k < graph.numCandidates(); ++k) {
+    const int end = std::max(graph.candidate(k).from, graph.candidate(k).to);
+    if (end > newest) newest = end, latest = k;
+  }
+  incremental.addCandidate(latest);
+  EXPECT_THROW(incremental.addCandidate(0), std::invalid_argument);
+}
+
+// Three sessions driving the same square: B in its own frame with loops to A, C without any.
+TEST(Rrr, SessionsJoinOnlyThroughAcceptedLinks) {
+  core::PoseGraph g;
+  const Eigen::Matrix3d odo = Eigen::Vector3d(400.0, 400.0, 2500.0).asDiagonal();
+  const Eigen::Matrix3d loop = Eigen::Vector3d(100.0, 100.0, 400.0).asDiagonal();
+  auto square = [](int k) {  // pose k along a 10 m square, 1 m steps
+    const int side = (k / 10) % 4, along = k % 10;
+    const double x[] = {double(along), 10.0, 10.0 - along, 0.0};
+    const double y[] = {0.0, double(along), 10.0, 10.0 - along};
+    return core::Pose2(x[side], y[side], core::normalizeAngle(side * M_PI / 2));
+  };
+  const int per_session = 40;
+  const core::Pose2 frames[] = {core::Pose2(0, 0, 0), core::Pose2(5, -3, 0.7), core::Pose2(-8, 2, -1.0)};
+  for (int s = 0; s < 3; ++s) {
+    for (int k = 0; k < per_session; ++k) {
+      g.addNode(static_cast<core::PoseGraph::NodeId>(s * per_session + k), core::compose(frames[s], square(k)));
+      if (k > 0) {
+        const auto id = static_cast<core::PoseGraph::NodeId>(s * per_session + k);
+        g.addEdge(id - 1, id, core::between(square(k - 1), square(k)), odo, core::EdgeKind::kOdometry);
+      }
+    }
+  }
+  // B's poses 5..9 are A's poses 5..9 (same place, identity measurement).
+  for (int k = 5; k < 10; ++k) {
+    g.addEdge(static_cast<core::PoseGraph::NodeId>(per_session + k), static_cast<core::PoseGraph::NodeId>(k),
+              core::Pose2::Zero(), loop, core::EdgeKind::kLoopCandidate);
+  }
+  VerificationGraph graph(g, {});
+  EXPECT_EQ(graph.chain().numSessions(), 3);
+  std::vector<Verdict> verdicts;
+  std::vector<int> clusters;
+  runBatchRrr(graph, {}, verdicts, clusters);
+  for (Verdict v : verdicts) EXPECT_EQ(v, Verdict::kAccepted);
+  const auto& poses = graph.optimizer().poses();
+  // B now sits on A; C, never linked, keeps its own frame.
+  EXPECT_LT((poses[per_session + 7] - poses[7]).head<2>().norm(), 1e-3);
+  EXPECT_LT((poses[2 * per_session + 3] - core::compose(frames[2], square(3))).head<2>().norm(), 1e-3);
+}
+
+}  // namespace
+}  // namespace rrr_graphslam::rrr
