@@ -46,6 +46,7 @@ int Optimizer::addConstraint(int from, int to, const Pose2& measurement,
 
 void Optimizer::setFixed(int node, bool fixed) {
   if (static_cast<bool>(fixed_[static_cast<std::size_t>(node)]) == fixed) return;
+  covariance_valid_ = false;
   fixed_[static_cast<std::size_t>(node)] = fixed ? 1 : 0;
   variables_valid_ = false;
   pattern_valid_ = false;
@@ -255,6 +256,7 @@ OptimizationResult Optimizer::optimize() {
 void Optimizer::gaussNewton(OptimizationResult& result, double& chi2_now,
                             std::chrono::steady_clock::time_point& clock) {
   auto& timing = result.timing;
+  covariance_valid_ = false;
   // Near the minimum H hardly changes between steps, so the last factorization is reused
   // (chord steps: new gradient, old factor) while that still shrinks the chi2 decrease fast.
   // The fixed point is the same (gradient = 0); a chord step that does not lower chi2 is
@@ -267,12 +269,13 @@ void Optimizer::gaussNewton(OptimizationResult& result, double& chi2_now,
       const bool factorized = solver_.factorize(hessian_.matrix());
       timing.factorize_sec += secondsSince(clock);
       ++result.factorizations;
+      covariance_valid_ = factorized;
       if (!factorized) {
         result.stop_reason = StopReason::kSolverFailure;
         return;
       }
     }
-    const Eigen::VectorXd step = solver_.solve(-gradient_);
+    const Eigen::VectorXd step = solver_.solve(Eigen::VectorXd(-gradient_));
     const std::vector<Pose2> saved = poses_;
     applyStep(step);
     timing.solve_sec += secondsSince(clock);
@@ -307,6 +310,7 @@ void Optimizer::gaussNewton(OptimizationResult& result, double& chi2_now,
 void Optimizer::levenbergMarquardt(OptimizationResult& result, double& chi2_now,
                                    std::chrono::steady_clock::time_point& clock) {
   auto& timing = result.timing;
+  covariance_valid_ = false;  // damped factors describe no covariance
   // Marquardt's scaling: damp each variable in proportion to its own curvature, which copes
   // with the mix of metres and radians and with far-off initial guesses (City10000, ringCity).
   Eigen::VectorXd diagonal = hessian_.diagonal();
@@ -329,7 +333,7 @@ void Optimizer::levenbergMarquardt(OptimizationResult& result, double& chi2_now,
       nu *= 2.0;
       continue;
     }
-    const Eigen::VectorXd step = solver_.solve(-gradient_);
+    const Eigen::VectorXd step = solver_.solve(Eigen::VectorXd(-gradient_));
     const std::vector<Pose2> saved = poses_;
     applyStep(step);
     const double chi2_next = weightedChi2();
@@ -365,6 +369,23 @@ void Optimizer::levenbergMarquardt(OptimizationResult& result, double& chi2_now,
       nu *= 2.0;
     }
   }
+}
+
+Eigen::MatrixXd Optimizer::covariance(const std::vector<int>& nodes) const {
+  const auto m = static_cast<Eigen::Index>(nodes.size());
+  Eigen::MatrixXd out = Eigen::MatrixXd::Zero(3 * m, 3 * m);
+  if (!covariance_valid_) return out;
+  Eigen::MatrixXd unit = Eigen::MatrixXd::Zero(3 * num_variables_, 3 * m);
+  for (Eigen::Index a = 0; a < m; ++a) {
+    const int v = variable_of_node_[static_cast<std::size_t>(nodes[static_cast<std::size_t>(a)])];
+    if (v >= 0) unit.block<3, 3>(3 * v, 3 * a).setIdentity();
+  }
+  const Eigen::MatrixXd columns = solver_.solve(unit);
+  for (Eigen::Index a = 0; a < m; ++a) {
+    const int v = variable_of_node_[static_cast<std::size_t>(nodes[static_cast<std::size_t>(a)])];
+    if (v >= 0) out.middleRows(3 * a, 3) = columns.middleRows(3 * v, 3);
+  }
+  return 0.5 * (out + out.transpose());
 }
 
 Optimizer makeOptimizer(const PoseGraph& graph, const OptimizerParams& params) {

@@ -56,4 +56,8 @@ Eigen::VectorXd SparseSolver::solve(const Eigen::VectorXd& rhs) const {
   return cholmod_->llt.solve(rhs);
 }
 
+Eigen::MatrixXd SparseSolver::solve(const Eigen::MatrixXd& rhs) const {
+  return cholmod_->llt.solve(rhs);
+}
+
 }  // namespace rrr_graphslam::core

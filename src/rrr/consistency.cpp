@@ -4,8 +4,6 @@
 #include <algorithm>
 #include <deque>
 #include <map>
-#include <cstdio>
-#include <cstdlib>
 
 #include "rrr_graphslam/core/chi2.h"
 
@@ -98,7 +96,6 @@ IntraClusterResult intraClusterConsistency(const std::vector<int>& cluster, doub
     const LinkResiduals r = residuals(links);
     ++result.optimizations;
     const int dof = 3 * static_cast<int>(links.size());
-    if (std::getenv("RRR_DEBUG_INTRA")) std::fprintf(stderr, "intra: %zu links, D2 %.2f vs %.2f, max link %.2f\n", links.size(), r.total_chi2, core::chi2Quantile(alpha, dof), *std::max_element(r.link_chi2.begin(), r.link_chi2.end()));
     if (r.total_chi2 < core::chi2Quantile(alpha, dof)) {
       for (std::size_t i = 0; i < links.size(); ++i) {
         (r.link_chi2[i] < link_threshold ? result.kept : result.dropped).push_back(links[i]);
@@ -121,7 +118,6 @@ InterClusterResult interClusterConsistency(VerificationGraph& graph,
   InterClusterResult result;
   std::vector<int> active = clusters;
   core::Optimizer& opt = graph.optimizer();
-  opt.setPoses(start);
   while (true) {
     std::vector<int> links;
     for (int c : active) {
@@ -129,11 +125,12 @@ InterClusterResult interClusterConsistency(VerificationGraph& graph,
       links.insert(links.end(), l.begin(), l.end());
     }
     graph.activateOnly(links);
-    // After removing clusters, continue from the last solution: it already fits the clusters
-    // that remain, so a few iterations suffice.
+    // Every round starts from `start` (a map without the doubtful clusters: the good set's, or
+    // the robust map): continuing from a solution bent by a removed outlier costs tens of
+    // damped iterations.
+    opt.setPoses(start);
     const core::OptimizationResult r = opt.optimize();
     ++result.optimizations;
-    if (std::getenv("RRR_DEBUG")) std::fprintf(stderr, "  inter opt: %zu clusters, %zu links, %d it, %d fact, %.1f ms (struct %.1f), chi2 %.1f -> %.1f %s\n", active.size(), links.size(), r.iterations, r.factorizations, 1e3*r.time_sec, 1e3*r.timing.structure_sec, r.initial_chi2, r.final_chi2, core::toString(r.stop_reason).c_str());
     if (active.empty()) break;
 
     std::vector<double> index(active.size());

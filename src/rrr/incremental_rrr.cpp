@@ -64,7 +64,7 @@ bool IncrementalRrr::advanceTo(int node) {
     }
   }
   open_.swap(still_open);
-  if (closed) rrr_.decide();
+  if (closed) rrr_.decideIncrementally();
   return closed;
 }
 

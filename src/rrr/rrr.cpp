@@ -2,8 +2,9 @@
 
 #include <algorithm>
 #include <chrono>
-#include <cstdio>
-#include <cstdlib>
+#include <limits>
+
+#include <Eigen/Dense>
 
 #include "rrr_graphslam/core/chi2.h"
 #include "rrr_graphslam/rrr/clustering.h"
@@ -108,7 +109,6 @@ void Rrr::realizeReverseRecover(const std::vector<core::Pose2>& initial, bool ro
     start = robustMap(graph_, robustMapLinks(pending), initial, params_.dcs_phi, optimizations_);
     std::vector<int> agreeing, set_aside;
     for (int c : pending) {
-      if (std::getenv("RRR_DEBUG_INDEX")) std::fprintf(stderr, "cluster %d size %zu index %.3g\n", c, kept_links_[static_cast<std::size_t>(c)].size(), indexAt(c, start));
       (indexAt(c, start) < 1.0 ? agreeing : set_aside).push_back(c);
     }
     if (agreeing.empty()) {
@@ -125,7 +125,6 @@ void Rrr::realizeReverseRecover(const std::vector<core::Pose2>& initial, bool ro
   InterClusterResult inter = interClusterConsistency(graph_, kept_links_, tested, start,
                                                      params_.alpha, params_.batch_removal_fraction);
   optimizations_ += inter.optimizations;
-  if (std::getenv("RRR_DEBUG")) std::fprintf(stderr, "realize: %zu tested, %zu consistent, %d optimizations\n", tested.size(), inter.consistent.size(), inter.optimizations);
   // With robust ordering the clusters set aside count as not yet tried: the good set "grew".
   bool grew = apply(tested, inter.consistent) || (robust_ordering && pending.size() > 1);
   if (progress_) progress_("inter", 1, 1);
@@ -145,7 +144,6 @@ void Rrr::realizeReverseRecover(const std::vector<core::Pose2>& initial, bool ro
     inter = interClusterConsistency(graph_, kept_links_, tested, from, params_.alpha,
                                     params_.batch_removal_fraction);
     optimizations_ += inter.optimizations;
-    if (std::getenv("RRR_DEBUG")) std::fprintf(stderr, "recover %d: %zu promising, %zu tested, %zu consistent, %d optimizations\n", round, promising.size(), tested.size(), inter.consistent.size(), inter.optimizations);
     grew = apply(tested, inter.consistent);
   }
   // Leave the optimizer holding the good set's solution.
@@ -153,13 +151,104 @@ void Rrr::realizeReverseRecover(const std::vector<core::Pose2>& initial, bool ro
   graph_.optimizer().setPoses(base_);
 }
 
-void Rrr::decide() { realizeReverseRecover(base_, false); }
+void Rrr::decide() {
+  unoptimized_accepts_ = 0;
+  realizeReverseRecover(base_, false);
+}
+
+double Rrr::predictedIndex(int cluster) const {
+  const core::Optimizer& opt = graph_.optimizer();
+  const auto& kept = clusters_[static_cast<std::size_t>(cluster)].kept;
+  if (!opt.covarianceAvailable() || kept.empty()) return std::numeric_limits<double>::infinity();
+  std::vector<int> nodes;
+  for (int k : kept) {
+    nodes.push_back(graph_.candidate(k).from);
+    nodes.push_back(graph_.candidate(k).to);
+  }
+  std::sort(nodes.begin(), nodes.end());
+  nodes.erase(std::unique(nodes.begin(), nodes.end()), nodes.end());
+  auto column = [&](int node) {
+    return 3 * static_cast<Eigen::Index>(std::lower_bound(nodes.begin(), nodes.end(), node) - nodes.begin());
+  };
+  const Eigen::MatrixXd map_covariance = opt.covariance(nodes);
+  const auto rows = 3 * static_cast<Eigen::Index>(kept.size());
+  Eigen::VectorXd residual(rows);
+  Eigen::MatrixXd J = Eigen::MatrixXd::Zero(rows, map_covariance.cols());
+  Eigen::MatrixXd S = Eigen::MatrixXd::Zero(rows, rows);
+  for (std::size_t i = 0; i < kept.size(); ++i) {
+    const LoopCandidate& c = graph_.candidate(kept[i]);
+    const core::EdgeLinearization lin = core::linearizeEdge(
+        base_[static_cast<std::size_t>(c.from)], base_[static_cast<std::size_t>(c.to)], c.measurement);
+    const auto r = 3 * static_cast<Eigen::Index>(i);
+    residual.segment<3>(r) = lin.error;
+    J.block<3, 3>(r, column(c.from)) += lin.J_from;
+    J.block<3, 3>(r, column(c.to)) += lin.J_to;
+    S.block<3, 3>(r, r) = c.information.inverse();
+  }
+  S += J * map_covariance * J.transpose();
+  const double d2 = residual.dot(S.ldlt().solve(residual));
+  return d2 / core::chi2Quantile(params_.alpha, static_cast<int>(rows));
+}
+
+Rrr::OnlineVerdict Rrr::checkAgainstMap(int cluster) const {
+  if (indexAt(cluster, base_) < 1.0) return OnlineVerdict::kFits;
+  // Accepting on the linearized test alone let doubtful clusters into the map updates, whose
+  // removal rounds then cost more than the joint tests saved (measured on M3500 and City10000).
+  if (graph_.optimizer().covarianceAvailable() && predictedIndex(cluster) >= 1.0) {
+    return OnlineVerdict::kDoesNotFit;
+  }
+  return OnlineVerdict::kNeedsJointTest;
+}
+
+void Rrr::decideIncrementally() {
+  std::vector<int> joint;
+  auto sort_out = [&](int c, Status if_not) {
+    switch (checkAgainstMap(c)) {
+      case OnlineVerdict::kFits:
+        clusters_[static_cast<std::size_t>(c)].status = Status::kGood;
+        ++unoptimized_accepts_;
+        break;
+      case OnlineVerdict::kDoesNotFit:
+        clusters_[static_cast<std::size_t>(c)].status = if_not;
+        break;
+      case OnlineVerdict::kNeedsJointTest:
+        joint.push_back(c);
+        break;
+    }
+  };
+  for (int c : clustersWith(Status::kPending)) sort_out(c, Status::kRejected);
+  // Joint tests (realize / reverse) of the good set and the undecided clusters, which also fold
+  // the clusters accepted since the last update into the map; while the good set grows, the
+  // rejected clusters that now fit its map are recovered.
+  for (int round = 0; round < params_.max_rounds; ++round) {
+    if (joint.empty() && unoptimized_accepts_ < params_.incremental_map_update_every) return;
+    unoptimized_accepts_ = 0;
+    previous_good_ = clustersWith(Status::kGood);
+    std::vector<int> tested = previous_good_;
+    tested.insert(tested.end(), joint.begin(), joint.end());
+    std::sort(tested.begin(), tested.end());
+    const InterClusterResult inter = interClusterConsistency(
+        graph_, kept_links_, tested, base_, params_.alpha, params_.batch_removal_fraction);
+    optimizations_ += inter.optimizations;
+    if (!graph_.optimizer().covarianceAvailable()) {
+      graph_.optimizer().optimize();  // ends undamped, so the next clusters can use the gate
+      ++optimizations_;
+    }
+    const bool grew = apply(tested, inter.consistent);
+    joint.clear();
+    if (!grew) return;
+    for (int c : clustersWith(Status::kRejected)) {
+      if (indexAt(c, base_) < params_.recover_gate) sort_out(c, Status::kRejected);
+    }
+  }
+}
 
 void Rrr::decideFromScratch() {
   for (Cluster& c : clusters_) {
     if (c.status != Status::kInconsistent) c.status = Status::kPending;
   }
   base_ = graph_.initialPoses();
+  unoptimized_accepts_ = 0;
   realizeReverseRecover(graph_.initialPoses(), true);
 }
 
@@ -202,15 +291,7 @@ RrrSummary runBatchRrr(VerificationGraph& graph, const RrrParams& params,
       progress("intra", static_cast<int>(c + 1), static_cast<int>(clusters.size()));
     }
   }
-  const double intra_sec = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  const int intra_optimizations = rrr.optimizations();
   rrr.decideFromScratch();
-  if (std::getenv("RRR_DEBUG")) {
-    std::fprintf(stderr, "intra %.3f s (%d optimizations), decide %.3f s (%d optimizations)\n", intra_sec,
-                 intra_optimizations,
-                 std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() - intra_sec,
-                 rrr.optimizations() - intra_optimizations);
-  }
 
   verdicts.assign(static_cast<std::size_t>(graph.numCandidates()), Verdict::kPending);
   cluster_of.assign(static_cast<std::size_t>(graph.numCandidates()), -1);

@@ -88,10 +88,18 @@ class Optimizer {
   int addConstraint(int from, int to, const Pose2& measurement, const Eigen::Matrix3d& information,
                     bool active = true);
 
-  void setActive(int constraint, bool active) { active_[static_cast<std::size_t>(constraint)] = active; }
+  void setActive(int constraint, bool active) {
+    auto& a = active_[static_cast<std::size_t>(constraint)];
+    if (static_cast<bool>(a) != active) covariance_valid_ = false;
+    a = active ? 1 : 0;
+  }
   /// Scales a constraint's information (iteratively reweighted least squares); default 1.
   /// chi2() and constraintChi2() stay unweighted; OptimizationResult's chi2 values are weighted.
-  void setWeight(int constraint, double weight) { weight_[static_cast<std::size_t>(constraint)] = weight; }
+  void setWeight(int constraint, double weight) {
+    auto& w = weight_[static_cast<std::size_t>(constraint)];
+    if (w != weight) covariance_valid_ = false;
+    w = weight;
+  }
   bool isActive(int constraint) const { return active_[static_cast<std::size_t>(constraint)]; }
   void setFixed(int node, bool fixed);
   bool isFixed(int node) const { return fixed_[static_cast<std::size_t>(node)]; }
@@ -119,6 +127,13 @@ class Optimizer {
 
   /// Iterates from the current poses and leaves the result in poses().
   OptimizationResult optimize();
+
+  /// True when the last factorization was an undamped Gauss-Newton one of the current active
+  /// set, so that covariance() describes the current estimate (to first order).
+  bool covarianceAvailable() const { return covariance_valid_; }
+  /// Joint marginal covariance (3m x 3m, node order as given) of `nodes` from the last
+  /// factorization; fixed nodes have zero covariance. Requires covarianceAvailable().
+  Eigen::MatrixXd covariance(const std::vector<int>& nodes) const;
 
   /// Symbolic analyses done so far (one per sparsity pattern).
   int symbolicAnalyses() const { return solver_.analysisCount(); }
@@ -165,6 +180,7 @@ class Optimizer {
   BlockHessian hessian_;
   SparseSolver solver_;
 
+  bool covariance_valid_ = false;
   std::vector<int> anchors_;  // nodes held by a weak prior, with their anchor poses
   std::vector<Pose2> anchor_poses_;
   Eigen::VectorXd gradient_;

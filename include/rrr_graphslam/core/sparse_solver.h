@@ -10,6 +10,7 @@
 
 #include <memory>
 
+#include <Eigen/Core>
 #include <Eigen/SparseCore>
 
 namespace rrr_graphslam::core {
@@ -30,6 +31,7 @@ class SparseSolver {
   bool factorize(const Matrix& upper);
   /// Solves A x = rhs with the last successful factorization.
   Eigen::VectorXd solve(const Eigen::VectorXd& rhs) const;
+  Eigen::MatrixXd solve(const Eigen::MatrixXd& rhs) const;
 
   /// Number of symbolic analyses so far (tests check that the ordering is reused).
   int analysisCount() const { return analysis_count_; }

@@ -3,9 +3,11 @@
 // loop closing over time using the iRRR algorithm", IROS 2012): loop candidates arrive while the
 // robot moves, in node order. A cluster is closed once the robot is more than `gap` nodes past
 // its newest link (no later candidate can then join it, so clusters equal the batch ones); it is
-// tested on its own at once, and the joint decision is revised (realize / reverse / recover) with
-// each closed cluster, so an accepted cluster can be reversed later. finish() closes the rest and
-// decides every cluster again from the initial estimate: the batch decision.
+// tested on its own at once and then against the good set's map (Rrr::decideIncrementally):
+// accepted when it fits the map, rejected when even the linearized joint test fails, otherwise
+// tested jointly with optimization, which can reverse earlier accepted clusters. finish()
+// closes the rest and decides every cluster again from the initial estimate (realize, reverse,
+// recover): the batch decision, whatever order the candidates came in.
 
 #include <vector>
 

@@ -27,6 +27,9 @@ struct RrrParams {
   double alpha = 0.95;
   /// Clustering gap in nodes; default 0 = derived from the candidates (deriveClusterGap).
   int cluster_gap = 0;
+  /// Incremental: re-optimize the good set after this many clusters were accepted without it;
+  /// default 32.
+  int incremental_map_update_every = 32;
   /// Inter-cluster: also remove clusters whose consistency index is at least this fraction of the
   /// worst; default 0.5. 1.0 removes one cluster per optimization, as in the paper.
   double batch_removal_fraction = 0.5;
@@ -57,6 +60,14 @@ class Rrr {
   int addCluster(const std::vector<int>& members);
   /// Realize / reverse / recover over the clusters added so far, from the current good set.
   void decide();
+  /// The online step of incremental RRR, for clusters just added. A cluster that fits the good
+  /// set's map without moving it (index < 1: the joint chi2 can then only be lower) is accepted
+  /// and folded into the map at the next joint test; one whose linearized joint test (the chi2
+  /// increase predicted from the map's marginal covariance) fails is rejected until the map grows
+  /// (recover) or the final decision; the others get the joint test with optimization, which
+  /// can also reverse earlier decisions. The map is re-optimized at the latest after
+  /// incremental_map_update_every accepted clusters.
+  void decideIncrementally();
   /// Every cluster that passed its intra test decided again from the initial estimate: the batch
   /// decision, independent of the order clusters arrived in. The clusters that agree with a robust
   /// (DCS) map are tested jointly first; the others go through the recover step.
@@ -76,6 +87,7 @@ class Rrr {
 
  private:
   enum class Status : std::uint8_t { kPending, kGood, kRejected, kInconsistent };
+  enum class OnlineVerdict : std::uint8_t { kFits, kDoesNotFit, kNeedsJointTest };
   struct Cluster {
     std::vector<int> members;
     std::vector<int> kept;  // after the intra test
@@ -88,6 +100,10 @@ class Rrr {
   std::vector<int> clustersWith(Status status) const;
   /// Links that make the robust map ordering a batch decision.
   std::vector<int> robustMapLinks(const std::vector<int>& pending) const;
+  OnlineVerdict checkAgainstMap(int cluster) const;
+  /// Chi2 increase predicted for adding a cluster to the good set (linearized at base_, with the
+  /// optimizer's last factorization), over chi2(alpha, dof); infinity when no factor is usable.
+  double predictedIndex(int cluster) const;
   /// Consistency index of a cluster's kept links at fixed poses.
   double indexAt(int cluster, const std::vector<core::Pose2>& poses) const;
   void realizeReverseRecover(const std::vector<core::Pose2>& initial, bool robust_ordering);
@@ -99,6 +115,7 @@ class Rrr {
   std::vector<int> cluster_of_;
   std::vector<core::Pose2> base_;  // solution of the good set
   std::vector<int> previous_good_;  // good set before the current joint test
+  int unoptimized_accepts_ = 0;     // accepted by decideIncrementally, not yet in the map
   int optimizations_ = 0;
   ProgressFunction progress_;
 };
