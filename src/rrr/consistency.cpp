@@ -114,10 +114,11 @@ InterClusterResult interClusterConsistency(VerificationGraph& graph,
                                            const std::vector<std::vector<int>>& cluster_links,
                                            const std::vector<int>& clusters,
                                            const std::vector<core::Pose2>& start, double alpha,
-                                           double batch_fraction) {
+                                           double batch_fraction, bool restart) {
   InterClusterResult result;
   std::vector<int> active = clusters;
   core::Optimizer& opt = graph.optimizer();
+  opt.setPoses(start);
   while (true) {
     std::vector<int> links;
     for (int c : active) {
@@ -125,10 +126,10 @@ InterClusterResult interClusterConsistency(VerificationGraph& graph,
       links.insert(links.end(), l.begin(), l.end());
     }
     graph.activateOnly(links);
-    // Every round starts from `start` (a map without the doubtful clusters: the good set's, or
-    // the robust map): continuing from a solution bent by a removed outlier costs tens of
-    // damped iterations.
-    opt.setPoses(start);
+    // Online, `start` is the good set's map and a single new outlier bends the solution far
+    // (tens of damped iterations to come back), so rounds restart from it. In batch the
+    // previous round's solution is closer, as the clusters removed together pull many ways.
+    if (restart && result.optimizations > 0) opt.setPoses(start);
     const core::OptimizationResult r = opt.optimize();
     ++result.optimizations;
     if (active.empty()) break;

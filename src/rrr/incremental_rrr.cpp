@@ -80,8 +80,7 @@ RrrSummary runIncrementalRrr(VerificationGraph& graph, const RrrParams& params,
   const auto start = std::chrono::steady_clock::now();
   RrrSummary summary;
   summary.candidates = graph.numCandidates();
-  std::vector<CandidateEnds> ends;
-  for (int k = 0; k < graph.numCandidates(); ++k) ends.emplace_back(graph.candidate(k).from, graph.candidate(k).to);
+  const std::vector<CandidateEnds> ends = candidateEnds(graph);
   // Offline the gap can be derived from every candidate; a robot sets cluster_gap instead.
   summary.cluster_gap = params.cluster_gap > 0 ? params.cluster_gap : deriveClusterGap(ends);
 
@@ -107,14 +106,7 @@ RrrSummary runIncrementalRrr(VerificationGraph& graph, const RrrParams& params,
   incremental.finish();
 
   const Rrr& rrr = incremental.rrr();
-  summary.clusters = rrr.numClusters();
-  verdicts.assign(static_cast<std::size_t>(graph.numCandidates()), Verdict::kPending);
-  cluster_of.assign(static_cast<std::size_t>(graph.numCandidates()), -1);
-  for (int k = 0; k < graph.numCandidates(); ++k) {
-    verdicts[static_cast<std::size_t>(k)] = rrr.verdict(k);
-    cluster_of[static_cast<std::size_t>(k)] = rrr.clusterOf(k);
-    (verdicts[static_cast<std::size_t>(k)] == Verdict::kAccepted ? summary.accepted : summary.rejected)++;
-  }
+  collectVerdicts(rrr, verdicts, cluster_of, summary);
   summary.optimizations = rrr.optimizations();
   summary.time_sec = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return summary;

@@ -156,10 +156,16 @@ void Rrr::decide() {
   realizeReverseRecover(base_, false);
 }
 
-double Rrr::predictedIndex(int cluster) const {
-  const core::Optimizer& opt = graph_.optimizer();
+// A cluster's kept links linearized at base_, with the map's covariance of the nodes they touch
+// (from the optimizer's last factorization).
+struct Rrr::ClusterLinearization {
+  Eigen::VectorXd residual;      // 3 per link
+  Eigen::MatrixXd link_covariance;  // block diagonal
+  Eigen::MatrixXd map_term;      // J Sigma_map J^T
+};
+
+Rrr::ClusterLinearization Rrr::linearizeCluster(int cluster) const {
   const auto& kept = clusters_[static_cast<std::size_t>(cluster)].kept;
-  if (!opt.covarianceAvailable() || kept.empty()) return std::numeric_limits<double>::infinity();
   std::vector<int> nodes;
   for (int k : kept) {
     nodes.push_back(graph_.candidate(k).from);
@@ -170,24 +176,46 @@ double Rrr::predictedIndex(int cluster) const {
   auto column = [&](int node) {
     return 3 * static_cast<Eigen::Index>(std::lower_bound(nodes.begin(), nodes.end(), node) - nodes.begin());
   };
-  const Eigen::MatrixXd map_covariance = opt.covariance(nodes);
+  const Eigen::MatrixXd map_covariance = graph_.optimizer().covariance(nodes);
   const auto rows = 3 * static_cast<Eigen::Index>(kept.size());
-  Eigen::VectorXd residual(rows);
+  ClusterLinearization out;
+  out.residual.resize(rows);
+  out.link_covariance = Eigen::MatrixXd::Zero(rows, rows);
   Eigen::MatrixXd J = Eigen::MatrixXd::Zero(rows, map_covariance.cols());
-  Eigen::MatrixXd S = Eigen::MatrixXd::Zero(rows, rows);
   for (std::size_t i = 0; i < kept.size(); ++i) {
     const LoopCandidate& c = graph_.candidate(kept[i]);
     const core::EdgeLinearization lin = core::linearizeEdge(
         base_[static_cast<std::size_t>(c.from)], base_[static_cast<std::size_t>(c.to)], c.measurement);
     const auto r = 3 * static_cast<Eigen::Index>(i);
-    residual.segment<3>(r) = lin.error;
+    out.residual.segment<3>(r) = lin.error;
     J.block<3, 3>(r, column(c.from)) += lin.J_from;
     J.block<3, 3>(r, column(c.to)) += lin.J_to;
-    S.block<3, 3>(r, r) = c.information.inverse();
+    out.link_covariance.block<3, 3>(r, r) = c.information.inverse();
   }
-  S += J * map_covariance * J.transpose();
-  const double d2 = residual.dot(S.ldlt().solve(residual));
-  return d2 / core::chi2Quantile(params_.alpha, static_cast<int>(rows));
+  out.map_term = J * map_covariance * J.transpose();
+  return out;
+}
+
+double Rrr::predictedIndex(int cluster) const {
+  const auto& kept = clusters_[static_cast<std::size_t>(cluster)].kept;
+  if (!graph_.optimizer().covarianceAvailable() || kept.empty()) {
+    return std::numeric_limits<double>::infinity();
+  }
+  const ClusterLinearization lin = linearizeCluster(cluster);
+  // Adding the cluster: the innovation covariance is the links' plus the map's.
+  const Eigen::MatrixXd S = lin.link_covariance + lin.map_term;
+  const double d2 = lin.residual.dot(S.ldlt().solve(lin.residual));
+  return d2 / core::chi2Quantile(params_.alpha, static_cast<int>(lin.residual.size()));
+}
+
+double Rrr::leaveOneOutIndex(int cluster) const {
+  const ClusterLinearization lin = linearizeCluster(cluster);
+  // Removing a cluster the map already contains: its own share comes off the links' covariance.
+  const Eigen::MatrixXd S = lin.link_covariance - lin.map_term;
+  const Eigen::LDLT<Eigen::MatrixXd> ldlt(S);
+  if (ldlt.info() != Eigen::Success || (ldlt.vectorD().array() <= 0.0).any()) return 0.0;
+  const double d2 = lin.residual.dot(ldlt.solve(lin.residual));
+  return d2 / core::chi2Quantile(params_.alpha, static_cast<int>(lin.residual.size()));
 }
 
 Rrr::OnlineVerdict Rrr::checkAgainstMap(int cluster) const {
@@ -198,6 +226,27 @@ Rrr::OnlineVerdict Rrr::checkAgainstMap(int cluster) const {
     return OnlineVerdict::kDoesNotFit;
   }
   return OnlineVerdict::kNeedsJointTest;
+}
+
+bool Rrr::leaveOneOutCheck() {
+  core::Optimizer& opt = graph_.optimizer();
+  if (!opt.covarianceAvailable()) {
+    opt.optimize();  // one undamped factorization at the solution
+    ++optimizations_;
+    base_ = opt.poses();
+  }
+  std::vector<int> conflicting;
+  for (int c : clustersWith(Status::kGood)) {
+    if (indexAt(c, base_) < params_.loo_min_index) continue;
+    if (leaveOneOutIndex(c) >= 1.0) conflicting.push_back(c);
+  }
+  if (conflicting.empty()) return false;
+  for (int c : conflicting) clusters_[static_cast<std::size_t>(c)].status = Status::kRejected;
+  graph_.activateOnly(acceptedCandidates());
+  opt.optimize();
+  ++optimizations_;
+  base_ = opt.poses();
+  return true;
 }
 
 void Rrr::decideIncrementally() {
@@ -228,7 +277,7 @@ void Rrr::decideIncrementally() {
     tested.insert(tested.end(), joint.begin(), joint.end());
     std::sort(tested.begin(), tested.end());
     const InterClusterResult inter = interClusterConsistency(
-        graph_, kept_links_, tested, base_, params_.alpha, params_.batch_removal_fraction);
+        graph_, kept_links_, tested, base_, params_.alpha, params_.batch_removal_fraction, true);
     optimizations_ += inter.optimizations;
     if (!graph_.optimizer().covarianceAvailable()) {
       graph_.optimizer().optimize();  // ends undamped, so the next clusters can use the gate
@@ -250,6 +299,7 @@ void Rrr::decideFromScratch() {
   base_ = graph_.initialPoses();
   unoptimized_accepts_ = 0;
   realizeReverseRecover(graph_.initialPoses(), true);
+  leaveOneOutCheck();
 }
 
 Verdict Rrr::verdict(int candidate) const {
@@ -271,17 +321,35 @@ std::vector<int> Rrr::acceptedCandidates() const {
   return links;
 }
 
+std::vector<CandidateEnds> candidateEnds(const VerificationGraph& graph) {
+  std::vector<CandidateEnds> ends;
+  ends.reserve(static_cast<std::size_t>(graph.numCandidates()));
+  for (int k = 0; k < graph.numCandidates(); ++k) ends.emplace_back(graph.candidate(k).from, graph.candidate(k).to);
+  return ends;
+}
+
+void collectVerdicts(const Rrr& rrr, std::vector<Verdict>& verdicts, std::vector<int>& cluster_of,
+                     RrrSummary& summary) {
+  const auto n = static_cast<std::size_t>(summary.candidates);
+  verdicts.assign(n, Verdict::kPending);
+  cluster_of.assign(n, -1);
+  summary.clusters = rrr.numClusters();
+  for (std::size_t k = 0; k < n; ++k) {
+    verdicts[k] = rrr.verdict(static_cast<int>(k));
+    cluster_of[k] = rrr.clusterOf(static_cast<int>(k));
+    (verdicts[k] == Verdict::kAccepted ? summary.accepted : summary.rejected)++;
+  }
+}
+
 RrrSummary runBatchRrr(VerificationGraph& graph, const RrrParams& params,
                        std::vector<Verdict>& verdicts, std::vector<int>& cluster_of,
                        const ProgressFunction& progress) {
   const auto start = std::chrono::steady_clock::now();
   RrrSummary summary;
   summary.candidates = graph.numCandidates();
-  std::vector<CandidateEnds> ends;
-  for (int k = 0; k < graph.numCandidates(); ++k) ends.emplace_back(graph.candidate(k).from, graph.candidate(k).to);
+  const std::vector<CandidateEnds> ends = candidateEnds(graph);
   summary.cluster_gap = params.cluster_gap > 0 ? params.cluster_gap : deriveClusterGap(ends);
   const auto clusters = clusterCandidates(ends, summary.cluster_gap);
-  summary.clusters = static_cast<int>(clusters.size());
 
   Rrr rrr(graph, params);
   rrr.setProgress(progress);
@@ -293,13 +361,7 @@ RrrSummary runBatchRrr(VerificationGraph& graph, const RrrParams& params,
   }
   rrr.decideFromScratch();
 
-  verdicts.assign(static_cast<std::size_t>(graph.numCandidates()), Verdict::kPending);
-  cluster_of.assign(static_cast<std::size_t>(graph.numCandidates()), -1);
-  for (int k = 0; k < graph.numCandidates(); ++k) {
-    verdicts[static_cast<std::size_t>(k)] = rrr.verdict(k);
-    cluster_of[static_cast<std::size_t>(k)] = rrr.clusterOf(k);
-    (verdicts[static_cast<std::size_t>(k)] == Verdict::kAccepted ? summary.accepted : summary.rejected)++;
-  }
+  collectVerdicts(rrr, verdicts, cluster_of, summary);
   summary.optimizations = rrr.optimizations();
   summary.time_sec = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return summary;

@@ -56,13 +56,14 @@ struct InterClusterResult {
 /// some cluster's consistency index D^2_C / chi2(alpha, dof_C) >= 1) removes the cluster with
 /// the highest index, together with every cluster whose index is at least
 /// `batch_fraction` * the highest (1.0 removes one at a time, as in the paper; removed clusters
-/// get another chance in RRR's recover step). On return the graph's optimizer holds the
-/// solution of the consistent set.
+/// get another chance in RRR's recover step). With `restart` every round starts again from
+/// `start`, otherwise from the previous round's solution. On return the graph's optimizer holds
+/// the solution of the consistent set.
 InterClusterResult interClusterConsistency(VerificationGraph& graph,
                                            const std::vector<std::vector<int>>& cluster_links,
                                            const std::vector<int>& clusters,
                                            const std::vector<core::Pose2>& start, double alpha,
-                                           double batch_fraction);
+                                           double batch_fraction, bool restart = false);
 
 }  // namespace rrr_graphslam::rrr
 

@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "rrr_graphslam/core/optimizer.h"
+#include "rrr_graphslam/rrr/clustering.h"
 #include "rrr_graphslam/rrr/verification_graph.h"
 
 namespace rrr_graphslam::rrr {
@@ -36,6 +37,9 @@ struct RrrParams {
   /// Recover: retry a rejected cluster jointly when its consistency index against the good set's
   /// map, without moving any pose, is below this; default 10.
   double recover_gate = 10.0;
+  /// Leave-one-out check: examine good clusters whose own consistency index is at least this;
+  /// default 0.1 (0 examines all, a value above 1 none).
+  double loo_min_index = 0.1;
   /// Dynamic Covariance Scaling parameter of the robust map that orders batch decisions; default 1.
   double dcs_phi = 1.0;
   /// Realize/reverse/recover rounds per decide(); default 50.
@@ -100,7 +104,17 @@ class Rrr {
   std::vector<int> clustersWith(Status status) const;
   /// Links that make the robust map ordering a batch decision.
   std::vector<int> robustMapLinks(const std::vector<int>& pending) const;
+  struct ClusterLinearization;
+  ClusterLinearization linearizeCluster(int cluster) const;
   OnlineVerdict checkAgainstMap(int cluster) const;
+  /// Leave-one-out check of the good set: a good cluster whose removal would lower the chi2 by
+  /// more than chi2(alpha, dof) (linearized: r^T (Sigma_C - J Sigma_map J^T)^-1 r, with the
+  /// map's covariance including the cluster) conflicts with the rest even though the map bent
+  /// far enough to give it a small residual; it is rejected. Only clusters whose own index is
+  /// at least loo_min_index are examined. Returns true if a cluster was rejected.
+  bool leaveOneOutCheck();
+  /// Chi2 decrease predicted for removing a good cluster, over chi2(alpha, dof).
+  double leaveOneOutIndex(int cluster) const;
   /// Chi2 increase predicted for adding a cluster to the good set (linearized at base_, with the
   /// optimizer's last factorization), over chi2(alpha, dof); infinity when no factor is usable.
   double predictedIndex(int cluster) const;
@@ -129,6 +143,14 @@ struct RrrSummary {
   int optimizations = 0;
   double time_sec = 0.0;
 };
+
+/// Ends of every candidate of `graph`, for clustering.
+std::vector<CandidateEnds> candidateEnds(const VerificationGraph& graph);
+
+/// Per-candidate verdicts and clusters of `rrr`, counted into `summary` (whose `candidates`
+/// must be set).
+void collectVerdicts(const Rrr& rrr, std::vector<Verdict>& verdicts, std::vector<int>& cluster_of,
+                     RrrSummary& summary);
 
 /// Batch RRR over every candidate of `graph`. On return graph.optimizer() holds odometry +
 /// the accepted loops, optimized; `verdicts` and `cluster_of` have one entry per candidate.

@@ -1,0 +1,79 @@
+"""Outlier injection, truth files, scoring and the ATE alignment."""
+import math
+import os
+import random
+
+import pytest
+from conftest import DATA
+from rrr_graphslam.evaluation import (Decision, absolute_trajectory_error, align_se2, read_decisions,
+                                      read_truth, score)
+from rrr_graphslam.graph_io import GraphFileError, read_graph
+from rrr_graphslam.outliers import KINDS, add_outliers
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_outliers_are_labelled_and_of_their_kind(kind):
+    graph = read_graph(os.path.join(DATA, "intel.g2o.gz"))
+    corrupted, labels = add_outliers(graph, kind, 100, seed=3, group_size=10, local_window=20)
+    loops = corrupted.loops()
+    assert len(loops) == len(labels) == len(graph.loops()) + 100
+    assert [(e.source, e.target) for e in loops] == [(i, j) for i, j, _ in labels]
+    added = loops[len(graph.loops()):]
+    assert all(label == 0 for _, _, label in labels[len(graph.loops()):])
+    pairs = {(e.source, e.target) for e in graph.edges}
+    assert not any((e.source, e.target) in pairs for e in added)
+    if kind.startswith("local"):
+        assert all(2 <= e.target - e.source <= 20 for e in added)
+    if kind.endswith("grouped"):
+        # groups of 10 consecutive links sharing one measurement
+        for g in range(0, 100, 10):
+            group = added[g:g + 10]
+            assert len({e.measurement for e in group}) == 1
+            assert [e.source - group[0].source for e in group] == list(range(10))
+
+
+def test_same_seed_same_outliers():
+    graph = read_graph(os.path.join(DATA, "ring.g2o.gz"))
+    a = add_outliers(graph, "random", 20, seed=5)[1]
+    b = add_outliers(graph, "random", 20, seed=5)[1]
+    assert a == b
+
+
+def test_scoring_with_labels_and_pairs(tmp_path):
+    decisions = [Decision(10, 1, 0, "accepted"), Decision(20, 2, 0, "rejected"),
+                 Decision(30, 3, 1, "accepted"), Decision(40, 4, 2, "rejected")]
+    labels = tmp_path / "labels"
+    labels.write_text("10 1 1\n20 2 1\n30 3 0\n40 4 0\n")
+    s = score(decisions, read_truth(str(labels), decisions))
+    assert (s.tp, s.fp, s.fn, s.tn) == (1, 1, 1, 1)
+    assert s.precision == 0.5 and s.recall == 0.5 and s.f1 == 0.5
+    pairs = tmp_path / "pairs"
+    pairs.write_text("1 10\n2 20\n")  # KITTI style, either direction
+    assert read_truth(str(pairs), decisions) == [True, True, False, False]
+    labels.write_text("10 1 1\n21 2 1\n30 3 0\n40 4 0\n")
+    with pytest.raises(GraphFileError):
+        read_truth(str(labels), decisions)
+
+
+def test_decisions_file_is_checked(tmp_path):
+    path = tmp_path / "d.tsv"
+    path.write_text("from\tto\tcluster\tverdict\n1\t5\t0\taccepted\n2\t6\t0\tmaybe\n")
+    with pytest.raises(GraphFileError) as error:
+        read_decisions(str(path))
+    assert error.value.line == 3
+    path.write_text("a\tb\n")
+    with pytest.raises(GraphFileError):
+        read_decisions(str(path))
+
+
+def test_ate_is_zero_after_a_rigid_motion_and_alignment_recovers_it():
+    rng = random.Random(1)
+    truth = {i: (rng.uniform(-10, 10), rng.uniform(-10, 10), 0.0) for i in range(50)}
+    angle, dx, dy = 0.7, 3.0, -2.0
+    c, s = math.cos(angle), math.sin(angle)
+    moved = {i: (c * x - s * y + dx, s * x + c * y + dy, 0.0) for i, (x, y, _) in truth.items()}
+    assert absolute_trajectory_error(moved, truth) == pytest.approx(0.0, abs=1e-9)
+    found, (tx, ty) = align_se2([p[:2] for p in truth.values()], [p[:2] for p in moved.values()])
+    assert (found, tx, ty) == pytest.approx((angle, dx, dy))
+    noisy = {i: (x + 0.1, y, t) for i, (x, y, t) in moved.items()}
+    assert absolute_trajectory_error(noisy, truth) == pytest.approx(0.0, abs=1e-9)  # a shift aligns away
