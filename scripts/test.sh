@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# Installs what is missing, builds, and runs every test: the gtests (core), then the same gtests
-# built with AddressSanitizer + UndefinedBehaviorSanitizer in a second workspace.
+# Installs what is missing, checks formatting, builds, and runs every test: the gtests and pytest,
+# and the gtests again built with AddressSanitizer + UndefinedBehaviorSanitizer in a second
+# workspace.
 # The last line is catkin_test_results' summary of the normal build.
 # Usage: scripts/test.sh [--no-sanitize]
 source "$(dirname "$0")/common.sh"
@@ -8,6 +9,10 @@ rrr_install_missing
 
 sanitize=1
 [[ "${1:-}" == "--no-sanitize" ]] && sanitize=0
+
+echo "[rrr] clang-format check"
+(cd "${RRR_REPO}" && git ls-files '*.cpp' '*.h' | xargs clang-format-14 --dry-run --Werror) ||
+  { echo "[rrr] formatting differs from .clang-format: run clang-format-14 -i on the files above"; exit 1; }
 
 if [[ $sanitize == 1 ]]; then
   echo "[rrr] sanitizer build (ASan + UBSan) of the core tests"

@@ -5,13 +5,13 @@
 // usage: rrr_bench_optimizer [--repeat N] [--mrpt-max-iterations N] [--skip-mrpt]
 //                            [--reopt GRAPH] [--reopt-edges K] GRAPH...
 
+#include <mrpt/graphslam/levmarq.h>
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <iostream>
-#include <mrpt/graphslam/levmarq.h>
 #include <random>
 #include <string>
 #include <vector>
@@ -61,9 +61,12 @@ void benchGraph(const std::string& path, const Options& options) {
     core::Optimizer optimizer = core::makeOptimizer(graph);
     ours = optimizer.optimize();
     times.push_back(secondsSince(start));
-    std::fprintf(stderr, "%s: total %.1f ms, %d factorizations, optimize %.1f (structure %.1f, assemble %.1f, factorize %.1f, solve %.1f)\n",
-                 nameOf(path).c_str(), 1e3 * times.back(), ours.factorizations, 1e3 * ours.time_sec, 1e3 * ours.timing.structure_sec,
-                 1e3 * ours.timing.assemble_sec, 1e3 * ours.timing.factorize_sec, 1e3 * ours.timing.solve_sec);
+    std::fprintf(stderr,
+                 "%s: total %.1f ms, %d factorizations, optimize %.1f (structure %.1f, assemble "
+                 "%.1f, factorize %.1f, solve %.1f)\n",
+                 nameOf(path).c_str(), 1e3 * times.back(), ours.factorizations, 1e3 * ours.time_sec,
+                 1e3 * ours.timing.structure_sec, 1e3 * ours.timing.assemble_sec,
+                 1e3 * ours.timing.factorize_sec, 1e3 * ours.timing.solve_sec);
   }
   const double our_time = median(times);
 
@@ -119,15 +122,18 @@ void benchReoptimization(const std::string& path, const Options& options) {
     const core::OptimizationResult r = optimizer.optimize();
     times.push_back(r.time_sec);
     iterations += r.iterations;
-    std::fprintf(stderr, "reopt trial %d: %.1f ms (structure %.1f, assemble %.1f, factorize %.1f, solve %.1f)\n",
-                 trial, 1e3 * r.time_sec, 1e3 * r.timing.structure_sec, 1e3 * r.timing.assemble_sec,
-                 1e3 * r.timing.factorize_sec, 1e3 * r.timing.solve_sec);
+    std::fprintf(
+        stderr,
+        "reopt trial %d: %.1f ms (structure %.1f, assemble %.1f, factorize %.1f, solve %.1f)\n",
+        trial, 1e3 * r.time_sec, 1e3 * r.timing.structure_sec, 1e3 * r.timing.assemble_sec,
+        1e3 * r.timing.factorize_sec, 1e3 * r.timing.solve_sec);
   }
-  std::printf("\n| re-optimization | graph | edges switched on | median ms | max ms | iterations |\n");
+  std::printf(
+      "\n| re-optimization | graph | edges switched on | median ms | max ms | iterations |\n");
   std::printf("|---|---|---|---|---|---|\n");
   std::printf("| warm, converged start | %s | %d | %.1f | %.1f | %.1f |\n", nameOf(path).c_str(),
-              options.reopt_edges, 1e3 * median(times), 1e3 * *std::max_element(times.begin(), times.end()),
-              iterations / 5.0);
+              options.reopt_edges, 1e3 * median(times),
+              1e3 * *std::max_element(times.begin(), times.end()), iterations / 5.0);
 }
 
 }  // namespace
@@ -161,8 +167,9 @@ int main(int argc, char** argv) {
     }
   }
   try {
-    std::printf("| graph | nodes | edges | ours ms | ours chi2 | ours iters | MRPT ms | MRPT chi2 | "
-                "MRPT iters | speed-up |\n");
+    std::printf(
+        "| graph | nodes | edges | ours ms | ours chi2 | ours iters | MRPT ms | MRPT chi2 | "
+        "MRPT iters | speed-up |\n");
     std::printf("|---|---|---|---|---|---|---|---|---|---|\n");
     for (const std::string& g : options.graphs) benchGraph(g, options);
     if (!options.reopt_graph.empty()) benchReoptimization(options.reopt_graph, options);

@@ -50,8 +50,8 @@ class LineParser {
 
   void expectCount(std::size_t count) const {
     if (fields_.size() - 1 != count) {
-      fail(std::string(tag_) + " expects " + std::to_string(count) + " fields after the tag, found " +
-           std::to_string(fields_.size() - 1));
+      fail(std::string(tag_) + " expects " + std::to_string(count) +
+           " fields after the tag, found " + std::to_string(fields_.size() - 1));
     }
   }
 
@@ -70,8 +70,7 @@ class LineParser {
     const std::string_view f = fields_[k];
     double value = 0.0;
     const auto [end, ec] = std::from_chars(f.data(), f.data() + f.size(), value);
-    if ((ec != std::errc() && ec != std::errc::result_out_of_range) ||
-        end != f.data() + f.size()) {
+    if ((ec != std::errc() && ec != std::errc::result_out_of_range) || end != f.data() + f.size()) {
       fail("field " + std::to_string(k) + " of " + std::string(tag_) + " ('" + std::string(f) +
            "') is not a number");
     }
@@ -82,7 +81,9 @@ class LineParser {
     return value;
   }
 
-  Pose2 pose(std::size_t first) const { return {number(first), number(first + 1), number(first + 2)}; }
+  Pose2 pose(std::size_t first) const {
+    return {number(first), number(first + 1), number(first + 2)};
+  }
 
   // Reads the six upper-triangle values starting at `first`; `order` gives the (row, col) of each.
   Eigen::Matrix3d information(std::size_t first, const int (&order)[6][2]) const {
@@ -95,8 +96,7 @@ class LineParser {
     if (Eigen::LLT<Eigen::Matrix3d>(info).info() != Eigen::Success) {
       std::ostringstream what;
       what << "information matrix of " << tag_ << " is not positive definite (eigenvalues "
-           << Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(info).eigenvalues().transpose()
-           << ")";
+           << Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(info).eigenvalues().transpose() << ")";
       fail(what.str());
     }
     return info;
@@ -222,7 +222,8 @@ PoseGraph readPoseGraph(const std::string& path, const GraphReadOptions& options
       ParsedEdge e;
       e.from = parse.id(1);
       e.to = parse.id(2);
-      if (e.from == e.to) parse.fail("self-loop: edge from node " + std::to_string(e.from) + " to itself");
+      if (e.from == e.to)
+        parse.fail("self-loop: edge from node " + std::to_string(e.from) + " to itself");
       e.measurement = parse.pose(3);
       e.measurement.z() = normalizeAngle(e.measurement.z());
       e.information = parse.information(6, tag == "EDGE_SE2" ? kG2oOrder : kToroOrder);

@@ -60,7 +60,8 @@ std::vector<Pose2> lagoInitialization(const Optimizer& optimizer) {
   for (int i = 1; i < n; ++i) {
     unwrapped[static_cast<std::size_t>(i)] =
         unwrapped[static_cast<std::size_t>(i - 1)] +
-        normalizeAngle(poses[static_cast<std::size_t>(i)].z() - poses[static_cast<std::size_t>(i - 1)].z());
+        normalizeAngle(poses[static_cast<std::size_t>(i)].z() -
+                       poses[static_cast<std::size_t>(i - 1)].z());
   }
 
   LinearProblem angles(n);
@@ -68,14 +69,16 @@ std::vector<Pose2> lagoInitialization(const Optimizer& optimizer) {
     if (!optimizer.isActive(c)) continue;
     const int i = optimizer.from(c), j = optimizer.to(c);
     const double z = optimizer.measurement(c).z();
-    const double turns = std::round((unwrapped[static_cast<std::size_t>(j)] -
-                                     unwrapped[static_cast<std::size_t>(i)] - z) / (2.0 * M_PI));
+    const double turns = std::round(
+        (unwrapped[static_cast<std::size_t>(j)] - unwrapped[static_cast<std::size_t>(i)] - z) /
+        (2.0 * M_PI));
     const Eigen::Matrix3d& info = optimizer.information(c);
     // Marginal angular information: 1 / (Sigma)_thetatheta.
     const double weight = 1.0 / info.inverse()(2, 2);
     angles.addDifference(i, j, weight, z + 2.0 * M_PI * turns);
   }
-  for (int i = 0; i < n; ++i) angles.addPrior(i, kWeakPrior, unwrapped[static_cast<std::size_t>(i)]);
+  for (int i = 0; i < n; ++i)
+    angles.addPrior(i, kWeakPrior, unwrapped[static_cast<std::size_t>(i)]);
   angles.addPrior(0, kGaugePrior, unwrapped[0]);
   const Eigen::VectorXd theta = angles.solve();
   if (theta.size() != n) return poses;
@@ -101,7 +104,8 @@ std::vector<Pose2> lagoInitialization(const Optimizer& optimizer) {
   const Eigen::VectorXd x = xs.solve();
   const Eigen::VectorXd y = ys.solve();
   if (x.size() != n || y.size() != n) return poses;
-  for (int i = 0; i < n; ++i) poses[static_cast<std::size_t>(i)] = Pose2(x(i), y(i), normalizeAngle(theta(i)));
+  for (int i = 0; i < n; ++i)
+    poses[static_cast<std::size_t>(i)] = Pose2(x(i), y(i), normalizeAngle(theta(i)));
   return poses;
 }
 

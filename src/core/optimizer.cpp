@@ -75,7 +75,8 @@ double Optimizer::chi2() const {
 double Optimizer::weightedChi2() const {
   double sum = 0.0;
   for (int k = 0; k < numConstraints(); ++k) {
-    if (active_[static_cast<std::size_t>(k)]) sum += weight_[static_cast<std::size_t>(k)] * constraintChi2(k);
+    if (active_[static_cast<std::size_t>(k)])
+      sum += weight_[static_cast<std::size_t>(k)] * constraintChi2(k);
   }
   return sum;
 }
@@ -128,8 +129,8 @@ void Optimizer::rebuildPattern() {
     s.from_var = variable_of_node_[static_cast<std::size_t>(constraints_[k].from)];
     s.to_var = variable_of_node_[static_cast<std::size_t>(constraints_[k].to)];
     if (in_pattern_[k] && s.from_var >= 0 && s.to_var >= 0) {
-      s.off_diagonal = hessian_.offDiagonalSlots(std::min(s.from_var, s.to_var),
-                                                 std::max(s.from_var, s.to_var));
+      s.off_diagonal =
+          hessian_.offDiagonalSlots(std::min(s.from_var, s.to_var), std::max(s.from_var, s.to_var));
     }
   }
   solver_.analyze(hessian_.matrix());
@@ -139,8 +140,9 @@ void Optimizer::rebuildPattern() {
 void Optimizer::chooseAnchors() {
   UnionFind sets(poses_.size());
   for (std::size_t k = 0; k < constraints_.size(); ++k) {
-    if (active_[k]) sets.unite(static_cast<std::size_t>(constraints_[k].from),
-                               static_cast<std::size_t>(constraints_[k].to));
+    if (active_[k])
+      sets.unite(static_cast<std::size_t>(constraints_[k].from),
+                 static_cast<std::size_t>(constraints_[k].to));
   }
   std::vector<char> held(poses_.size(), 0);
   for (std::size_t n = 0; n < poses_.size(); ++n) {
@@ -165,8 +167,9 @@ double Optimizer::assemble() {
     if (!active_[k]) continue;
     const Constraint& c = constraints_[k];
     const ConstraintSlots& s = slots_[k];
-    const EdgeLinearization lin = linearizeEdge(poses_[static_cast<std::size_t>(c.from)],
-                                                poses_[static_cast<std::size_t>(c.to)], c.measurement);
+    const EdgeLinearization lin =
+        linearizeEdge(poses_[static_cast<std::size_t>(c.from)],
+                      poses_[static_cast<std::size_t>(c.to)], c.measurement);
     const double w = weight_[k];
     const Eigen::Matrix3d omega = w == 1.0 ? c.information : Eigen::Matrix3d(w * c.information);
     const Eigen::Vector3d omega_e = omega * lin.error;
@@ -391,7 +394,8 @@ Eigen::MatrixXd Optimizer::covariance(const std::vector<int>& nodes) const {
 Optimizer makeOptimizer(const PoseGraph& graph, const OptimizerParams& params) {
   Optimizer optimizer(params);
   std::unordered_map<PoseGraph::NodeId, int> index_of;
-  for (PoseGraph::NodeId id : graph.nodeIds()) index_of.emplace(id, optimizer.addNode(graph.pose(id)));
+  for (PoseGraph::NodeId id : graph.nodeIds())
+    index_of.emplace(id, optimizer.addNode(graph.pose(id)));
   for (std::size_t k = 0; k < graph.numEdges(); ++k) {
     const auto& e = graph.edge(k);
     optimizer.addConstraint(index_of.at(e.from), index_of.at(e.to), graph.measurement(k),

@@ -46,8 +46,7 @@ bool LineReader::next(std::string& line) {
   return true;
 }
 
-void writeFileAtomically(const std::string& path,
-                         const std::function<void(std::ostream&)>& write) {
+void writeFileAtomically(const std::string& path, const std::function<void(std::ostream&)>& write) {
   std::ostringstream content;
   write(content);
   const std::string data = content.str();

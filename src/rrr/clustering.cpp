@@ -39,7 +39,8 @@ std::vector<std::vector<int>> clusterCandidates(const std::vector<CandidateEnds>
   for (std::size_t a = 0; a < sorted.size(); ++a) {
     for (std::size_t b = a + 1; b < sorted.size() && sorted[b].low - sorted[a].low <= gap; ++b) {
       if (std::abs(sorted[b].high - sorted[a].high) <= gap) {
-        sets.unite(static_cast<std::size_t>(sorted[a].index), static_cast<std::size_t>(sorted[b].index));
+        sets.unite(static_cast<std::size_t>(sorted[a].index),
+                   static_cast<std::size_t>(sorted[b].index));
       }
     }
   }
@@ -61,8 +62,10 @@ int deriveClusterGap(const std::vector<CandidateEnds>& ends) {
   std::vector<int> nearest(sorted.size(), INT_MAX);
   for (std::size_t a = 0; a < sorted.size(); ++a) {
     // Only neighbours within kMaxGap in the low end can matter for the clamped result.
-    for (std::size_t b = a + 1; b < sorted.size() && sorted[b].low - sorted[a].low <= kMaxGap; ++b) {
-      const int d = std::max(sorted[b].low - sorted[a].low, std::abs(sorted[b].high - sorted[a].high));
+    for (std::size_t b = a + 1; b < sorted.size() && sorted[b].low - sorted[a].low <= kMaxGap;
+         ++b) {
+      const int d =
+          std::max(sorted[b].low - sorted[a].low, std::abs(sorted[b].high - sorted[a].high));
       nearest[a] = std::min(nearest[a], d);
       nearest[b] = std::min(nearest[b], d);
     }

@@ -142,7 +142,8 @@ InterClusterResult interClusterConsistency(VerificationGraph& graph,
       index[i] = d2 / core::chi2Quantile(alpha, 3 * static_cast<int>(l.size()));
     }
     const double worst = *std::max_element(index.begin(), index.end());
-    const bool joint_ok = opt.chi2() < core::chi2Quantile(alpha, 3 * static_cast<int>(links.size()));
+    const bool joint_ok =
+        opt.chi2() < core::chi2Quantile(alpha, 3 * static_cast<int>(links.size()));
     if (joint_ok && worst < 1.0) break;
 
     // Remove the worst cluster and those nearly as bad; with every index below 1 (only the
@@ -175,7 +176,8 @@ std::vector<core::Pose2> robustMap(VerificationGraph& graph, const std::vector<i
   // Graduated non-convexity: begin with phi above every residual (all weights ~1, plain least
   // squares, which closes loops however far odometry drifted), then shrink it to `phi`.
   double largest = 0.0;
-  for (int k : links) largest = std::max(largest, opt.constraintChi2(graph.candidate(k).constraint));
+  for (int k : links)
+    largest = std::max(largest, opt.constraintChi2(graph.candidate(k).constraint));
   double current_phi = std::max(phi, largest);
   double previous_chi2 = -1.0;
   for (int round = 0; round < kMaxRounds; ++round) {
@@ -187,8 +189,9 @@ std::vector<core::Pose2> robustMap(VerificationGraph& graph, const std::vector<i
     const core::OptimizationResult r = opt.optimize();
     ++optimizations;
     // The map only orders RRR's tests, so 1% is settled enough once phi has reached its value.
-    const bool settled = current_phi <= phi && previous_chi2 >= 0.0 &&
-                         std::abs(previous_chi2 - r.final_chi2) <= 1e-2 * std::max(1.0, r.final_chi2);
+    const bool settled =
+        current_phi <= phi && previous_chi2 >= 0.0 &&
+        std::abs(previous_chi2 - r.final_chi2) <= 1e-2 * std::max(1.0, r.final_chi2);
     previous_chi2 = r.final_chi2;
     if (settled) break;
     current_phi = std::max(phi, current_phi / kAnnealing);

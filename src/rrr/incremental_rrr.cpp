@@ -36,7 +36,8 @@ bool IncrementalRrr::addCandidate(int candidate) {
   for (OpenCluster& open : open_) {
     const bool related = std::any_of(open.members.begin(), open.members.end(), [&](int m) {
       const LoopCandidate& o = graph_.candidate(m);
-      return std::abs(oldestEnd(o) - oldestEnd(c)) <= gap_ && std::abs(newestEnd(o) - newest) <= gap_;
+      return std::abs(oldestEnd(o) - oldestEnd(c)) <= gap_ &&
+             std::abs(newestEnd(o) - newest) <= gap_;
     });
     if (related) {
       joined.members.insert(joined.members.end(), open.members.begin(), open.members.end());
@@ -108,7 +109,8 @@ RrrSummary runIncrementalRrr(VerificationGraph& graph, const RrrParams& params,
   const Rrr& rrr = incremental.rrr();
   collectVerdicts(rrr, verdicts, cluster_of, summary);
   summary.optimizations = rrr.optimizations();
-  summary.time_sec = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  summary.time_sec =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return summary;
 }
 

@@ -64,7 +64,8 @@ bool Rrr::apply(const std::vector<int>& tested, const std::vector<int>& consiste
   bool grew = false;
   for (int c : tested) clusters_[static_cast<std::size_t>(c)].status = Status::kRejected;
   for (int c : consistent) {
-    grew = grew || std::find(previous_good_.begin(), previous_good_.end(), c) == previous_good_.end();
+    grew =
+        grew || std::find(previous_good_.begin(), previous_good_.end(), c) == previous_good_.end();
     clusters_[static_cast<std::size_t>(c)].status = Status::kGood;
   }
   base_ = graph_.optimizer().poses();
@@ -159,9 +160,9 @@ void Rrr::decide() {
 // A cluster's kept links linearized at base_, with the map's covariance of the nodes they touch
 // (from the optimizer's last factorization).
 struct Rrr::ClusterLinearization {
-  Eigen::VectorXd residual;      // 3 per link
+  Eigen::VectorXd residual;         // 3 per link
   Eigen::MatrixXd link_covariance;  // block diagonal
-  Eigen::MatrixXd map_term;      // J Sigma_map J^T
+  Eigen::MatrixXd map_term;         // J Sigma_map J^T
 };
 
 Rrr::ClusterLinearization Rrr::linearizeCluster(int cluster) const {
@@ -174,7 +175,8 @@ Rrr::ClusterLinearization Rrr::linearizeCluster(int cluster) const {
   std::sort(nodes.begin(), nodes.end());
   nodes.erase(std::unique(nodes.begin(), nodes.end()), nodes.end());
   auto column = [&](int node) {
-    return 3 * static_cast<Eigen::Index>(std::lower_bound(nodes.begin(), nodes.end(), node) - nodes.begin());
+    return 3 * static_cast<Eigen::Index>(std::lower_bound(nodes.begin(), nodes.end(), node) -
+                                         nodes.begin());
   };
   const Eigen::MatrixXd map_covariance = graph_.optimizer().covariance(nodes);
   const auto rows = 3 * static_cast<Eigen::Index>(kept.size());
@@ -184,8 +186,9 @@ Rrr::ClusterLinearization Rrr::linearizeCluster(int cluster) const {
   Eigen::MatrixXd J = Eigen::MatrixXd::Zero(rows, map_covariance.cols());
   for (std::size_t i = 0; i < kept.size(); ++i) {
     const LoopCandidate& c = graph_.candidate(kept[i]);
-    const core::EdgeLinearization lin = core::linearizeEdge(
-        base_[static_cast<std::size_t>(c.from)], base_[static_cast<std::size_t>(c.to)], c.measurement);
+    const core::EdgeLinearization lin =
+        core::linearizeEdge(base_[static_cast<std::size_t>(c.from)],
+                            base_[static_cast<std::size_t>(c.to)], c.measurement);
     const auto r = 3 * static_cast<Eigen::Index>(i);
     out.residual.segment<3>(r) = lin.error;
     J.block<3, 3>(r, column(c.from)) += lin.J_from;
@@ -308,7 +311,8 @@ Verdict Rrr::verdict(int candidate) const {
   const Cluster& cluster = clusters_[static_cast<std::size_t>(c)];
   if (cluster.status == Status::kPending) return Verdict::kPending;
   if (cluster.status != Status::kGood) return Verdict::kRejected;
-  const bool kept = std::find(cluster.kept.begin(), cluster.kept.end(), candidate) != cluster.kept.end();
+  const bool kept =
+      std::find(cluster.kept.begin(), cluster.kept.end(), candidate) != cluster.kept.end();
   return kept ? Verdict::kAccepted : Verdict::kRejected;
 }
 
@@ -324,7 +328,8 @@ std::vector<int> Rrr::acceptedCandidates() const {
 std::vector<CandidateEnds> candidateEnds(const VerificationGraph& graph) {
   std::vector<CandidateEnds> ends;
   ends.reserve(static_cast<std::size_t>(graph.numCandidates()));
-  for (int k = 0; k < graph.numCandidates(); ++k) ends.emplace_back(graph.candidate(k).from, graph.candidate(k).to);
+  for (int k = 0; k < graph.numCandidates(); ++k)
+    ends.emplace_back(graph.candidate(k).from, graph.candidate(k).to);
   return ends;
 }
 
@@ -363,7 +368,8 @@ RrrSummary runBatchRrr(VerificationGraph& graph, const RrrParams& params,
 
   collectVerdicts(rrr, verdicts, cluster_of, summary);
   summary.optimizations = rrr.optimizations();
-  summary.time_sec = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  summary.time_sec =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return summary;
 }
 

@@ -148,7 +148,8 @@ int main(int argc, char** argv) {
     if (!latencies.empty()) {
       std::sort(latencies.begin(), latencies.end());
       auto percentile = [&](double q) {
-        return latencies[std::min(latencies.size() - 1, static_cast<std::size_t>(q * latencies.size()))];
+        return latencies[std::min(latencies.size() - 1,
+                                  static_cast<std::size_t>(q * latencies.size()))];
       };
       std::printf("latency        p50 %.2f ms, p99 %.2f ms, max %.2f ms per candidate\n",
                   1e3 * percentile(0.5), 1e3 * percentile(0.99), 1e3 * latencies.back());
@@ -174,7 +175,8 @@ int main(int argc, char** argv) {
         const auto& e = graph.edge(k);
         const bool keep = e.kind == core::EdgeKind::kOdometry ||
                           verification.optimizer().isActive(static_cast<int>(k));
-        if (keep) optimized.addEdge(e.from, e.to, graph.measurement(k), graph.information(k), e.kind);
+        if (keep)
+          optimized.addEdge(e.from, e.to, graph.measurement(k), graph.information(k), e.kind);
       }
       core::writePoseGraph(optimized, args.output);
       std::printf("output         %s\n", args.output.c_str());

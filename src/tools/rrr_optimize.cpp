@@ -97,9 +97,9 @@ int main(int argc, char** argv) {
     core::Optimizer optimizer = core::makeOptimizer(graph, args.params);
     if (args.lago) optimizer.setPoses(core::lagoInitialization(optimizer));
     const core::OptimizationResult result = optimizer.optimize();
-    std::printf("method         %s\n",
-                args.params.method == OptimizerParams::Method::kGaussNewton ? "gauss-newton"
-                                                                            : "levenberg-marquardt");
+    std::printf("method         %s\n", args.params.method == OptimizerParams::Method::kGaussNewton
+                                           ? "gauss-newton"
+                                           : "levenberg-marquardt");
     std::printf("initial chi2   %.6f\n", result.initial_chi2);
     std::printf("final chi2     %.6f\n", result.final_chi2);
     std::printf("iterations     %d\n", result.iterations);

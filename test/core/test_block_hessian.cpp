@@ -27,12 +27,14 @@ TEST(BlockHessian, AssemblyMatchesDenseMatrix) {
   Eigen::MatrixXd dense = Eigen::MatrixXd::Zero(3 * blocks, 3 * blocks);
   for (auto [a, b] : pairs) {
     const int r = std::min(a, b), c = std::max(a, b);
-    const Eigen::Matrix3d M = Eigen::Matrix3d::NullaryExpr([&](Eigen::Index, Eigen::Index) { return value(rng); });
+    const Eigen::Matrix3d M =
+        Eigen::Matrix3d::NullaryExpr([&](Eigen::Index, Eigen::Index) { return value(rng); });
     h.addOffDiagonal(h.offDiagonalSlots(r, c), M);
     dense.block<3, 3>(3 * r, 3 * c) += M;
   }
   for (int b = 0; b < blocks; ++b) {
-    Eigen::Matrix3d M = Eigen::Matrix3d::NullaryExpr([&](Eigen::Index, Eigen::Index) { return value(rng); });
+    Eigen::Matrix3d M =
+        Eigen::Matrix3d::NullaryExpr([&](Eigen::Index, Eigen::Index) { return value(rng); });
     M = (M + M.transpose()).eval();
     h.addDiagonal(b, M);
     dense.block<3, 3>(3 * b, 3 * b) += M.triangularView<Eigen::Upper>().toDenseMatrix();

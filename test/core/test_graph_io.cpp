@@ -2,10 +2,10 @@
 
 #include <gtest/gtest.h>
 
+#include <mrpt/graphs/CNetworkOfPoses.h>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
-#include <mrpt/graphs/CNetworkOfPoses.h>
 #include <string>
 
 #include "rrr_graphslam/core/graph_io.h"
@@ -177,23 +177,29 @@ INSTANTIATE_TEST_SUITE_P(
         BadInput{"unknown_tag", "VERTEX_SE2 0 0 0 0\nVERTEX_SE3:QUAT 1 0 0 0 0 0 0 1\n", 2,
                  "unknown tag"},
         BadInput{"field_count", "VERTEX_SE2 0 0 0\n", 1, "expects 4 fields"},
-        BadInput{"edge_field_count", "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0\nEDGE_SE2 0 1 1 0 0 1 0 0 1 0\n",
-                 3, "expects 11 fields"},
+        BadInput{"edge_field_count",
+                 "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0\nEDGE_SE2 0 1 1 0 0 1 0 0 1 0\n", 3,
+                 "expects 11 fields"},
         BadInput{"non_numeric", "VERTEX_SE2 0 0 abc 0\n", 1, "'abc') is not a number"},
         BadInput{"bad_id", "VERTEX_SE2 -3 0 0 0\n", 1, "not a node id"},
         BadInput{"nan", "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 nan 0 0\n", 2, "not finite"},
-        BadInput{"inf", "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0\nEDGE_SE2 0 1 1 0 0 inf 0 0 1 0 1\n",
-                 3, "not finite"},
-        BadInput{"not_pd", "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0\nEDGE_SE2 0 1 1 0 0 1 2 0 1 0 1\n",
-                 3, "not positive definite"},
-        BadInput{"zero_info", "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0\nEDGE_SE2 0 1 1 0 0 0 0 0 0 0 0\n",
-                 3, "not positive definite"},
-        BadInput{"unknown_node", "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0\nEDGE_SE2 0 7 1 0 0 1 0 0 1 0 1\n",
-                 3, "unknown node 7"},
+        BadInput{"inf",
+                 "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0\nEDGE_SE2 0 1 1 0 0 inf 0 0 1 0 1\n", 3,
+                 "not finite"},
+        BadInput{"not_pd",
+                 "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0\nEDGE_SE2 0 1 1 0 0 1 2 0 1 0 1\n", 3,
+                 "not positive definite"},
+        BadInput{"zero_info",
+                 "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0\nEDGE_SE2 0 1 1 0 0 0 0 0 0 0 0\n", 3,
+                 "not positive definite"},
+        BadInput{"unknown_node",
+                 "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0\nEDGE_SE2 0 7 1 0 0 1 0 0 1 0 1\n", 3,
+                 "unknown node 7"},
         BadInput{"duplicate_vertex", "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0\nVERTEX2 1 1 0 0\n", 3,
                  "duplicate vertex id 1 (first defined on line 2)"},
-        BadInput{"self_loop", "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0\nEDGE_SE2 1 1 0 0 0 1 0 0 1 0 1\n",
-                 3, "self-loop"},
+        BadInput{"self_loop",
+                 "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0\nEDGE_SE2 1 1 0 0 0 1 0 0 1 0 1\n", 3,
+                 "self-loop"},
         BadInput{"disconnected",
                  "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0\nVERTEX_SE2 2 2 0 0\nVERTEX_SE2 3 3 0 0\n"
                  "EDGE_SE2 0 1 1 0 0 1 0 0 1 0 1\nEDGE_SE2 2 3 1 0 0 1 0 0 1 0 1\n",
@@ -215,8 +221,9 @@ TEST(GraphIo, MissingFileAndTruncatedGzip) {
 
 TEST(GraphIo, DisconnectedAllowedOnRequest) {
   TempDir dir;
-  const std::string path = dir.file("two.g2o", std::string(kTwoNodes) + "VERTEX_SE2 5 3 0 0\n"
-                                                  "EDGE_SE2 0 1 1 0 0 1 0 0 1 0 1\n");
+  const std::string path = dir.file("two.g2o", std::string(kTwoNodes) +
+                                                   "VERTEX_SE2 5 3 0 0\n"
+                                                   "EDGE_SE2 0 1 1 0 0 1 0 0 1 0 1\n");
   GraphReadOptions options;
   options.allow_disconnected = true;
   const PoseGraph g = readPoseGraph(path, options);
@@ -230,7 +237,8 @@ TEST(GraphIo, WriteIsAtomicAndLeavesNoTemporaryFiles) {
   writePoseGraph(g, path);
   writePoseGraph(g, path);  // overwrite in place
   int files = 0;
-  for (const auto& entry : std::filesystem::directory_iterator(std::filesystem::path(path).parent_path())) {
+  for (const auto& entry :
+       std::filesystem::directory_iterator(std::filesystem::path(path).parent_path())) {
     (void)entry;
     ++files;
   }

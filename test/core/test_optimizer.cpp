@@ -36,7 +36,8 @@ Optimizer squareLoop(int per_side, std::vector<Pose2>& truth, unsigned seed, dou
   Eigen::Matrix3d info = Eigen::Vector3d(100.0, 100.0, 400.0).asDiagonal();
   info(0, 1) = info(1, 0) = 5.0;
   const int n = static_cast<int>(truth.size());
-  for (int i = 0; i + 1 < n; ++i) opt.addConstraint(i, i + 1, between(truth[i], truth[i + 1]), info);
+  for (int i = 0; i + 1 < n; ++i)
+    opt.addConstraint(i, i + 1, between(truth[i], truth[i + 1]), info);
   opt.addConstraint(n - 1, 0, between(truth[n - 1], truth[0]), info);
   opt.addConstraint(0, 2 * per_side, between(truth[0], truth[2 * per_side]), info);
   return opt;
@@ -86,8 +87,8 @@ TEST(Optimizer, SingleStepMatchesDenseSolve) {
 }
 
 TEST(Optimizer, ConvergesFromPerturbedStartGnAndLm) {
-  for (auto method : {OptimizerParams::Method::kGaussNewton,
-                      OptimizerParams::Method::kLevenbergMarquardt}) {
+  for (auto method :
+       {OptimizerParams::Method::kGaussNewton, OptimizerParams::Method::kLevenbergMarquardt}) {
     std::vector<Pose2> truth;
     Optimizer opt = squareLoop(10, truth, 3, 0.3);
     opt.params().method = method;
@@ -109,7 +110,8 @@ TEST(Optimizer, SwitchingEdgesOffKeepsTheOrderingAndWarmStartMatchesColdStart) {
   // Start with every loop switched off except 10, then switch 10 more on.
   std::vector<int> loops;
   for (int c = 0; c < opt.numConstraints(); ++c) {
-    if (graph.edge(static_cast<std::size_t>(c)).kind == EdgeKind::kLoopCandidate) loops.push_back(c);
+    if (graph.edge(static_cast<std::size_t>(c)).kind == EdgeKind::kLoopCandidate)
+      loops.push_back(c);
   }
   for (int c : loops) opt.setActive(c, true);
   opt.optimize();
@@ -158,7 +160,8 @@ TEST(Optimizer, ConstraintChi2OnRequest) {
   const OptimizationResult r = opt.optimize();
   ASSERT_EQ(r.constraint_chi2.size(), static_cast<std::size_t>(opt.numConstraints()));
   double sum = 0.0;
-  for (int c = 0; c + 1 < opt.numConstraints(); ++c) sum += r.constraint_chi2[static_cast<std::size_t>(c)];
+  for (int c = 0; c + 1 < opt.numConstraints(); ++c)
+    sum += r.constraint_chi2[static_cast<std::size_t>(c)];
   EXPECT_NEAR(sum, r.final_chi2, 1e-9 + 1e-9 * r.final_chi2);
   EXPECT_NEAR(r.constraint_chi2.back(), opt.constraintChi2(opt.numConstraints() - 1), 1e-12);
 }
@@ -173,8 +176,8 @@ class ReferenceChi2 : public ::testing::TestWithParam<Reference> {};
 TEST_P(ReferenceChi2, ReachesG2oChi2Within0p1Percent) {
   const Reference ref = GetParam();
   const PoseGraph graph = readPoseGraph(kData + "/" + ref.file);
-  for (auto method : {OptimizerParams::Method::kGaussNewton,
-                      OptimizerParams::Method::kLevenbergMarquardt}) {
+  for (auto method :
+       {OptimizerParams::Method::kGaussNewton, OptimizerParams::Method::kLevenbergMarquardt}) {
     OptimizerParams params;
     params.method = method;
     Optimizer opt = makeOptimizer(graph, params);
@@ -185,12 +188,13 @@ TEST_P(ReferenceChi2, ReachesG2oChi2Within0p1Percent) {
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(
-    Vertigo, ReferenceChi2,
-    ::testing::Values(Reference{"manhattanOlson3500_olson.g2o.gz", 146.077},
-                      Reference{"intel.g2o.gz", 546.461}, Reference{"city10000.g2o.gz", 511.985},
-                      Reference{"ring.g2o.gz", 11.163}, Reference{"ringCity.g2o.gz", 262.818},
-                      Reference{"csail.g2o.gz", 38.956}));
+INSTANTIATE_TEST_SUITE_P(Vertigo, ReferenceChi2,
+                         ::testing::Values(Reference{"manhattanOlson3500_olson.g2o.gz", 146.077},
+                                           Reference{"intel.g2o.gz", 546.461},
+                                           Reference{"city10000.g2o.gz", 511.985},
+                                           Reference{"ring.g2o.gz", 11.163},
+                                           Reference{"ringCity.g2o.gz", 262.818},
+                                           Reference{"csail.g2o.gz", 38.956}));
 
 }  // namespace
 }  // namespace rrr_graphslam::core

@@ -32,7 +32,8 @@ inline LabelledGraph withOutliers(const std::string& path, int count, int group,
   }
   const auto ids = g.nodeIds();
   std::mt19937 rng(seed);
-  std::uniform_int_distribution<std::size_t> pick(0, ids.size() - 1 - static_cast<std::size_t>(group));
+  std::uniform_int_distribution<std::size_t> pick(0,
+                                                  ids.size() - 1 - static_cast<std::size_t>(group));
   std::normal_distribution<double> metres(0.0, 0.3), radians(0.0, 10.0 * M_PI / 180.0);
   int added = 0;
   while (added < count) {

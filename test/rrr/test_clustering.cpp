@@ -23,9 +23,9 @@ std::set<std::set<std::pair<int, int>>> asSets(const std::vector<CandidateEnds>&
 }
 
 TEST(Clustering, BothEndsMustBeWithinTheGap) {
-  const std::vector<CandidateEnds> ends = {{100, 10}, {103, 12}, {106, 14},  // a revisit
-                                           {104, 60},                        // near in one end only
-                                           {500, 400}, {10, 100}};           // apart; reversed pair
+  const std::vector<CandidateEnds> ends = {{100, 10},  {103, 12}, {106, 14},  // a revisit
+                                           {104, 60},               // near in one end only
+                                           {500, 400}, {10, 100}};  // apart; reversed pair
   const auto clusters = clusterCandidates(ends, 3);
   ASSERT_EQ(clusters.size(), 3u);
   EXPECT_EQ(clusters[0], (std::vector<int>{0, 1, 2, 5}));  // (10,100) is (100,10) reversed

@@ -5,11 +5,11 @@
 
 #include <numeric>
 
-#include "rrr_graphslam/core/chi2.h"
-#include "rrr_graphslam/rrr/clustering.h"
-#include "rrr_graphslam/core/optimizer.h"
-#include "rrr_graphslam/rrr/consistency.h"
 #include <set>
+#include "rrr_graphslam/core/chi2.h"
+#include "rrr_graphslam/core/optimizer.h"
+#include "rrr_graphslam/rrr/clustering.h"
+#include "rrr_graphslam/rrr/consistency.h"
 
 #include "synthetic.h"
 
@@ -20,7 +20,8 @@ const std::string kData = RRR_TEST_DATA_DIR;
 
 std::vector<std::vector<int>> clustersOf(const VerificationGraph& graph, int gap) {
   std::vector<CandidateEnds> ends;
-  for (int k = 0; k < graph.numCandidates(); ++k) ends.emplace_back(graph.candidate(k).from, graph.candidate(k).to);
+  for (int k = 0; k < graph.numCandidates(); ++k)
+    ends.emplace_back(graph.candidate(k).from, graph.candidate(k).to);
   return clusterCandidates(ends, gap);
 }
 
@@ -33,7 +34,8 @@ TEST(Consistency, ReducedGraphMatchesWholeGraph) {
     const LinkResiduals reduced = reducedGraphResiduals(graph, clusters[c], {});
     const LinkResiduals full = fullGraphResiduals(graph, clusters[c]);
     // First order in the odometry noise: equal up to a small fraction plus rounding.
-    EXPECT_NEAR(reduced.total_chi2, full.total_chi2, 0.02 * full.total_chi2 + 1e-6) << "cluster " << c;
+    EXPECT_NEAR(reduced.total_chi2, full.total_chi2, 0.02 * full.total_chi2 + 1e-6)
+        << "cluster " << c;
     const double threshold = core::chi2Quantile(0.95, 3 * static_cast<int>(clusters[c].size()));
     if (std::abs(full.total_chi2 - threshold) > 0.05 * threshold) {
       EXPECT_EQ(reduced.total_chi2 < threshold, full.total_chi2 < threshold) << "cluster " << c;
@@ -48,21 +50,23 @@ TEST(Consistency, IntraDropsTheFalseLinkOfAMixedCluster) {
   testing::LabelledGraph input{core::readPoseGraph(kData + "/intel.g2o.gz"), {}};
   VerificationGraph plain(input.graph, {});
   auto clusters = clustersOf(plain, 3);
-  const auto biggest = *std::max_element(clusters.begin(), clusters.end(),
-                                         [](const auto& a, const auto& b) { return a.size() < b.size(); });
+  const auto biggest =
+      *std::max_element(clusters.begin(), clusters.end(),
+                        [](const auto& a, const auto& b) { return a.size() < b.size(); });
   ASSERT_GE(biggest.size(), 5u);
   const LoopCandidate& model = plain.candidate(biggest[2]);
   const auto ids = plain.nodeIds();
-  input.graph.addEdge(ids[static_cast<std::size_t>(model.from)], ids[static_cast<std::size_t>(model.to)],
+  input.graph.addEdge(ids[static_cast<std::size_t>(model.from)],
+                      ids[static_cast<std::size_t>(model.to)],
                       model.measurement + core::Pose2(2.0, 0.0, 0.0), model.information,
                       core::EdgeKind::kLoopCandidate);
   VerificationGraph graph(input.graph, {});
   std::vector<int> mixed = biggest;
   const int wrong = graph.numCandidates() - 1;
   mixed.push_back(wrong);
-  const IntraClusterResult r = intraClusterConsistency(mixed, 0.95, [&](const std::vector<int>& links) {
-    return reducedGraphResiduals(graph, links, {});
-  });
+  const IntraClusterResult r = intraClusterConsistency(
+      mixed, 0.95,
+      [&](const std::vector<int>& links) { return reducedGraphResiduals(graph, links, {}); });
   EXPECT_NE(std::find(r.dropped.begin(), r.dropped.end(), wrong), r.dropped.end());
   EXPECT_GE(r.kept.size(), biggest.size() - 1) << "the true links stay";
 }
@@ -78,7 +82,8 @@ TEST(Consistency, InterRemovesAConsistentButFalseCluster) {
   int biggest = -1;
   for (std::size_t c = 0; c < clusters.size(); ++c) {
     const std::size_t n = clusters[c].size();
-    if (n >= 5 && n <= 20 && (biggest < 0 || n > clusters[static_cast<std::size_t>(biggest)].size())) {
+    if (n >= 5 && n <= 20 &&
+        (biggest < 0 || n > clusters[static_cast<std::size_t>(biggest)].size())) {
       biggest = static_cast<int>(c);
     }
   }
@@ -99,12 +104,14 @@ TEST(Consistency, InterRemovesAConsistentButFalseCluster) {
       const auto to = static_cast<std::size_t>(plain.optimizer().to(static_cast<int>(k)));
       z = core::between(map.poses()[from], core::compose(W, map.poses()[to]));
     }
-    corrupted.addEdge(original.edge(k).from, original.edge(k).to, z, original.information(k), original.edge(k).kind);
+    corrupted.addEdge(original.edge(k).from, original.edge(k).to, z, original.information(k),
+                      original.edge(k).kind);
   }
   VerificationGraph graph(corrupted, {});
   const auto& false_links = clusters[static_cast<std::size_t>(biggest)];
   const IntraClusterResult alone = intraClusterConsistency(
-      false_links, 0.95, [&](const std::vector<int>& links) { return reducedGraphResiduals(graph, links, {}); });
+      false_links, 0.95,
+      [&](const std::vector<int>& links) { return reducedGraphResiduals(graph, links, {}); });
   EXPECT_EQ(alone.kept.size(), false_links.size()) << "consistent among themselves";
   std::vector<int> all(clusters.size());
   std::iota(all.begin(), all.end(), 0);

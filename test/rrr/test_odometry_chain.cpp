@@ -47,7 +47,8 @@ TEST(OdometryChain, CompoundedCovarianceMatchesRecursion) {
       Pose2 d = chain.relativePose(a, b) - z;
       d.z() = core::normalizeAngle(d.z());
       EXPECT_LT(d.norm(), 1e-9) << a << "->" << b;
-      EXPECT_LT((chain.relativeCovariance(a, b) - cov).norm(), 1e-8 * (1.0 + cov.norm())) << a << "->" << b;
+      EXPECT_LT((chain.relativeCovariance(a, b) - cov).norm(), 1e-8 * (1.0 + cov.norm()))
+          << a << "->" << b;
     }
   }
 }
@@ -70,7 +71,8 @@ TEST(OdometryChain, ReversedAndDuplicateLinks) {
   auto doubled = links;
   doubled.push_back(links[1]);
   const OdometryChain fused(5, doubled);
-  EXPECT_LT((fused.relativeCovariance(1, 2) - 0.5 * forward.relativeCovariance(1, 2)).norm(), 1e-12);
+  EXPECT_LT((fused.relativeCovariance(1, 2) - 0.5 * forward.relativeCovariance(1, 2)).norm(),
+            1e-12);
 }
 
 TEST(OdometryChain, SessionsAndErrors) {

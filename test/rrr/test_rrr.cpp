@@ -33,7 +33,8 @@ class RrrOnOutliers : public ::testing::TestWithParam<std::pair<int, int>> {};
 
 TEST_P(RrrOnOutliers, RejectsEveryOutlierAndKeepsTrueLoops) {
   const auto [count, group] = GetParam();
-  const testing::LabelledGraph input = testing::withOutliers(kData + "/intel.g2o.gz", count, group, 7);
+  const testing::LabelledGraph input =
+      testing::withOutliers(kData + "/intel.g2o.gz", count, group, 7);
   VerificationGraph graph(input.graph, {});
   std::vector<Verdict> verdicts;
   std::vector<int> cluster_of;
@@ -55,7 +56,8 @@ INSTANTIATE_TEST_SUITE_P(Intel, RrrOnOutliers,
 
 TEST(Rrr, IncrementalReachesTheBatchDecisions) {
   for (const auto& [count, group] : {std::make_pair(200, 1), std::make_pair(100, 10)}) {
-    const testing::LabelledGraph input = testing::withOutliers(kData + "/intel.g2o.gz", count, group, 9);
+    const testing::LabelledGraph input =
+        testing::withOutliers(kData + "/intel.g2o.gz", count, group, 9);
     RrrParams params;
     params.cluster_gap = 3;  // incremental needs it fixed in advance; batch uses the same
     VerificationGraph batch_graph(input.graph, params.optimizer);
@@ -95,20 +97,24 @@ TEST(Rrr, SessionsJoinOnlyThroughAcceptedLinks) {
     return core::Pose2(x[side], y[side], core::normalizeAngle(side * M_PI / 2));
   };
   const int per_session = 40;
-  const core::Pose2 frames[] = {core::Pose2(0, 0, 0), core::Pose2(5, -3, 0.7), core::Pose2(-8, 2, -1.0)};
+  const core::Pose2 frames[] = {core::Pose2(0, 0, 0), core::Pose2(5, -3, 0.7),
+                                core::Pose2(-8, 2, -1.0)};
   for (int s = 0; s < 3; ++s) {
     for (int k = 0; k < per_session; ++k) {
-      g.addNode(static_cast<core::PoseGraph::NodeId>(s * per_session + k), core::compose(frames[s], square(k)));
+      g.addNode(static_cast<core::PoseGraph::NodeId>(s * per_session + k),
+                core::compose(frames[s], square(k)));
       if (k > 0) {
         const auto id = static_cast<core::PoseGraph::NodeId>(s * per_session + k);
-        g.addEdge(id - 1, id, core::between(square(k - 1), square(k)), odo, core::EdgeKind::kOdometry);
+        g.addEdge(id - 1, id, core::between(square(k - 1), square(k)), odo,
+                  core::EdgeKind::kOdometry);
       }
     }
   }
   // B's poses 5..9 are A's poses 5..9 (same place, identity measurement).
   for (int k = 5; k < 10; ++k) {
-    g.addEdge(static_cast<core::PoseGraph::NodeId>(per_session + k), static_cast<core::PoseGraph::NodeId>(k),
-              core::Pose2::Zero(), loop, core::EdgeKind::kLoopCandidate);
+    g.addEdge(static_cast<core::PoseGraph::NodeId>(per_session + k),
+              static_cast<core::PoseGraph::NodeId>(k), core::Pose2::Zero(), loop,
+              core::EdgeKind::kLoopCandidate);
   }
   VerificationGraph graph(g, {});
   EXPECT_EQ(graph.chain().numSessions(), 3);
@@ -119,7 +125,8 @@ TEST(Rrr, SessionsJoinOnlyThroughAcceptedLinks) {
   const auto& poses = graph.optimizer().poses();
   // B now sits on A; C, never linked, keeps its own frame.
   EXPECT_LT((poses[per_session + 7] - poses[7]).head<2>().norm(), 1e-3);
-  EXPECT_LT((poses[2 * per_session + 3] - core::compose(frames[2], square(3))).head<2>().norm(), 1e-3);
+  EXPECT_LT((poses[2 * per_session + 3] - core::compose(frames[2], square(3))).head<2>().norm(),
+            1e-3);
 }
 
 }  // namespace

@@ -58,8 +58,8 @@ enum class StopReason {
 std::string toString(StopReason reason);
 
 struct OptimizationResult {
-  int iterations = 0;        ///< accepted steps
-  int factorizations = 0;    ///< numeric Cholesky factorizations (GN reuses them near the end)
+  int iterations = 0;      ///< accepted steps
+  int factorizations = 0;  ///< numeric Cholesky factorizations (GN reuses them near the end)
   double initial_chi2 = 0.0;
   double final_chi2 = 0.0;
   double time_sec = 0.0;

@@ -10,8 +10,8 @@
 #include <cstdint>
 #include <vector>
 
-#include <Eigen/Core>
 #include <mrpt/graphs/CNetworkOfPoses.h>
+#include <Eigen/Core>
 
 #include "rrr_graphslam/core/se2.h"
 

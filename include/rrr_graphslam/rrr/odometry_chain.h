@@ -5,8 +5,8 @@
 // nodes a cluster touches by one constraint each, instead of optimizing the whole chain.
 //
 // Covariances are propagated to first order in the g2o error convention (noise on the right):
-// with P_k the chain poses from the session start and S_k = sum_{m<k} Ad(P_{m+1}) Sigma_m Ad(P_{m+1})^T
-// (world-frame prefix sums), the measurement a -> b is P_a^-1 P_b with covariance
+// with P_k the chain poses from the session start and S_k = sum_{m<k} Ad(P_{m+1}) Sigma_m
+// Ad(P_{m+1})^T (world-frame prefix sums), the measurement a -> b is P_a^-1 P_b with covariance
 // Ad(P_b^-1) (S_b - S_a) Ad(P_b^-1)^T. test/rrr/test_odometry_chain.cpp checks it against the
 // step-by-step recursion.
 

@@ -81,7 +81,9 @@ class Rrr {
   /// -1 while the candidate is in no cluster.
   int clusterOf(int candidate) const { return cluster_of_[static_cast<std::size_t>(candidate)]; }
   int numClusters() const { return static_cast<int>(clusters_.size()); }
-  const std::vector<int>& clusterMembers(int cluster) const { return clusters_[static_cast<std::size_t>(cluster)].members; }
+  const std::vector<int>& clusterMembers(int cluster) const {
+    return clusters_[static_cast<std::size_t>(cluster)].members;
+  }
   /// Optimizations run so far (intra tests on reduced graphs included).
   int optimizations() const { return optimizations_; }
   /// Links of the good clusters that survived their intra test: the accepted loops.
@@ -127,7 +129,7 @@ class Rrr {
   std::vector<Cluster> clusters_;
   std::vector<std::vector<int>> kept_links_;  // per cluster, for interClusterConsistency
   std::vector<int> cluster_of_;
-  std::vector<core::Pose2> base_;  // solution of the good set
+  std::vector<core::Pose2> base_;   // solution of the good set
   std::vector<int> previous_good_;  // good set before the current joint test
   int unoptimized_accepts_ = 0;     // accepted by decideIncrementally, not yet in the map
   int optimizations_ = 0;
