@@ -48,13 +48,7 @@ void initializeBySpanningTree(core::Optimizer& opt) {
 LinkResiduals reducedGraphResiduals(const VerificationGraph& graph, const std::vector<int>& links,
                                     const core::OptimizerParams& params) {
   const OdometryChain& chain = graph.chain();
-  std::vector<int> touched;
-  for (int k : links) {
-    touched.push_back(graph.candidate(k).from);
-    touched.push_back(graph.candidate(k).to);
-  }
-  std::sort(touched.begin(), touched.end());
-  touched.erase(std::unique(touched.begin(), touched.end()), touched.end());
+  const std::vector<int> touched = graph.touchedNodes(links);
   std::map<int, int> local;
   core::Optimizer opt(params);
   for (int node : touched) local.emplace(node, opt.addNode(chain.chainPose(node)));

@@ -106,11 +106,7 @@ RrrSummary runIncrementalRrr(VerificationGraph& graph, const RrrParams& params,
   }
   incremental.finish();
 
-  const Rrr& rrr = incremental.rrr();
-  collectVerdicts(rrr, verdicts, cluster_of, summary);
-  summary.optimizations = rrr.optimizations();
-  summary.time_sec =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  collectVerdicts(incremental.rrr(), start, verdicts, cluster_of, summary);
   return summary;
 }
 

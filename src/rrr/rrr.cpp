@@ -167,13 +167,7 @@ struct Rrr::ClusterLinearization {
 
 Rrr::ClusterLinearization Rrr::linearizeCluster(int cluster) const {
   const auto& kept = clusters_[static_cast<std::size_t>(cluster)].kept;
-  std::vector<int> nodes;
-  for (int k : kept) {
-    nodes.push_back(graph_.candidate(k).from);
-    nodes.push_back(graph_.candidate(k).to);
-  }
-  std::sort(nodes.begin(), nodes.end());
-  nodes.erase(std::unique(nodes.begin(), nodes.end()), nodes.end());
+  const std::vector<int> nodes = graph_.touchedNodes(kept);
   auto column = [&](int node) {
     return 3 * static_cast<Eigen::Index>(std::lower_bound(nodes.begin(), nodes.end(), node) -
                                          nodes.begin());
@@ -333,7 +327,8 @@ std::vector<CandidateEnds> candidateEnds(const VerificationGraph& graph) {
   return ends;
 }
 
-void collectVerdicts(const Rrr& rrr, std::vector<Verdict>& verdicts, std::vector<int>& cluster_of,
+void collectVerdicts(const Rrr& rrr, std::chrono::steady_clock::time_point start,
+                     std::vector<Verdict>& verdicts, std::vector<int>& cluster_of,
                      RrrSummary& summary) {
   const auto n = static_cast<std::size_t>(summary.candidates);
   verdicts.assign(n, Verdict::kPending);
@@ -344,6 +339,9 @@ void collectVerdicts(const Rrr& rrr, std::vector<Verdict>& verdicts, std::vector
     cluster_of[k] = rrr.clusterOf(static_cast<int>(k));
     (verdicts[k] == Verdict::kAccepted ? summary.accepted : summary.rejected)++;
   }
+  summary.optimizations = rrr.optimizations();
+  summary.time_sec =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
 RrrSummary runBatchRrr(VerificationGraph& graph, const RrrParams& params,
@@ -366,10 +364,7 @@ RrrSummary runBatchRrr(VerificationGraph& graph, const RrrParams& params,
   }
   rrr.decideFromScratch();
 
-  collectVerdicts(rrr, verdicts, cluster_of, summary);
-  summary.optimizations = rrr.optimizations();
-  summary.time_sec =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  collectVerdicts(rrr, start, verdicts, cluster_of, summary);
   return summary;
 }
 

@@ -1,5 +1,6 @@
 #include "rrr_graphslam/rrr/verification_graph.h"
 
+#include <algorithm>
 #include <stdexcept>
 #include <string>
 #include <unordered_map>
@@ -50,6 +51,18 @@ VerificationGraph::VerificationGraph(const core::PoseGraph& graph,
     candidates_.push_back(LoopCandidate{k, index_of.at(e.from), index_of.at(e.to), c,
                                         graph.measurement(k), graph.information(k)});
   }
+}
+
+std::vector<int> VerificationGraph::touchedNodes(const std::vector<int>& candidates) const {
+  std::vector<int> nodes;
+  nodes.reserve(2 * candidates.size());
+  for (int k : candidates) {
+    nodes.push_back(candidate(k).from);
+    nodes.push_back(candidate(k).to);
+  }
+  std::sort(nodes.begin(), nodes.end());
+  nodes.erase(std::unique(nodes.begin(), nodes.end()), nodes.end());
+  return nodes;
 }
 
 void VerificationGraph::activateOnly(const std::vector<int>& candidates) {

@@ -12,6 +12,7 @@
 #include <iostream>
 #include <string>
 
+#include "command_line.h"
 #include "rrr_graphslam/core/graph_io.h"
 #include "rrr_graphslam/core/text_file.h"
 #include "rrr_graphslam/rrr/incremental_rrr.h"
@@ -19,6 +20,7 @@
 
 namespace {
 
+namespace tools = rrr_graphslam::tools;
 namespace core = rrr_graphslam::core;
 namespace rrr = rrr_graphslam::rrr;
 
@@ -48,61 +50,43 @@ struct Arguments {
   rrr::RrrParams params;
 };
 
-[[noreturn]] void usageError(const std::string& what) {
-  std::cerr << "rrr_offline: " << what << "\n" << kUsage;
-  std::exit(2);
-}
-
-double parseNumber(const std::string& option, const std::string& text, double low, double high) {
-  char* end = nullptr;
-  const double v = std::strtod(text.c_str(), &end);
-  if (end == text.c_str() || *end != '\0' || !(v >= low && v <= high)) {
-    usageError(option + " must be a number in [" + std::to_string(low) + ", " +
-               std::to_string(high) + "], not '" + text + "'");
-  }
-  return v;
-}
-
 Arguments parseArguments(int argc, char** argv) {
+  const tools::CommandLine cli(argc, argv, "rrr_offline", kUsage);
   Arguments args;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
-    auto value = [&]() -> std::string {
-      if (i + 1 >= argc) usageError(a + " needs a value");
-      return argv[++i];
-    };
     if (a == "-h" || a == "--help") {
       std::cout << kUsage;
       std::exit(0);
     } else if (a == "--decisions") {
-      args.decisions = value();
+      args.decisions = cli.value(i, a);
     } else if (a == "--output" || a == "-o") {
-      args.output = value();
+      args.output = cli.value(i, a);
     } else if (a == "--mode") {
-      const std::string m = value();
-      if (m != "batch" && m != "incremental") usageError("--mode must be batch or incremental");
+      const std::string m = cli.value(i, a);
+      if (m != "batch" && m != "incremental") cli.fail("--mode must be batch or incremental");
       args.incremental = m == "incremental";
     } else if (a == "--alpha") {
-      args.params.alpha = parseNumber(a, value(), 1e-6, 1.0 - 1e-9);
+      args.params.alpha = cli.number(a, cli.value(i, a), 1e-6, 1.0 - 1e-9);
     } else if (a == "--cluster-gap") {
-      args.params.cluster_gap = static_cast<int>(parseNumber(a, value(), 1, 1e6));
+      args.params.cluster_gap = static_cast<int>(cli.number(a, cli.value(i, a), 1, 1e6));
     } else if (a == "--batch-removal-fraction") {
-      args.params.batch_removal_fraction = parseNumber(a, value(), 0.0, 1.0);
+      args.params.batch_removal_fraction = cli.number(a, cli.value(i, a), 0.0, 1.0);
     } else if (a == "--recover-gate") {
-      args.params.recover_gate = parseNumber(a, value(), 0.0, 1e12);
+      args.params.recover_gate = cli.number(a, cli.value(i, a), 0.0, 1e12);
     } else if (a == "--full-intra") {
       args.params.reduced_intra_graph = false;
     } else if (a == "--quiet") {
       args.quiet = true;
     } else if (!a.empty() && a[0] == '-') {
-      usageError("unknown option " + a);
+      cli.fail("unknown option " + a);
     } else if (args.input.empty()) {
       args.input = a;
     } else {
-      usageError("more than one input file given");
+      cli.fail("more than one input file given");
     }
   }
-  if (args.input.empty()) usageError("no input file given");
+  if (args.input.empty()) cli.fail("no input file given");
   return args;
 }
 

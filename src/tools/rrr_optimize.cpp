@@ -8,12 +8,14 @@
 #include <iostream>
 #include <string>
 
+#include "command_line.h"
 #include "rrr_graphslam/core/graph_io.h"
 #include "rrr_graphslam/core/lago.h"
 #include "rrr_graphslam/core/optimizer.h"
 
 namespace {
 
+namespace tools = rrr_graphslam::tools;
 using rrr_graphslam::core::OptimizerParams;
 
 const char* const kUsage =
@@ -31,53 +33,41 @@ struct Arguments {
   bool lago = false;
 };
 
-[[noreturn]] void usageError(const std::string& what) {
-  std::cerr << "rrr_optimize: " << what << "\n" << kUsage;
-  std::exit(2);
-}
-
 Arguments parseArguments(int argc, char** argv) {
+  const tools::CommandLine cli(argc, argv, "rrr_optimize", kUsage);
   Arguments args;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
-    auto value = [&]() -> std::string {
-      if (i + 1 >= argc) usageError(a + " needs a value");
-      return argv[++i];
-    };
     if (a == "-h" || a == "--help") {
       std::cout << kUsage;
       std::exit(0);
     } else if (a == "--output" || a == "-o") {
-      args.output = value();
+      args.output = cli.value(i, a);
     } else if (a == "--method") {
-      const std::string m = value();
+      const std::string m = cli.value(i, a);
       if (m == "gn") {
         args.params.method = OptimizerParams::Method::kGaussNewton;
       } else if (m == "lm") {
         args.params.method = OptimizerParams::Method::kLevenbergMarquardt;
       } else {
-        usageError("--method must be gn or lm, not '" + m + "'");
+        cli.fail("--method must be gn or lm, not '" + m + "'");
       }
     } else if (a == "--lago") {
       args.lago = true;
     } else if (a == "--max-iterations") {
-      const std::string v = value();
-      char* end = nullptr;
-      const long n = std::strtol(v.c_str(), &end, 10);
-      if (end == v.c_str() || *end != '\0' || n < 0) {
-        usageError("--max-iterations must be a non-negative integer, not '" + v + "'");
-      }
+      const double n = cli.number(a, cli.value(i, a), 0.0, 1e9);
+      if (n != static_cast<int>(n)) cli.fail("--max-iterations must be an integer");
       args.params.max_iterations = static_cast<int>(n);
     } else if (!a.empty() && a[0] == '-') {
-      usageError("unknown option " + a);
+      cli.fail("unknown option " + a);
     } else if (args.input.empty()) {
       args.input = a;
     } else {
-      usageError("more than one input file given");
+      cli.fail("more than one input file given");
     }
   }
-  if (args.input.empty()) usageError("no input file given");
-  if (args.output.empty()) usageError("--output is required");
+  if (args.input.empty()) cli.fail("no input file given");
+  if (args.output.empty()) cli.fail("--output is required");
   return args;
 }
 

@@ -12,6 +12,7 @@
 //
 // Not thread-safe; one thread drives an Rrr and its VerificationGraph.
 
+#include <chrono>
 #include <cstdint>
 #include <functional>
 #include <string>
@@ -150,8 +151,9 @@ struct RrrSummary {
 std::vector<CandidateEnds> candidateEnds(const VerificationGraph& graph);
 
 /// Per-candidate verdicts and clusters of `rrr`, counted into `summary` (whose `candidates`
-/// must be set).
-void collectVerdicts(const Rrr& rrr, std::vector<Verdict>& verdicts, std::vector<int>& cluster_of,
+/// must be set) with the optimizations run and the time since `start`.
+void collectVerdicts(const Rrr& rrr, std::chrono::steady_clock::time_point start,
+                     std::vector<Verdict>& verdicts, std::vector<int>& cluster_of,
                      RrrSummary& summary);
 
 /// Batch RRR over every candidate of `graph`. On return graph.optimizer() holds odometry +

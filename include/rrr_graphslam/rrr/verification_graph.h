@@ -38,6 +38,9 @@ class VerificationGraph {
   const core::Optimizer& optimizer() const { return optimizer_; }
   const OdometryChain& chain() const { return chain_; }
 
+  /// The nodes the given candidates touch, sorted, each once.
+  std::vector<int> touchedNodes(const std::vector<int>& candidates) const;
+
   /// Switches on exactly the given candidates (all others off).
   void activateOnly(const std::vector<int>& candidates);
 

@@ -1,0 +1,44 @@
+#pragma once
+// The small command-line plumbing the tools share: usage errors (exit 2) and typed values.
+
+#include <cstdlib>
+#include <iostream>
+#include <string>
+
+namespace rrr_graphslam::tools {
+
+class CommandLine {
+ public:
+  CommandLine(int argc, char** argv, const char* program, const char* usage)
+      : argc_(argc), argv_(argv), program_(program), usage_(usage) {}
+
+  [[noreturn]] void fail(const std::string& what) const {
+    std::cerr << program_ << ": " << what << "\n" << usage_;
+    std::exit(2);
+  }
+
+  /// The argument after position `i` (advancing i), or a usage error naming `option`.
+  std::string value(int& i, const std::string& option) const {
+    if (i + 1 >= argc_) fail(option + " needs a value");
+    return argv_[++i];
+  }
+
+  /// `text` as a number in [low, high], or a usage error naming `option`.
+  double number(const std::string& option, const std::string& text, double low, double high) const {
+    char* end = nullptr;
+    const double v = std::strtod(text.c_str(), &end);
+    if (end == text.c_str() || *end != '\0' || !(v >= low && v <= high)) {
+      fail(option + " must be a number in [" + std::to_string(low) + ", " + std::to_string(high) +
+           "], not '" + text + "'");
+    }
+    return v;
+  }
+
+ private:
+  int argc_;
+  char** argv_;
+  const char* program_;
+  const char* usage_;
+};
+
+}  // namespace rrr_graphslam::tools
