@@ -19,6 +19,7 @@ SYNTHETIC = ("manhattanOlson3500_olson", "intel", "city10000", "ringCity", "csai
 KINDS = ("random", "local", "random-grouped", "local-grouped")
 COUNTS = (100, 500, 1000)
 KITTI = ("00", "05", "06", "07")
+B25B = ("0.000", "0.250", "0.500", "0.750", "1.000")
 ALPHAS = ("0.00", "0.25", "0.50", "0.75", "1.00")
 
 
@@ -56,6 +57,7 @@ def main(argv=None):
     parser.add_argument("--kinds", nargs="*", default=list(KINDS))
     parser.add_argument("--counts", nargs="*", type=int, default=list(COUNTS))
     parser.add_argument("--no-kitti", action="store_true")
+    parser.add_argument("--no-b25b", action="store_true")
     parser.add_argument("--incremental", nargs="*", default=["city10000:random:1000"],
                         help="NAME:KIND:COUNT inputs also run in incremental mode")
     args = parser.parse_args(argv)
@@ -94,6 +96,24 @@ def main(argv=None):
                 if not os.path.exists(local):
                     write_graph(read_graph(graph), local)
                 report(f"KITTI {seq}", f"alpha {alpha}", "DLoopDetector", "batch", local, truth)
+    if not args.no_b25b:
+        from .evaluation import label_by_ground_truth
+        from .graph_io import open_text
+
+        folder = os.path.join(args.data, "b25b")
+        with open_text(os.path.join(folder, "B25b_timestamps.txt.gz")) as f:
+            node_times = [float(x) for x in f.read().split()]
+        with open_text(os.path.join(folder, "Bicocca_2009-02-25b-GT-extended.csv.gz")) as f:
+            samples = sorted(tuple(float(v) for v in line.split(",")) for line in f if line.strip())
+        for threshold in B25B:
+            local = os.path.join(args.cache, f"B25b_{threshold}.g2o")
+            truth = local + ".labels"
+            if not (os.path.exists(local) and os.path.exists(truth)):
+                graph = read_graph(os.path.join(folder, f"B25b_{threshold}.g2o.gz"))
+                write_graph(graph, local)
+                labels = label_by_ground_truth(graph, node_times, samples)
+                write_text_atomically(truth, "".join(f"{i} {j} {label}\n" for i, j, label in labels))
+            report("B25b", f"BoW {threshold}", "real", "batch", local, truth)
     print(f"\nworst precision {worst['precision']:.4f}, worst recall {worst['recall']:.4f}")
     return 0
 

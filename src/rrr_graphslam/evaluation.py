@@ -68,8 +68,8 @@ def read_decisions(path: str) -> List[Decision]:
     return decisions
 
 
-def read_truth(path: str, decisions: Sequence[Decision]) -> List[bool]:
-    """One truth value per decision (same order)."""
+def read_truth(path: str, decisions: Sequence[Decision]) -> List[Optional[bool]]:
+    """One truth value per decision (same order); None where a label is -1 (unknown)."""
     rows = []
     with open_text(path) as f:
         for number, line in enumerate(f, start=1):
@@ -77,7 +77,7 @@ def read_truth(path: str, decisions: Sequence[Decision]) -> List[bool]:
             if not fields or fields[0].startswith("#"):
                 continue
             if len(fields) not in (2, 3) or not all(x.lstrip("-").isdigit() for x in fields):
-                raise GraphFileError(path, number, "expected 'from to label' or 'i j' integers")
+                raise GraphFileError(path, number, "expected 'from to label' (label 1, 0 or -1) or 'i j'")
             rows.append((number, [int(x) for x in fields]))
     if rows and len(rows[0][1]) == 3:
         if len(rows) != len(decisions):
@@ -86,21 +86,54 @@ def read_truth(path: str, decisions: Sequence[Decision]) -> List[bool]:
         for (number, (i, j, label)), d in zip(rows, decisions):
             if (i, j) != (d.source, d.target):
                 raise GraphFileError(path, number, f"label for {i}->{j} but decision {d.source}->{d.target}")
-            truth.append(label == 1)
+            truth.append(None if label < 0 else label == 1)
         return truth
     pairs = {(r[0], r[1]) for _, r in rows} | {(r[1], r[0]) for _, r in rows}
     return [(d.source, d.target) in pairs for d in decisions]
 
 
-def score(decisions: Sequence[Decision], truth: Sequence[bool]) -> Score:
+def score(decisions: Sequence[Decision], truth: Sequence[Optional[bool]]) -> Score:
+    """Counts over the decisions whose truth is known."""
     tp = fp = fn = tn = 0
     for d, t in zip(decisions, truth):
+        if t is None:
+            continue
         accepted = d.verdict == "accepted"
         tp += accepted and t
         fp += accepted and not t
         fn += (not accepted) and t
         tn += (not accepted) and not t
     return Score(tp, fp, fn, tn)
+
+
+def label_by_ground_truth(graph, node_times: Sequence[float], samples, true_within_m: float = 2.0,
+                          false_beyond_m: float = 5.0, max_dt: float = 0.5) -> List[Tuple[int, int, int]]:
+    """Labels for every loop edge of `graph` from a ground-truth trajectory sampled at other times
+    (`samples`: sorted (t, x, y, theta)): 1 if the measured translation agrees with the
+    ground-truth relative pose within `true_within_m`, 0 beyond `false_beyond_m`, -1 (unknown)
+    in between or when a node has no sample within `max_dt` seconds."""
+    import bisect
+
+    from .graph_io import between
+
+    times = [s[0] for s in samples]
+
+    def pose_at(t):
+        k = bisect.bisect_left(times, t)
+        near = min((c for c in (k - 1, k) if 0 <= c < len(samples)), key=lambda c: abs(times[c] - t))
+        return samples[near][1:] if abs(times[near] - t) <= max_dt else None
+
+    labels = []
+    for e in graph.loops():
+        a, b = pose_at(node_times[e.source]), pose_at(node_times[e.target])
+        if a is None or b is None:
+            labels.append((e.source, e.target, -1))
+            continue
+        truth = between(a, b)
+        error = math.hypot(truth[0] - e.measurement[0], truth[1] - e.measurement[1])
+        label = 1 if error <= true_within_m else (0 if error > false_beyond_m else -1)
+        labels.append((e.source, e.target, label))
+    return labels
 
 
 def read_ground_truth_poses(path: str) -> Dict[int, Tuple[float, float, float]]:

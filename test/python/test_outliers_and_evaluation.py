@@ -77,3 +77,26 @@ def test_ate_is_zero_after_a_rigid_motion_and_alignment_recovers_it():
     assert (found, tx, ty) == pytest.approx((angle, dx, dy))
     noisy = {i: (x + 0.1, y, t) for i, (x, y, t) in moved.items()}
     assert absolute_trajectory_error(noisy, truth) == pytest.approx(0.0, abs=1e-9)  # a shift aligns away
+
+
+def test_labels_from_a_ground_truth_trajectory():
+    from rrr_graphslam.evaluation import label_by_ground_truth
+    from rrr_graphslam.graph_io import Edge, PoseGraph
+
+    # Nodes 0..3 at x = 0, 10, 20, 0 (node 3 revisits node 0), sampled by the ground truth at
+    # other times; node 2 has no sample close enough in time.
+    graph = PoseGraph({i: (0.0, 0.0, 0.0) for i in range(4)}, [
+        Edge(3, 0, (0.5, 0.0, 0.0), (1, 0, 0, 1, 0, 1)),    # true (0.5 m off)
+        Edge(3, 1, (3.0, 0.0, 0.0), (1, 0, 0, 1, 0, 1)),    # 7 m off: false
+        Edge(3, 2, (20.0, 0.0, 0.0), (1, 0, 0, 1, 0, 1)),   # no ground truth at node 2
+        Edge(1, 3, (-6.5, 0.0, 0.0), (1, 0, 0, 1, 0, 1)),   # 3.5 m off: between the thresholds
+    ])
+    node_times = [0.0, 1.0, 2.0, 3.0]
+    samples = [(0.1, 0.0, 0.0, 0.0), (0.9, 10.0, 0.0, 0.0), (5.0, 20.0, 0.0, 0.0), (3.2, 0.0, 0.0, 0.0)]
+    samples.sort()
+    labels = label_by_ground_truth(graph, node_times, samples)
+    assert labels == [(3, 0, 1), (3, 1, 0), (3, 2, -1), (1, 3, -1)]
+    decisions = [Decision(i, j, 0, "accepted") for i, j, _ in labels]
+    truth = [None if label < 0 else label == 1 for _, _, label in labels]
+    s = score(decisions, truth)
+    assert (s.tp, s.fp, s.fn, s.tn) == (1, 1, 0, 0)  # unknowns are not scored
