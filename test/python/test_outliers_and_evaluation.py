@@ -88,14 +88,14 @@ def test_labels_from_a_ground_truth_trajectory():
     graph = PoseGraph({i: (0.0, 0.0, 0.0) for i in range(4)}, [
         Edge(3, 0, (0.5, 0.0, 0.0), (1, 0, 0, 1, 0, 1)),    # true (0.5 m off)
         Edge(3, 1, (3.0, 0.0, 0.0), (1, 0, 0, 1, 0, 1)),    # 7 m off: false
-        Edge(3, 2, (20.0, 0.0, 0.0), (1, 0, 0, 1, 0, 1)),   # no ground truth at node 2
+        Edge(0, 2, (20.0, 0.0, 0.0), (1, 0, 0, 1, 0, 1)),   # no ground truth at node 2
         Edge(1, 3, (-6.5, 0.0, 0.0), (1, 0, 0, 1, 0, 1)),   # 3.5 m off: between the thresholds
     ])
     node_times = [0.0, 1.0, 2.0, 3.0]
     samples = [(0.1, 0.0, 0.0, 0.0), (0.9, 10.0, 0.0, 0.0), (5.0, 20.0, 0.0, 0.0), (3.2, 0.0, 0.0, 0.0)]
     samples.sort()
     labels = label_by_ground_truth(graph, node_times, samples)
-    assert labels == [(3, 0, 1), (3, 1, 0), (3, 2, -1), (1, 3, -1)]
+    assert labels == [(3, 0, 1), (3, 1, 0), (0, 2, -1), (1, 3, -1)]
     decisions = [Decision(i, j, 0, "accepted") for i, j, _ in labels]
     truth = [None if label < 0 else label == 1 for _, _, label in labels]
     s = score(decisions, truth)
