@@ -26,6 +26,7 @@ std::string toString(StopReason reason) {
 int Optimizer::addNode(const Pose2& initial_pose) {
   poses_.push_back(initial_pose);
   fixed_.push_back(0);
+  covariance_valid_ = false;
   variables_valid_ = false;
   pattern_valid_ = false;
   return numNodes() - 1;

@@ -10,10 +10,7 @@ namespace {
 
 using core::Pose2;
 
-struct Step {
-  Pose2 z;
-  Eigen::Matrix3d information;
-};
+using Step = OdometryChain::Step;
 
 // Step k -> k+1 from a link in either direction. Reversing z (noise on the right) maps the
 // covariance through Ad(z): z^-1 with right noise -Ad(z) eta.
@@ -47,27 +44,52 @@ OdometryChain::OdometryChain(int num_nodes, const std::vector<Link>& links) {
     auto& slot = steps[static_cast<std::size_t>(low)];
     slot = slot ? fuse(*slot, s) : s;
   }
+  for (std::size_t k = 0; k < n; ++k) append(k > 0 && steps[k - 1] ? &*steps[k - 1] : nullptr);
+}
 
-  session_.resize(n);
-  session_start_.resize(n);
-  pose_.resize(n);
-  world_covariance_.resize(n);
-  for (std::size_t k = 0; k < n; ++k) {
-    const bool starts_session = k == 0 || !steps[k - 1];
-    if (starts_session) {
-      session_[k] = num_sessions_++;
-      session_start_[k] = static_cast<int>(k);
-      pose_[k] = Pose2::Zero();
-      world_covariance_[k].setZero();
-      continue;
-    }
-    const Step& s = *steps[k - 1];
-    session_[k] = session_[k - 1];
-    session_start_[k] = session_start_[k - 1];
-    pose_[k] = core::compose(pose_[k - 1], s.z);
-    const Eigen::Matrix3d Ad = core::adjoint(pose_[k]);
-    world_covariance_[k] = world_covariance_[k - 1] + Ad * s.information.inverse() * Ad.transpose();
+int OdometryChain::appendNode() {
+  append(nullptr);
+  return numNodes() - 1;
+}
+
+void OdometryChain::linkNewestNode(const Link& link) {
+  const int newest = numNodes() - 1;
+  if (newest < 1 || std::max(link.from, link.to) != newest ||
+      std::min(link.from, link.to) != newest - 1) {
+    throw std::invalid_argument("odometry " + std::to_string(link.from) + " -> " +
+                                std::to_string(link.to) + " does not join the newest node " +
+                                std::to_string(newest) + " to the one before");
   }
+  const Step s = forwardStep(link);
+  const bool linked =
+      session_[static_cast<std::size_t>(newest)] == session_[static_cast<std::size_t>(newest - 1)];
+  const Step step = linked ? fuse(last_steps_.back(), s) : s;
+  if (!linked) --num_sessions_;
+  session_.pop_back();
+  session_start_.pop_back();
+  pose_.pop_back();
+  world_covariance_.pop_back();
+  last_steps_.pop_back();
+  append(&step);
+}
+
+void OdometryChain::append(const Step* step) {
+  const std::size_t k = session_.size();
+  if (step == nullptr) {
+    session_.push_back(num_sessions_++);
+    session_start_.push_back(static_cast<int>(k));
+    pose_.push_back(Pose2::Zero());
+    world_covariance_.push_back(Eigen::Matrix3d::Zero());
+    last_steps_.push_back(Step{Pose2::Zero(), Eigen::Matrix3d::Identity()});
+    return;
+  }
+  session_.push_back(session_[k - 1]);
+  session_start_.push_back(session_start_[k - 1]);
+  pose_.push_back(core::compose(pose_[k - 1], step->z));
+  const Eigen::Matrix3d Ad = core::adjoint(pose_[k]);
+  world_covariance_.push_back(world_covariance_[k - 1] +
+                              Ad * step->information.inverse() * Ad.transpose());
+  last_steps_.push_back(*step);
 }
 
 Pose2 OdometryChain::relativePose(int a, int b) const {

@@ -30,7 +30,19 @@ Rrr::Rrr(VerificationGraph& graph, const RrrParams& params)
       cluster_of_(static_cast<std::size_t>(graph.numCandidates()), -1),
       base_(graph.initialPoses()) {}
 
+void Rrr::syncWithGraph() {
+  cluster_of_.resize(static_cast<std::size_t>(graph_.numCandidates()), -1);
+  const OdometryChain& chain = graph_.chain();
+  while (base_.size() < static_cast<std::size_t>(graph_.numNodes())) {
+    const int k = static_cast<int>(base_.size());
+    base_.push_back(k > 0 && chain.sameSession(k - 1, k)
+                        ? core::compose(base_.back(), chain.relativePose(k - 1, k))
+                        : graph_.initialPoses()[static_cast<std::size_t>(k)]);
+  }
+}
+
 int Rrr::addCluster(const std::vector<int>& members) {
+  syncWithGraph();
   const int id = numClusters();
   Cluster cluster;
   cluster.members = members;
@@ -153,6 +165,7 @@ void Rrr::realizeReverseRecover(const std::vector<core::Pose2>& initial, bool ro
 }
 
 void Rrr::decide() {
+  syncWithGraph();
   unoptimized_accepts_ = 0;
   realizeReverseRecover(base_, false);
 }
@@ -247,6 +260,7 @@ bool Rrr::leaveOneOutCheck() {
 }
 
 void Rrr::decideIncrementally() {
+  syncWithGraph();
   std::vector<int> joint;
   auto sort_out = [&](int c, Status if_not) {
     switch (checkAgainstMap(c)) {
@@ -290,6 +304,7 @@ void Rrr::decideIncrementally() {
 }
 
 void Rrr::decideFromScratch() {
+  syncWithGraph();
   for (Cluster& c : clusters_) {
     if (c.status != Status::kInconsistent) c.status = Status::kPending;
   }
@@ -300,7 +315,7 @@ void Rrr::decideFromScratch() {
 }
 
 Verdict Rrr::verdict(int candidate) const {
-  const int c = clusterOf(candidate);
+  const int c = clusterOf(candidate);  // -1 also for candidates added since the last call
   if (c < 0) return Verdict::kPending;
   const Cluster& cluster = clusters_[static_cast<std::size_t>(c)];
   if (cluster.status == Status::kPending) return Verdict::kPending;

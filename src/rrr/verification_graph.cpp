@@ -53,6 +53,30 @@ VerificationGraph::VerificationGraph(const core::PoseGraph& graph,
   }
 }
 
+int VerificationGraph::addNode(core::PoseGraph::NodeId id, const core::Pose2& initial_pose) {
+  node_ids_.push_back(id);
+  initial_poses_.push_back(initial_pose);
+  optimizer_.addNode(initial_pose);
+  return chain_.appendNode();
+}
+
+void VerificationGraph::addOdometry(int from, int to, const core::Pose2& measurement,
+                                    const Eigen::Matrix3d& information) {
+  chain_.linkNewestNode({from, to, measurement, information});  // validates the pair first
+  optimizer_.addConstraint(from, to, measurement, information, true);
+}
+
+int VerificationGraph::addCandidate(int from, int to, const core::Pose2& measurement,
+                                    const Eigen::Matrix3d& information, std::size_t edge) {
+  if (from < 0 || to < 0 || from >= numNodes() || to >= numNodes() || from == to) {
+    throw std::invalid_argument("loop candidate " + std::to_string(from) + " -> " +
+                                std::to_string(to) + " needs two distinct existing nodes");
+  }
+  const int c = optimizer_.addConstraint(from, to, measurement, information, false);
+  candidates_.push_back(LoopCandidate{edge, from, to, c, measurement, information});
+  return numCandidates() - 1;
+}
+
 std::vector<int> VerificationGraph::touchedNodes(const std::vector<int>& candidates) const {
   std::vector<int> nodes;
   nodes.reserve(2 * candidates.size());

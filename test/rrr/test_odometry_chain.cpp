@@ -75,6 +75,32 @@ TEST(OdometryChain, ReversedAndDuplicateLinks) {
             1e-12);
 }
 
+TEST(OdometryChain, GrowingNodeByNodeEqualsBuildingAtOnce) {
+  std::mt19937 rng(9);
+  auto links = randomChain(12, rng);
+  links.erase(links.begin() + 5);  // a session break between 5 and 6
+  links.push_back(links[2]);       // and a duplicate of step 2 -> 3
+  const OdometryChain at_once(12, links);
+  OdometryChain grown;
+  for (int n = 0; n < 12; ++n) {
+    grown.appendNode();
+    for (const auto& l : links) {
+      if (std::max(l.from, l.to) == n) grown.linkNewestNode(l);
+    }
+  }
+  EXPECT_EQ(grown.numSessions(), at_once.numSessions());
+  for (int a = 0; a < 12; ++a) {
+    EXPECT_EQ(grown.session(a), at_once.session(a));
+    for (int b = a + 1; b < 12; ++b) {
+      if (!at_once.sameSession(a, b)) continue;
+      EXPECT_LT((grown.relativePose(a, b) - at_once.relativePose(a, b)).norm(), 1e-12);
+      EXPECT_LT((grown.relativeCovariance(a, b) - at_once.relativeCovariance(a, b)).norm(), 1e-12);
+    }
+  }
+  EXPECT_THROW(grown.linkNewestNode({3, 4, Pose2::Zero(), Eigen::Matrix3d::Identity()}),
+               std::invalid_argument);
+}
+
 TEST(OdometryChain, SessionsAndErrors) {
   std::mt19937 rng(5);
   auto links = randomChain(8, rng);

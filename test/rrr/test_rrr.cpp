@@ -3,8 +3,10 @@
 
 #include <gtest/gtest.h>
 
+#include <map>
 #include "rrr_graphslam/rrr/incremental_rrr.h"
 #include "rrr_graphslam/rrr/rrr.h"
+
 #include "synthetic.h"
 
 namespace rrr_graphslam::rrr {
@@ -70,6 +72,66 @@ TEST(Rrr, IncrementalReachesTheBatchDecisions) {
     EXPECT_EQ(incremental, batch) << count << " outliers in groups of " << group;
     EXPECT_EQ(latencies.size(), static_cast<std::size_t>(incremental_graph.numCandidates()));
   }
+}
+
+// A robot's view: nodes arrive one by one with their odometry, candidates once both ends
+// exist. Decisions are made on the way, and the final ones equal batch RRR on the whole graph.
+TEST(Rrr, GrowingGraphReachesTheBatchDecisions) {
+  const testing::LabelledGraph input = testing::withOutliers(kData + "/intel.g2o.gz", 100, 1, 11);
+  RrrParams params;
+  params.cluster_gap = 3;
+  VerificationGraph full(input.graph, params.optimizer);
+  std::vector<Verdict> batch;
+  std::vector<int> batch_clusters;
+  runBatchRrr(full, params, batch, batch_clusters);
+  std::map<std::size_t, Verdict> batch_by_edge;
+  for (int k = 0; k < full.numCandidates(); ++k) {
+    batch_by_edge[full.candidate(k).edge] = batch[static_cast<std::size_t>(k)];
+  }
+
+  const auto ids = input.graph.nodeIds();
+  std::map<core::PoseGraph::NodeId, int> index;
+  for (std::size_t n = 0; n < ids.size(); ++n) index[ids[n]] = static_cast<int>(n);
+  std::vector<std::vector<std::size_t>> odometry_at(ids.size()), candidates_at(ids.size());
+  for (std::size_t k = 0; k < input.graph.numEdges(); ++k) {
+    const auto& e = input.graph.edge(k);
+    const auto newest = static_cast<std::size_t>(std::max(index[e.from], index[e.to]));
+    (e.kind == core::EdgeKind::kOdometry ? odometry_at : candidates_at)[newest].push_back(k);
+  }
+  VerificationGraph online(params.optimizer);
+  IncrementalRrr incremental(online, params, params.cluster_gap);
+  int accepted_on_the_way = 0;
+  for (std::size_t n = 0; n < ids.size(); ++n) {
+    online.addNode(ids[n], input.graph.pose(ids[n]));
+    for (std::size_t k : odometry_at[n]) {
+      const auto& e = input.graph.edge(k);
+      online.addOdometry(index[e.from], index[e.to], input.graph.measurement(k),
+                         input.graph.information(k));
+    }
+    for (std::size_t k : candidates_at[n]) {
+      const auto& e = input.graph.edge(k);
+      incremental.addCandidate(online.addCandidate(
+          index[e.from], index[e.to], input.graph.measurement(k), input.graph.information(k), k));
+    }
+    if (n == ids.size() / 2 || n + 1 == ids.size()) {
+      accepted_on_the_way = 0;
+      for (int c = 0; c < online.numCandidates(); ++c) {
+        accepted_on_the_way += incremental.rrr().verdict(c) == Verdict::kAccepted;
+      }
+      EXPECT_GT(accepted_on_the_way, 0) << "decisions are made on the way, at node " << n;
+    }
+  }
+  incremental.finish();
+  ASSERT_EQ(online.numCandidates(), full.numCandidates());
+  for (int c = 0; c < online.numCandidates(); ++c) {
+    EXPECT_EQ(incremental.rrr().verdict(c), batch_by_edge.at(online.candidate(c).edge))
+        << "edge " << online.candidate(c).edge;
+  }
+  EXPECT_THROW(online.addOdometry(0, 1, core::Pose2::Zero(), Eigen::Matrix3d::Identity()),
+               std::invalid_argument);
+  EXPECT_THROW(online.addCandidate(0, static_cast<int>(ids.size()), core::Pose2::Zero(),
+                                   Eigen::Matrix3d::Identity(), 0),
+               std::invalid_argument);
 }
 
 TEST(Rrr, IncrementalRejectsCandidatesBehindTheRobot) {

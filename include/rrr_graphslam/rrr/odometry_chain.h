@@ -28,9 +28,23 @@ class OdometryChain {
     Eigen::Matrix3d information;
   };
 
+  /// One step k -> k+1 in forward form.
+  struct Step {
+    core::Pose2 z;
+    Eigen::Matrix3d information;
+  };
+
+  OdometryChain() = default;
   /// Links must join consecutive indices (k -> k+1 or k+1 -> k); several links between the same
   /// pair are fused. Throws std::invalid_argument naming the first link that is not consecutive.
   OdometryChain(int num_nodes, const std::vector<Link>& links);
+
+  /// Online growth: a new node, starting a session until linkNewestNode() joins it to the one
+  /// before. Returns its index.
+  int appendNode();
+  /// Odometry between the newest node and the one before (either direction); a second link for
+  /// the same pair is fused with the first. Throws std::invalid_argument for any other pair.
+  void linkNewestNode(const Link& link);
 
   int numNodes() const { return static_cast<int>(session_.size()); }
   /// Sessions are numbered 0, 1, ... in node order; a session is a maximal chain.
@@ -48,7 +62,11 @@ class OdometryChain {
   Eigen::Matrix3d relativeCovariance(int a, int b) const;
 
  private:
+  /// Appends node numNodes(), continuing the previous session with `step` or starting one.
+  void append(const Step* step);
+
   std::vector<int> session_;
+  std::vector<Step> last_steps_;  // steps into each node (unused for session starts)
   std::vector<int> session_start_;
   int num_sessions_ = 0;
   std::vector<core::Pose2> pose_;                  // chain poses from the session start

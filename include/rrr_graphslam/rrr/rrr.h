@@ -80,7 +80,10 @@ class Rrr {
 
   Verdict verdict(int candidate) const;
   /// -1 while the candidate is in no cluster.
-  int clusterOf(int candidate) const { return cluster_of_[static_cast<std::size_t>(candidate)]; }
+  int clusterOf(int candidate) const {
+    const auto k = static_cast<std::size_t>(candidate);
+    return k < cluster_of_.size() ? cluster_of_[k] : -1;
+  }
   int numClusters() const { return static_cast<int>(clusters_.size()); }
   const std::vector<int>& clusterMembers(int cluster) const {
     return clusters_[static_cast<std::size_t>(cluster)].members;
@@ -104,6 +107,9 @@ class Rrr {
   /// Makes `consistent` the good set; the other `tested` clusters are rejected. Returns true if
   /// a cluster became good that was not before.
   bool apply(const std::vector<int>& tested, const std::vector<int>& consistent);
+  /// Extends the per-candidate and per-node state to what the graph holds now (online growth):
+  /// a new node's map pose follows odometry from the last estimate.
+  void syncWithGraph();
   std::vector<int> clustersWith(Status status) const;
   /// Links that make the robust map ordering a batch decision.
   std::vector<int> robustMapLinks(const std::vector<int>& pending) const;

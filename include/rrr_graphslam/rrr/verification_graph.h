@@ -28,6 +28,20 @@ class VerificationGraph {
   /// throws std::invalid_argument naming the edge otherwise. Candidates start switched off.
   VerificationGraph(const core::PoseGraph& graph, const core::OptimizerParams& params);
 
+  /// An empty graph that grows online (a robot, a replay): nodes in order, each with its
+  /// odometry, and loop candidates between nodes that exist.
+  explicit VerificationGraph(const core::OptimizerParams& params) : optimizer_(params) {}
+  /// Appends a node and returns its index; it starts a new session until addOdometry links it.
+  int addNode(core::PoseGraph::NodeId id, const core::Pose2& initial_pose);
+  /// Trusted odometry between the newest node and the one before, in either direction; throws
+  /// std::invalid_argument for any other pair.
+  void addOdometry(int from, int to, const core::Pose2& measurement,
+                   const Eigen::Matrix3d& information);
+  /// A loop candidate between existing nodes, switched off; `edge` is the caller's id for it.
+  /// Returns the candidate index.
+  int addCandidate(int from, int to, const core::Pose2& measurement,
+                   const Eigen::Matrix3d& information, std::size_t edge);
+
   int numNodes() const { return static_cast<int>(node_ids_.size()); }
   int numCandidates() const { return static_cast<int>(candidates_.size()); }
   const LoopCandidate& candidate(int k) const { return candidates_[static_cast<std::size_t>(k)]; }
