@@ -6,7 +6,6 @@
 #include <charconv>
 #include <cmath>
 #include <deque>
-#include <limits>
 #include <map>
 #include <sstream>
 #include <string_view>

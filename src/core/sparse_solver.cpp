@@ -9,24 +9,19 @@ namespace {
 
 // Debian's CHOLMOD is built with CHOLMOD_OMP_NUM_THREADS = 4, a num_threads clause that no
 // environment variable overrides. On a 2-core robot computer its thread wake-ups cost more than
-// the parallel loops save (City10000: 0.51 s -> 0.27 s per full solve), so unless asked
-// otherwise CHOLMOD's parallel regions run inactive (one thread) while we call it.
+// the parallel loops save (City10000: 0.51 s -> 0.27 s per full solve), so
+// CHOLMOD's parallel regions run inactive (one thread) while we call it.
 class ScopedSingleThreadedOpenMp {
  public:
-  explicit ScopedSingleThreadedOpenMp(bool enable) : enabled_(enable) {
-    if (!enabled_) return;
-    saved_levels_ = omp_get_max_active_levels();
+  ScopedSingleThreadedOpenMp() : saved_levels_(omp_get_max_active_levels()) {
     omp_set_max_active_levels(0);
   }
-  ~ScopedSingleThreadedOpenMp() {
-    if (enabled_) omp_set_max_active_levels(saved_levels_);
-  }
+  ~ScopedSingleThreadedOpenMp() { omp_set_max_active_levels(saved_levels_); }
   ScopedSingleThreadedOpenMp(const ScopedSingleThreadedOpenMp&) = delete;
   ScopedSingleThreadedOpenMp& operator=(const ScopedSingleThreadedOpenMp&) = delete;
 
  private:
-  bool enabled_;
-  int saved_levels_ = 1;
+  int saved_levels_;
 };
 
 }  // namespace
@@ -41,13 +36,13 @@ SparseSolver::SparseSolver(SparseSolver&&) noexcept = default;
 SparseSolver& SparseSolver::operator=(SparseSolver&&) noexcept = default;
 
 void SparseSolver::analyze(const Matrix& upper) {
-  const ScopedSingleThreadedOpenMp single(!multithreaded_);
+  const ScopedSingleThreadedOpenMp single;
   cholmod_->llt.analyzePattern(upper);
   ++analysis_count_;
 }
 
 bool SparseSolver::factorize(const Matrix& upper) {
-  const ScopedSingleThreadedOpenMp single(!multithreaded_);
+  const ScopedSingleThreadedOpenMp single;
   cholmod_->llt.factorize(upper);
   return cholmod_->llt.info() == Eigen::Success;
 }

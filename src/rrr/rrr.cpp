@@ -164,12 +164,6 @@ void Rrr::realizeReverseRecover(const std::vector<core::Pose2>& initial, bool ro
   graph_.optimizer().setPoses(base_);
 }
 
-void Rrr::decide() {
-  syncWithGraph();
-  unoptimized_accepts_ = 0;
-  realizeReverseRecover(base_, false);
-}
-
 // A cluster's kept links linearized at base_, with the map's covariance of the nodes they touch
 // (from the optimizer's last factorization).
 struct Rrr::ClusterLinearization {

@@ -36,14 +36,10 @@ class SparseSolver {
   /// Number of symbolic analyses so far (tests check that the ordering is reused).
   int analysisCount() const { return analysis_count_; }
 
-  /// Let CHOLMOD's OpenMP loops use their compiled-in thread count; default false (see .cpp).
-  void setMultithreaded(bool multithreaded) { multithreaded_ = multithreaded; }
-
  private:
   struct Cholmod;
   std::unique_ptr<Cholmod> cholmod_;
   int analysis_count_ = 0;
-  bool multithreaded_ = false;
 };
 
 }  // namespace rrr_graphslam::core

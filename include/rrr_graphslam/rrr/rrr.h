@@ -1,14 +1,15 @@
 #pragma once
 // RRR: Realizing, Reversing, Recovering (Latif, Cadena, Neira, "Robust loop closing over time for
 // pose graph SLAM", IJRR 2013, Algorithm 3). Loop candidates are grouped into clusters; each
-// cluster is checked on its own (intra-cluster consistency) when it is added; decide() then
+// cluster is checked on its own (intra-cluster consistency) when it is added; a decision then
 //   realizes: the largest jointly consistent set of good + pending clusters becomes the good set
 //             (inter-cluster consistency);
 //   reverses: a good cluster that is no longer consistent with the others leaves the good set;
 //   recovers: while the good set grows, rejected clusters that agree with its map get another
 //             joint test.
-// Batch RRR adds every cluster and decides once; incremental RRR (IncrementalRrr) adds clusters
-// as the robot leaves them and decides after each.
+// Batch RRR adds every cluster and decides once (decideFromScratch); incremental RRR
+// (IncrementalRrr) adds clusters as the robot leaves them and decides after each
+// (decideIncrementally), then once more from scratch at the end.
 //
 // Not thread-safe; one thread drives an Rrr and its VerificationGraph.
 
@@ -43,7 +44,7 @@ struct RrrParams {
   double loo_min_index = 0.1;
   /// Dynamic Covariance Scaling parameter of the robust map that orders batch decisions; default 1.
   double dcs_phi = 1.0;
-  /// Realize/reverse/recover rounds per decide(); default 50.
+  /// Realize/reverse/recover rounds per decision; default 50.
   int max_rounds = 50;
   /// Intra-cluster tests on the reduced graph (true) or the whole graph (false); default true.
   bool reduced_intra_graph = true;
@@ -63,8 +64,6 @@ class Rrr {
 
   /// Runs the intra-cluster test on `members` (candidate indices) and returns the cluster id.
   int addCluster(const std::vector<int>& members);
-  /// Realize / reverse / recover over the clusters added so far, from the current good set.
-  void decide();
   /// The online step of incremental RRR, for clusters just added. A cluster that fits the good
   /// set's map without moving it (index < 1: the joint chi2 can then only be lower) is accepted
   /// and folded into the map at the next joint test; one whose linearized joint test (the chi2
