@@ -76,8 +76,8 @@ bool Rrr::apply(const std::vector<int>& tested, const std::vector<int>& consiste
   bool grew = false;
   for (int c : tested) clusters_[static_cast<std::size_t>(c)].status = Status::kRejected;
   for (int c : consistent) {
-    grew =
-        grew || std::find(previous_good_.begin(), previous_good_.end(), c) == previous_good_.end();
+    // previous_good_ comes from clustersWith(), in increasing id order.
+    grew = grew || !std::binary_search(previous_good_.begin(), previous_good_.end(), c);
     clusters_[static_cast<std::size_t>(c)].status = Status::kGood;
   }
   base_ = graph_.optimizer().poses();

@@ -23,6 +23,13 @@ class CommandLine {
     return argv_[++i];
   }
 
+  /// An argument that matched no option: the one input file, or a usage error.
+  void positional(const std::string& argument, std::string& input) const {
+    if (!argument.empty() && argument[0] == '-') fail("unknown option " + argument);
+    if (!input.empty()) fail("more than one input file given");
+    input = argument;
+  }
+
   /// `text` as a number in [low, high], or a usage error naming `option`.
   double number(const std::string& option, const std::string& text, double low, double high) const {
     char* end = nullptr;

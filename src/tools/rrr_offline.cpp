@@ -78,12 +78,8 @@ Arguments parseArguments(int argc, char** argv) {
       args.params.reduced_intra_graph = false;
     } else if (a == "--quiet") {
       args.quiet = true;
-    } else if (!a.empty() && a[0] == '-') {
-      cli.fail("unknown option " + a);
-    } else if (args.input.empty()) {
-      args.input = a;
     } else {
-      cli.fail("more than one input file given");
+      cli.positional(a, args.input);
     }
   }
   if (args.input.empty()) cli.fail("no input file given");

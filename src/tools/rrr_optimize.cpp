@@ -58,12 +58,8 @@ Arguments parseArguments(int argc, char** argv) {
       const double n = cli.number(a, cli.value(i, a), 0.0, 1e9);
       if (n != static_cast<int>(n)) cli.fail("--max-iterations must be an integer");
       args.params.max_iterations = static_cast<int>(n);
-    } else if (!a.empty() && a[0] == '-') {
-      cli.fail("unknown option " + a);
-    } else if (args.input.empty()) {
-      args.input = a;
     } else {
-      cli.fail("more than one input file given");
+      cli.positional(a, args.input);
     }
   }
   if (args.input.empty()) cli.fail("no input file given");
