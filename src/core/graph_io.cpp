@@ -1,17 +1,15 @@
 #include "rrr_graphslam/core/graph_io.h"
 
-#include <Eigen/Cholesky>
-#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <deque>
 #include <map>
-#include <sstream>
 #include <string_view>
 #include <unordered_map>
 #include <vector>
 
+#include "rrr_graphslam/core/constraint_check.h"
 #include "rrr_graphslam/core/input_error.h"
 #include "rrr_graphslam/core/text_file.h"
 
@@ -92,12 +90,8 @@ class LineParser {
       info(order[k][0], order[k][1]) = v;
       info(order[k][1], order[k][0]) = v;
     }
-    if (Eigen::LLT<Eigen::Matrix3d>(info).info() != Eigen::Success) {
-      std::ostringstream what;
-      what << "information matrix of " << tag_ << " is not positive definite (eigenvalues "
-           << Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(info).eigenvalues().transpose() << ")";
-      fail(what.str());
-    }
+    const std::string problem = informationProblem(info);
+    if (!problem.empty()) fail("information matrix of " + std::string(tag_) + ": " + problem);
     return info;
   }
 

@@ -3,8 +3,6 @@
 #include <algorithm>
 #include <chrono>
 #include <numeric>
-#include <stdexcept>
-#include <string>
 
 #include "rrr_graphslam/rrr/clustering.h"
 
@@ -22,12 +20,7 @@ IncrementalRrr::IncrementalRrr(VerificationGraph& graph, const RrrParams& params
 bool IncrementalRrr::addCandidate(int candidate) {
   const LoopCandidate& c = graph_.candidate(candidate);
   const int newest = newestEnd(c);
-  if (newest < current_node_) {
-    throw std::invalid_argument("candidate " + std::to_string(candidate) + " ends at node " +
-                                std::to_string(newest) + ", behind the robot at node " +
-                                std::to_string(current_node_));
-  }
-  const bool closed = advanceTo(newest);
+  bool closed = advanceTo(newest);
   // Join (and merge) every open cluster with a member whose both ends are within the gap.
   OpenCluster joined;
   joined.members.push_back(candidate);
@@ -47,8 +40,10 @@ bool IncrementalRrr::addCandidate(int candidate) {
     }
   }
   std::sort(joined.members.begin(), joined.members.end());
+  const bool behind = current_node_ > joined.newest + gap_;
   still_open.push_back(std::move(joined));
   open_.swap(still_open);
+  if (behind) closed = advanceTo(current_node_) || closed;
   return closed;
 }
 

@@ -30,15 +30,32 @@ Rrr::Rrr(VerificationGraph& graph, const RrrParams& params)
       cluster_of_(static_cast<std::size_t>(graph.numCandidates()), -1),
       base_(graph.initialPoses()) {}
 
-void Rrr::syncWithGraph() {
-  cluster_of_.resize(static_cast<std::size_t>(graph_.numCandidates()), -1);
+void Rrr::extendByOdometry(std::vector<core::Pose2>& poses) const {
   const OdometryChain& chain = graph_.chain();
-  while (base_.size() < static_cast<std::size_t>(graph_.numNodes())) {
-    const int k = static_cast<int>(base_.size());
-    base_.push_back(k > 0 && chain.sameSession(k - 1, k)
-                        ? core::compose(base_.back(), chain.relativePose(k - 1, k))
+  while (poses.size() < static_cast<std::size_t>(graph_.numNodes())) {
+    const int k = static_cast<int>(poses.size());
+    poses.push_back(k > 0 && chain.sameSession(k - 1, k)
+                        ? core::compose(poses.back(), chain.relativePose(k - 1, k))
                         : graph_.initialPoses()[static_cast<std::size_t>(k)]);
   }
+}
+
+void Rrr::syncWithGraph() {
+  cluster_of_.resize(static_cast<std::size_t>(graph_.numCandidates()), -1);
+  extendByOdometry(base_);
+}
+
+std::vector<core::Pose2> Rrr::mapEstimate() const {
+  std::vector<core::Pose2> poses = base_;
+  extendByOdometry(poses);
+  return poses;
+}
+
+bool Rrr::passedIntraTest(int candidate) const {
+  const int c = clusterOf(candidate);
+  if (c < 0) return true;
+  const auto& kept = clusters_[static_cast<std::size_t>(c)].kept;
+  return std::find(kept.begin(), kept.end(), candidate) != kept.end();
 }
 
 int Rrr::addCluster(const std::vector<int>& members) {

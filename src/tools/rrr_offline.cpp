@@ -14,7 +14,7 @@
 
 #include "command_line.h"
 #include "rrr_graphslam/core/graph_io.h"
-#include "rrr_graphslam/core/text_file.h"
+#include "rrr_graphslam/rrr/decisions_io.h"
 #include "rrr_graphslam/rrr/incremental_rrr.h"
 #include "rrr_graphslam/rrr/rrr.h"
 
@@ -136,14 +136,13 @@ int main(int argc, char** argv) {
     }
 
     if (!args.decisions.empty()) {
-      core::writeFileAtomically(args.decisions, [&](std::ostream& out) {
-        out << "from\tto\tcluster\tverdict\n";
-        for (int k = 0; k < verification.numCandidates(); ++k) {
-          const auto& edge = graph.edge(verification.candidate(k).edge);
-          out << edge.from << '\t' << edge.to << '\t' << cluster_of[static_cast<std::size_t>(k)]
-              << '\t' << rrr::toString(verdicts[static_cast<std::size_t>(k)]) << '\n';
-        }
-      });
+      std::vector<rrr::DecisionRow> rows;
+      for (int k = 0; k < verification.numCandidates(); ++k) {
+        const auto& edge = graph.edge(verification.candidate(k).edge);
+        const auto i = static_cast<std::size_t>(k);
+        rows.push_back({edge.from, edge.to, cluster_of[i], verdicts[i]});
+      }
+      rrr::writeDecisions(args.decisions, rows);
       std::printf("decisions      %s\n", args.decisions.c_str());
     }
     if (!args.output.empty()) {

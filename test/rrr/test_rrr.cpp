@@ -134,17 +134,29 @@ TEST(Rrr, GrowingGraphReachesTheBatchDecisions) {
                std::invalid_argument);
 }
 
-TEST(Rrr, IncrementalRejectsCandidatesBehindTheRobot) {
+// A front end searching in the background delivers candidates late: one more than the gap
+// behind the robot forms its own cluster, closed and decided at once; finish() still decides it.
+TEST(Rrr, IncrementalDecidesLateCandidatesAtOnce) {
   const testing::LabelledGraph input = testing::withOutliers(kData + "/intel.g2o.gz", 0, 1, 1);
   VerificationGraph graph(input.graph, {});
-  IncrementalRrr incremental(graph, {}, 3);
-  int newest = 0, latest = 0;
+  const int gap = 3;
+  IncrementalRrr incremental(graph, {}, gap);
+  int newest = 0, latest = 0, earliest = 0, oldest = graph.numNodes();
   for (int k = 0; k < graph.numCandidates(); ++k) {
     const int end = std::max(graph.candidate(k).from, graph.candidate(k).to);
     if (end > newest) newest = end, latest = k;
+    if (end < oldest) oldest = end, earliest = k;
   }
-  incremental.addCandidate(latest);
-  EXPECT_THROW(incremental.addCandidate(0), std::invalid_argument);
+  ASSERT_GT(newest, oldest + gap);
+  EXPECT_FALSE(incremental.addCandidate(latest));  // its cluster stays open
+  EXPECT_EQ(incremental.numOpenClusters(), 1);
+  EXPECT_TRUE(incremental.addCandidate(earliest));  // far behind: decided now
+  EXPECT_EQ(incremental.numOpenClusters(), 1);
+  EXPECT_NE(incremental.rrr().verdict(earliest), Verdict::kPending);
+  EXPECT_EQ(incremental.rrr().verdict(latest), Verdict::kPending);
+  incremental.finish();
+  EXPECT_EQ(incremental.numOpenClusters(), 0);
+  EXPECT_NE(incremental.rrr().verdict(latest), Verdict::kPending);
 }
 
 // Three sessions driving the same square: B in its own frame with loops to A, C without any.

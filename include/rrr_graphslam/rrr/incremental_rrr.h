@@ -19,18 +19,24 @@ class IncrementalRrr {
  public:
   IncrementalRrr(VerificationGraph& graph, const RrrParams& params, int cluster_gap);
 
-  /// A candidate arrives; its newest end is the robot's current node. Candidates must come in
-  /// non-decreasing order of their newest end; throws std::invalid_argument otherwise.
+  /// A candidate arrives; normally its newest end is the robot's current node. A late one (a
+  /// front end that searched in the background) joins the open clusters within the gap; one more
+  /// than the gap behind the robot forms a cluster of its own, closed and decided at once.
   /// Returns true if a cluster was closed (and a decision made).
   bool addCandidate(int candidate);
   /// The robot reached `node`: closes and decides the clusters it has left behind.
   bool advanceTo(int node);
   /// After the last candidate: closes every open cluster and decides all of them from scratch.
   void finish();
+  /// Decides the closed clusters again from scratch (the batch decision over them); open
+  /// clusters stay open.
+  void decideClosedFromScratch() { rrr_.decideFromScratch(); }
 
   const Rrr& rrr() const { return rrr_; }
   Rrr& rrr() { return rrr_; }
   int numOpenClusters() const { return static_cast<int>(open_.size()); }
+  int currentNode() const { return current_node_; }
+  int clusterGap() const { return gap_; }
 
  private:
   struct OpenCluster {

@@ -91,6 +91,12 @@ class Rrr {
   int optimizations() const { return optimizations_; }
   /// Links of the good clusters that survived their intra test: the accepted loops.
   std::vector<int> acceptedCandidates() const;
+  /// False once the candidate's cluster was tested and its intra-cluster test dropped it (alone or
+  /// with its whole cluster); true otherwise.
+  bool passedIntraTest(int candidate) const;
+  /// The map: poses of the good set's last solution, continued by odometry over the nodes added
+  /// since (a new session's first node at its initial pose).
+  std::vector<core::Pose2> mapEstimate() const;
 
   void setProgress(ProgressFunction progress) { progress_ = std::move(progress); }
 
@@ -109,6 +115,8 @@ class Rrr {
   /// Extends the per-candidate and per-node state to what the graph holds now (online growth):
   /// a new node's map pose follows odometry from the last estimate.
   void syncWithGraph();
+  /// Appends to `poses` the nodes of the graph it lacks, following odometry.
+  void extendByOdometry(std::vector<core::Pose2>& poses) const;
   std::vector<int> clustersWith(Status status) const;
   /// Links that make the robust map ordering a batch decision.
   std::vector<int> robustMapLinks(const std::vector<int>& pending) const;

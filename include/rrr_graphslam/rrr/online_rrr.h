@@ -1,0 +1,167 @@
+#pragma once
+// A pose graph under incremental RRR, fed one constraint at a time by a robot or a replay: the
+// ROS-free half of the nodelet (src/ros is only the adapter around it) and what the SLAM front
+// end hands its loop candidates to.
+//
+// Node ids are the caller's and must increase. Sequential (odometry) constraints join the newest
+// node to the next id and create it at its pose in the odometry frame; a constraint from an
+// unknown id starts a new session (multi-session maps: a session joins the others only through
+// accepted loops). Loop candidates may name nodes that have not arrived yet (odometry and
+// candidates often travel on different channels): they wait until those nodes exist.
+//
+// Every call that changes a verdict records a DecisionChange; takeChanges() hands them over once.
+// Bad input throws std::invalid_argument naming the field (from_id, to_id, measurement.x, ...,
+// information) and leaves the graph as it was. Not thread-safe: one thread owns an OnlineRrr.
+
+#include <cstddef>
+#include <deque>
+#include <map>
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "rrr_graphslam/core/pose_graph.h"
+#include "rrr_graphslam/rrr/decisions_io.h"
+#include "rrr_graphslam/rrr/incremental_rrr.h"
+#include "rrr_graphslam/rrr/rrr.h"
+#include "rrr_graphslam/rrr/verification_graph.h"
+
+namespace rrr_graphslam::rrr {
+
+struct OnlineRrrParams {
+  /// RRR settings; rrr.cluster_gap must be positive (online there are no candidates yet to derive
+  /// it from); default 10 nodes.
+  RrrParams rrr = [] {
+    RrrParams p;
+    p.cluster_gap = 10;
+    return p;
+  }();
+  /// Loop candidates waiting for nodes that have not arrived, at most; default 10000.
+  int max_waiting_candidates = 10000;
+};
+
+/// One verdict that changed (or a candidate that arrived: previous == verdict == kPending).
+struct DecisionChange {
+  int candidate;  ///< arrival index
+  core::PoseGraph::NodeId from;
+  core::PoseGraph::NodeId to;
+  int cluster;  ///< -1 while the candidate's cluster is open
+  Verdict verdict;
+  Verdict previous;
+  std::string reason;  ///< which step of RRR decided, in the paper's words
+};
+
+/// Counts for status displays.
+struct OnlineRrrStatus {
+  int nodes = 0;
+  int sessions = 0;
+  int candidates = 0;
+  int waiting_candidates = 0;  ///< naming nodes not arrived yet
+  int clusters = 0;            ///< closed
+  int open_clusters = 0;
+  int accepted = 0;
+  int rejected = 0;
+  int pending = 0;
+  int optimizations = 0;
+};
+
+class OnlineRrr {
+ public:
+  using NodeId = core::PoseGraph::NodeId;
+  enum class CandidateStatus { kAdded, kWaiting };
+
+  /// Throws std::invalid_argument for invalid parameters.
+  explicit OnlineRrr(const OnlineRrrParams& params = {});
+  OnlineRrr(const OnlineRrr&) = delete;
+  OnlineRrr& operator=(const OnlineRrr&) = delete;
+
+  /// A graph saved by save() (or any g2o/TORO graph): nodes at their file poses, odometry and
+  /// candidates replayed in node order, then every cluster decided (finish()); the changes
+  /// report every candidate's verdict. New nodes must have larger ids than the file's.
+  static std::unique_ptr<OnlineRrr> fromPoseGraph(const core::PoseGraph& graph,
+                                                  const OnlineRrrParams& params = {});
+
+  /// Starts a session with node `id` at `odom_pose` (its pose in the odometry frame).
+  void startSession(NodeId id, const core::Pose2& odom_pose);
+  /// Sequential constraint: `measurement` is the pose of node `to` in the frame of node `from`.
+  /// `from` must be the newest node and `to` == from + 1, which is created; if `from` is unknown
+  /// and newer than every node, it first starts a session at the origin.
+  void addOdometry(NodeId from, NodeId to, const core::Pose2& measurement,
+                   const Eigen::Matrix3d& information);
+  /// A loop candidate (pose of `to` in `from`'s frame). kWaiting when an end has not arrived.
+  /// Rejects unknown old ids, self-loops, consecutive ids of one session (that is odometry) and
+  /// duplicates (same ends and measurement as an earlier candidate).
+  CandidateStatus addCandidate(NodeId from, NodeId to, const core::Pose2& measurement,
+                               const Eigen::Matrix3d& information);
+
+  /// Closes every open cluster and decides all clusters from scratch (end of a run).
+  void finish();
+  /// Decides the closed clusters again from scratch; open clusters stay open.
+  void decideClosedFromScratch();
+
+  /// The verdict changes since the last call, in the order they happened.
+  std::vector<DecisionChange> takeChanges();
+  /// Waiting candidates that turned out to name a node id that never came (the ids jumped past
+  /// it); each message names the candidate. Handed over once.
+  std::vector<std::string> takeDroppedCandidates();
+
+  OnlineRrrStatus status() const;
+  int numNodes() const { return graph_.numNodes(); }
+  int numCandidates() const { return graph_.numCandidates(); }
+  bool empty() const { return graph_.numNodes() == 0; }
+  const std::vector<NodeId>& nodeIds() const { return graph_.nodeIds(); }
+  /// Dense index of a node id; -1 if unknown.
+  int indexOf(NodeId id) const;
+  /// Poses in the odometry frame (as the nodes arrived).
+  const std::vector<core::Pose2>& odomPoses() const { return graph_.initialPoses(); }
+  /// Poses in the map frame: the good set's solution, continued by odometry.
+  std::vector<core::Pose2> mapPoses() const { return incremental_.rrr().mapEstimate(); }
+  /// map -> odom at the newest node (identity for an empty graph).
+  core::Pose2 mapToOdom() const;
+  /// True if nodes k - 1 and k are joined by odometry.
+  bool odometryBefore(int k) const { return k > 0 && graph_.chain().sameSession(k - 1, k); }
+  const LoopCandidate& candidate(int k) const { return graph_.candidate(k); }
+  Verdict verdict(int candidate) const { return reported_[static_cast<std::size_t>(candidate)]; }
+
+  /// Nodes at their odometry-frame poses, the odometry, then every candidate in arrival order:
+  /// the input, which rrr_offline decides again.
+  core::PoseGraph toPoseGraph() const;
+  /// One row per candidate in arrival order, as in DECISIONS.tsv.
+  std::vector<DecisionRow> decisionRows() const;
+  /// Odometry + accepted loops at the map poses.
+  core::PoseGraph optimizedPoseGraph() const;
+
+ private:
+  struct Odometry {
+    int from;
+    int to;
+    core::Pose2 measurement;
+    Eigen::Matrix3d information;
+  };
+  struct Waiting {
+    NodeId from;
+    NodeId to;
+    core::Pose2 measurement;
+    Eigen::Matrix3d information;
+  };
+
+  int appendNode(NodeId id, const core::Pose2& odom_pose);
+  void insertCandidate(int from, int to, const core::Pose2& measurement,
+                       const Eigen::Matrix3d& information);
+  void admitWaitingCandidates();
+  void collectChanges();
+  std::string reason(int candidate, Verdict verdict, Verdict previous) const;
+
+  OnlineRrrParams params_;
+  VerificationGraph graph_;
+  IncrementalRrr incremental_;
+  std::vector<Odometry> odometry_;
+  std::map<std::pair<NodeId, NodeId>, std::vector<int>> candidates_by_ends_;
+  std::deque<Waiting> waiting_;
+  std::vector<Verdict> reported_;
+  std::vector<DecisionChange> changes_;
+  std::vector<std::string> dropped_;
+};
+
+}  // namespace rrr_graphslam::rrr

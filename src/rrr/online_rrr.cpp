@@ -1,0 +1,329 @@
+#include "rrr_graphslam/rrr/online_rrr.h"
+
+#include <algorithm>
+#include <stdexcept>
+#include <string>
+#include <unordered_map>
+
+#include "rrr_graphslam/core/constraint_check.h"
+
+namespace rrr_graphslam::rrr {
+namespace {
+
+std::string id(const char* field, OnlineRrr::NodeId value) {
+  return std::string(field) + " " + std::to_string(value);
+}
+
+void checkConstraint(const core::Pose2& measurement, const Eigen::Matrix3d& information) {
+  if (const std::string p = core::poseProblem(measurement); !p.empty()) {
+    throw std::invalid_argument("measurement: " + p);
+  }
+  if (const std::string p = core::informationProblem(information); !p.empty()) {
+    throw std::invalid_argument("information: " + p);
+  }
+}
+
+bool sameMeasurement(const core::Pose2& a, const core::Pose2& b) {
+  return (a - b).cwiseAbs().maxCoeff() <= 1e-12 * (1.0 + a.cwiseAbs().maxCoeff());
+}
+
+}  // namespace
+
+OnlineRrr::OnlineRrr(const OnlineRrrParams& params)
+    : params_(params),
+      graph_(params.rrr.optimizer),
+      incremental_(graph_, params.rrr, params.rrr.cluster_gap) {
+  if (params.rrr.cluster_gap <= 0) {
+    throw std::invalid_argument("cluster_gap must be a positive number of nodes online, got " +
+                                std::to_string(params.rrr.cluster_gap));
+  }
+  if (params.max_waiting_candidates < 0) {
+    throw std::invalid_argument("max_waiting_candidates must not be negative");
+  }
+}
+
+int OnlineRrr::indexOf(NodeId node) const {
+  const auto& ids = graph_.nodeIds();
+  const auto it = std::lower_bound(ids.begin(), ids.end(), node);
+  return it != ids.end() && *it == node ? static_cast<int>(it - ids.begin()) : -1;
+}
+
+int OnlineRrr::appendNode(NodeId node, const core::Pose2& odom_pose) {
+  return graph_.addNode(node, odom_pose);
+}
+
+void OnlineRrr::startSession(NodeId node, const core::Pose2& odom_pose) {
+  if (!empty() && node <= nodeIds().back()) {
+    throw std::invalid_argument(id("node id", node) + " is not newer than the newest node " +
+                                std::to_string(nodeIds().back()));
+  }
+  if (const std::string p = core::poseProblem(odom_pose); !p.empty()) {
+    throw std::invalid_argument("pose: " + p);
+  }
+  const int k = appendNode(node, odom_pose);
+  if (incremental_.advanceTo(k)) collectChanges();
+  admitWaitingCandidates();
+}
+
+void OnlineRrr::addOdometry(NodeId from, NodeId to, const core::Pose2& measurement,
+                            const Eigen::Matrix3d& information) {
+  checkConstraint(measurement, information);
+  const bool new_session = empty() || from > nodeIds().back();
+  if (!new_session && from != nodeIds().back()) {
+    throw std::invalid_argument(id("from_id", from) + " is not the newest node " +
+                                std::to_string(nodeIds().back()) +
+                                ": sequential edges extend the newest node");
+  }
+  if (to != from + 1) {
+    throw std::invalid_argument(id("to_id", to) + " does not follow " + id("from_id", from) +
+                                ": sequential edges join consecutive ids");
+  }
+  if (new_session) startSession(from, core::Pose2::Zero());
+  const int k = appendNode(to, core::compose(odomPoses().back(), measurement));
+  graph_.addOdometry(k - 1, k, measurement, information);
+  odometry_.push_back({k - 1, k, measurement, information});
+  if (incremental_.advanceTo(k)) collectChanges();
+  admitWaitingCandidates();
+}
+
+OnlineRrr::CandidateStatus OnlineRrr::addCandidate(NodeId from, NodeId to,
+                                                   const core::Pose2& measurement,
+                                                   const Eigen::Matrix3d& information) {
+  checkConstraint(measurement, information);
+  if (from == to) throw std::invalid_argument(id("from_id", from) + " equals to_id");
+  const bool from_arrived = !empty() && from <= nodeIds().back();
+  const bool to_arrived = !empty() && to <= nodeIds().back();
+  const int a = indexOf(from), b = indexOf(to);
+  if (from_arrived && a < 0) throw std::invalid_argument(id("from_id", from) + " is not a node");
+  if (to_arrived && b < 0) throw std::invalid_argument(id("to_id", to) + " is not a node");
+  if (a >= 0 && b >= 0 && std::abs(a - b) == 1 && odometryBefore(std::max(a, b))) {
+    throw std::invalid_argument(id("from_id", from) + " and " + id("to_id", to) +
+                                " are consecutive nodes joined by odometry, not a loop");
+  }
+  const auto known = candidates_by_ends_.find({from, to});
+  const bool duplicate =
+      (known != candidates_by_ends_.end() &&
+       std::any_of(
+           known->second.begin(), known->second.end(),
+           [&](int k) { return sameMeasurement(candidate(k).measurement, measurement); })) ||
+      std::any_of(waiting_.begin(), waiting_.end(), [&](const Waiting& w) {
+        return w.from == from && w.to == to && sameMeasurement(w.measurement, measurement);
+      });
+  if (duplicate) {
+    throw std::invalid_argument("duplicate candidate: " + id("from_id", from) + ", " +
+                                id("to_id", to) + " with the same measurement arrived before");
+  }
+  if (a < 0 || b < 0) {
+    if (static_cast<int>(waiting_.size()) >= params_.max_waiting_candidates) {
+      throw std::invalid_argument(
+          std::to_string(waiting_.size()) + " candidates already wait for nodes newer than " +
+          (empty() ? std::string("none") : std::to_string(nodeIds().back())) + "; " +
+          id(a < 0 ? "from_id" : "to_id", a < 0 ? from : to) + " has not arrived");
+    }
+    waiting_.push_back({from, to, measurement, information});
+    return CandidateStatus::kWaiting;
+  }
+  insertCandidate(a, b, measurement, information);
+  return CandidateStatus::kAdded;
+}
+
+void OnlineRrr::insertCandidate(int from, int to, const core::Pose2& measurement,
+                                const Eigen::Matrix3d& information) {
+  const int k = graph_.addCandidate(from, to, measurement, information,
+                                    static_cast<std::size_t>(numCandidates()));
+  reported_.push_back(Verdict::kPending);
+  const NodeId from_id = nodeIds()[static_cast<std::size_t>(from)];
+  const NodeId to_id = nodeIds()[static_cast<std::size_t>(to)];
+  candidates_by_ends_[{from_id, to_id}].push_back(k);
+  changes_.push_back({k, from_id, to_id, -1, Verdict::kPending, Verdict::kPending,
+                      "candidate received; its cluster is open"});
+  if (incremental_.addCandidate(k)) collectChanges();
+}
+
+void OnlineRrr::admitWaitingCandidates() {
+  const NodeId newest = nodeIds().back();
+  std::deque<Waiting> still_waiting;
+  for (const Waiting& w : waiting_) {
+    if (w.from > newest || w.to > newest) {
+      still_waiting.push_back(w);
+      continue;
+    }
+    const int a = indexOf(w.from), b = indexOf(w.to);
+    if (a < 0 || b < 0) {
+      dropped_.push_back("loop candidate " + std::to_string(w.from) + " -> " +
+                         std::to_string(w.to) +
+                         " dropped: " + id(a < 0 ? "from_id" : "to_id", a < 0 ? w.from : w.to) +
+                         " never arrived (node ids jumped past it)");
+      continue;
+    }
+    insertCandidate(a, b, w.measurement, w.information);
+  }
+  waiting_.swap(still_waiting);
+}
+
+void OnlineRrr::finish() {
+  incremental_.finish();
+  collectChanges();
+}
+
+void OnlineRrr::decideClosedFromScratch() {
+  incremental_.decideClosedFromScratch();
+  collectChanges();
+}
+
+void OnlineRrr::collectChanges() {
+  const Rrr& rrr = incremental_.rrr();
+  for (int k = 0; k < numCandidates(); ++k) {
+    const Verdict now = rrr.verdict(k);
+    Verdict& before = reported_[static_cast<std::size_t>(k)];
+    if (now == before) continue;
+    const LoopCandidate& c = candidate(k);
+    changes_.push_back({k, nodeIds()[static_cast<std::size_t>(c.from)],
+                        nodeIds()[static_cast<std::size_t>(c.to)], rrr.clusterOf(k), now, before,
+                        reason(k, now, before)});
+    before = now;
+  }
+}
+
+std::string OnlineRrr::reason(int k, Verdict verdict, Verdict previous) const {
+  const std::string cluster = "cluster " + std::to_string(incremental_.rrr().clusterOf(k));
+  switch (verdict) {
+    case Verdict::kAccepted:
+      return previous == Verdict::kRejected
+                 ? "recovered: " + cluster + " is consistent with the accepted clusters now"
+                 : "realized: " + cluster + " is consistent on its own and with the accepted " +
+                       "clusters";
+    case Verdict::kRejected:
+      if (!incremental_.rrr().passedIntraTest(k)) {
+        return "intra-cluster: the link is inconsistent with the rest of " + cluster;
+      }
+      return previous == Verdict::kAccepted
+                 ? "reversed: " + cluster + " conflicts with the accepted clusters"
+                 : "inter-cluster: " + cluster + " is inconsistent with the accepted clusters";
+    case Verdict::kPending:
+      break;
+  }
+  return cluster + " awaits a joint decision";
+}
+
+std::vector<DecisionChange> OnlineRrr::takeChanges() {
+  std::vector<DecisionChange> out;
+  out.swap(changes_);
+  return out;
+}
+
+std::vector<std::string> OnlineRrr::takeDroppedCandidates() {
+  std::vector<std::string> out;
+  out.swap(dropped_);
+  return out;
+}
+
+OnlineRrrStatus OnlineRrr::status() const {
+  OnlineRrrStatus s;
+  s.nodes = numNodes();
+  s.sessions = graph_.chain().numSessions();
+  s.candidates = numCandidates();
+  s.waiting_candidates = static_cast<int>(waiting_.size());
+  s.clusters = incremental_.rrr().numClusters();
+  s.open_clusters = incremental_.numOpenClusters();
+  for (Verdict v : reported_) {
+    (v == Verdict::kAccepted ? s.accepted : v == Verdict::kRejected ? s.rejected : s.pending)++;
+  }
+  s.optimizations = incremental_.rrr().optimizations();
+  return s;
+}
+
+core::Pose2 OnlineRrr::mapToOdom() const {
+  if (empty()) return core::Pose2::Zero();
+  return core::compose(mapPoses().back(), core::inverse(odomPoses().back()));
+}
+
+core::PoseGraph OnlineRrr::toPoseGraph() const {
+  core::PoseGraph g;
+  const auto& ids = nodeIds();
+  for (int k = 0; k < numNodes(); ++k) {
+    g.addNode(ids[static_cast<std::size_t>(k)], odomPoses()[static_cast<std::size_t>(k)]);
+  }
+  for (const Odometry& o : odometry_) {
+    g.addEdge(ids[static_cast<std::size_t>(o.from)], ids[static_cast<std::size_t>(o.to)],
+              o.measurement, o.information, core::EdgeKind::kOdometry);
+  }
+  for (int k = 0; k < numCandidates(); ++k) {
+    const LoopCandidate& c = candidate(k);
+    g.addEdge(ids[static_cast<std::size_t>(c.from)], ids[static_cast<std::size_t>(c.to)],
+              c.measurement, c.information, core::EdgeKind::kLoopCandidate);
+  }
+  return g;
+}
+
+core::PoseGraph OnlineRrr::optimizedPoseGraph() const {
+  core::PoseGraph g;
+  const auto& ids = nodeIds();
+  const std::vector<core::Pose2> poses = mapPoses();
+  for (int k = 0; k < numNodes(); ++k) {
+    g.addNode(ids[static_cast<std::size_t>(k)], poses[static_cast<std::size_t>(k)]);
+  }
+  for (const Odometry& o : odometry_) {
+    g.addEdge(ids[static_cast<std::size_t>(o.from)], ids[static_cast<std::size_t>(o.to)],
+              o.measurement, o.information, core::EdgeKind::kOdometry);
+  }
+  for (int k = 0; k < numCandidates(); ++k) {
+    if (verdict(k) != Verdict::kAccepted) continue;
+    const LoopCandidate& c = candidate(k);
+    g.addEdge(ids[static_cast<std::size_t>(c.from)], ids[static_cast<std::size_t>(c.to)],
+              c.measurement, c.information, core::EdgeKind::kLoopCandidate);
+  }
+  return g;
+}
+
+std::vector<DecisionRow> OnlineRrr::decisionRows() const {
+  std::vector<DecisionRow> rows;
+  const auto& ids = nodeIds();
+  for (int k = 0; k < numCandidates(); ++k) {
+    const LoopCandidate& c = candidate(k);
+    rows.push_back({ids[static_cast<std::size_t>(c.from)], ids[static_cast<std::size_t>(c.to)],
+                    incremental_.rrr().clusterOf(k), verdict(k)});
+  }
+  return rows;
+}
+
+std::unique_ptr<OnlineRrr> OnlineRrr::fromPoseGraph(const core::PoseGraph& graph,
+                                                    const OnlineRrrParams& params) {
+  auto online = std::make_unique<OnlineRrr>(params);
+  const std::vector<NodeId> ids = graph.nodeIds();
+  std::unordered_map<NodeId, int> index_of;
+  for (std::size_t i = 0; i < ids.size(); ++i) index_of.emplace(ids[i], static_cast<int>(i));
+
+  // Odometry into each node, and candidates by their newest end (stable: input order within).
+  std::vector<std::vector<std::size_t>> odometry_into(ids.size()), candidates_at(ids.size());
+  for (std::size_t e = 0; e < graph.numEdges(); ++e) {
+    const auto& edge = graph.edge(e);
+    const int a = index_of.at(edge.from), b = index_of.at(edge.to);
+    if (edge.kind == core::EdgeKind::kOdometry) {
+      if (std::abs(a - b) != 1) {
+        throw std::invalid_argument("odometry edge " + std::to_string(edge.from) + " -> " +
+                                    std::to_string(edge.to) + " does not join consecutive nodes");
+      }
+      odometry_into[static_cast<std::size_t>(std::max(a, b))].push_back(e);
+    } else {
+      candidates_at[static_cast<std::size_t>(std::max(a, b))].push_back(e);
+    }
+  }
+  for (std::size_t k = 0; k < ids.size(); ++k) {
+    const int n = online->appendNode(ids[k], graph.pose(ids[k]));
+    for (std::size_t e : odometry_into[k]) {
+      const int a = index_of.at(graph.edge(e).from), b = index_of.at(graph.edge(e).to);
+      online->graph_.addOdometry(a, b, graph.measurement(e), graph.information(e));
+      online->odometry_.push_back({a, b, graph.measurement(e), graph.information(e)});
+    }
+    online->incremental_.advanceTo(n);
+    for (std::size_t e : candidates_at[k]) {
+      online->insertCandidate(index_of.at(graph.edge(e).from), index_of.at(graph.edge(e).to),
+                              graph.measurement(e), graph.information(e));
+    }
+  }
+  online->finish();
+  return online;
+}
+
+}  // namespace rrr_graphslam::rrr

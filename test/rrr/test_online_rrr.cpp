@@ -1,0 +1,260 @@
+// OnlineRrr, the core of the nodelet: streamed input decides like batch RRR, candidates may
+// arrive before their nodes, bad input is refused without changing the graph, and a saved graph
+// loads back to the same decisions.
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <map>
+#include <set>
+#include <string>
+#include <tuple>
+#include <vector>
+
+#include "rrr_graphslam/core/graph_io.h"
+#include "rrr_graphslam/core/keyframe_selector.h"
+#include "rrr_graphslam/rrr/online_rrr.h"
+#include "rrr_graphslam/rrr/rrr.h"
+
+#include "synthetic.h"
+
+namespace rrr_graphslam::rrr {
+namespace {
+
+const std::string kData = RRR_TEST_DATA_DIR;
+using NodeId = core::PoseGraph::NodeId;
+using Key = std::tuple<NodeId, NodeId, double, double, double>;
+
+Key keyOf(NodeId from, NodeId to, const core::Pose2& z) { return {from, to, z[0], z[1], z[2]}; }
+
+OnlineRrrParams paramsWithGap(int gap) {
+  OnlineRrrParams p;
+  p.rrr.cluster_gap = gap;
+  return p;
+}
+
+// Intel holds a few exact duplicate loop edges, which OnlineRrr refuses as re-sent messages.
+core::PoseGraph withoutDuplicateCandidates(const core::PoseGraph& g) {
+  core::PoseGraph out;
+  for (NodeId id : g.nodeIds()) out.addNode(id, g.pose(id));
+  std::set<Key> seen;
+  for (std::size_t e = 0; e < g.numEdges(); ++e) {
+    const auto& edge = g.edge(e);
+    if (edge.kind == core::EdgeKind::kLoopCandidate &&
+        !seen.insert(keyOf(edge.from, edge.to, g.measurement(e))).second) {
+      continue;
+    }
+    out.addEdge(edge.from, edge.to, g.measurement(e), g.information(e), edge.kind);
+  }
+  return out;
+}
+
+core::PoseGraph intelWithOutliers(int count, int group, unsigned seed) {
+  return withoutDuplicateCandidates(
+      testing::withOutliers(kData + "/intel.g2o.gz", count, group, seed).graph);
+}
+
+// Batch verdicts keyed by candidate ends and measurement.
+std::map<Key, Verdict> batchVerdicts(const core::PoseGraph& g, int gap) {
+  VerificationGraph graph(g, {});
+  RrrParams params;
+  params.cluster_gap = gap;
+  std::vector<Verdict> verdicts;
+  std::vector<int> clusters;
+  runBatchRrr(graph, params, verdicts, clusters);
+  std::map<Key, Verdict> out;
+  for (int k = 0; k < graph.numCandidates(); ++k) {
+    const auto& e = g.edge(graph.candidate(k).edge);
+    out[keyOf(e.from, e.to, graph.candidate(k).measurement)] =
+        verdicts[static_cast<std::size_t>(k)];
+  }
+  return out;
+}
+
+// Streams `g` as a robot would: odometry node by node, each candidate once both ends exist, or
+// (early) as soon as its older end exists.
+void stream(const core::PoseGraph& g, OnlineRrr& online, bool early) {
+  std::map<NodeId, std::vector<std::size_t>> odometry_into, candidates_at;
+  for (std::size_t e = 0; e < g.numEdges(); ++e) {
+    const auto& edge = g.edge(e);
+    ASSERT_LT(edge.from, edge.to) << "the test streams forward edges only";
+    if (edge.kind == core::EdgeKind::kOdometry) {
+      odometry_into[edge.to].push_back(e);
+    } else {
+      candidates_at[early ? edge.from : edge.to].push_back(e);
+    }
+  }
+  const auto ids = g.nodeIds();
+  online.startSession(ids[0], g.pose(ids[0]));
+  for (NodeId id : ids) {
+    if (id != ids[0]) {
+      ASSERT_EQ(odometry_into[id].size(), 1u) << "node " << id;
+      const std::size_t e = odometry_into[id][0];
+      online.addOdometry(g.edge(e).from, id, g.measurement(e), g.information(e));
+    }
+    for (std::size_t e : candidates_at[id]) {
+      online.addCandidate(g.edge(e).from, g.edge(e).to, g.measurement(e), g.information(e));
+    }
+  }
+  online.finish();
+}
+
+void expectBatchVerdicts(const OnlineRrr& online, const std::map<Key, Verdict>& batch) {
+  ASSERT_EQ(static_cast<std::size_t>(online.numCandidates()), batch.size());
+  for (int k = 0; k < online.numCandidates(); ++k) {
+    const auto& c = online.candidate(k);
+    const Key key = keyOf(online.nodeIds()[static_cast<std::size_t>(c.from)],
+                          online.nodeIds()[static_cast<std::size_t>(c.to)], c.measurement);
+    EXPECT_EQ(online.verdict(k), batch.at(key)) << "candidate " << k;
+  }
+}
+
+class OnlineRrrStreaming : public ::testing::TestWithParam<bool> {};
+
+TEST_P(OnlineRrrStreaming, DecidesLikeBatchAndReportsEveryChange) {
+  const bool early = GetParam();
+  const core::PoseGraph input = intelWithOutliers(60, 1, 3);
+  const int gap = 5;
+  const auto batch = batchVerdicts(input, gap);
+  OnlineRrr online(paramsWithGap(gap));
+  stream(input, online, early);
+  expectBatchVerdicts(online, batch);
+
+  // The changes, replayed, give the final verdicts; each candidate's first one is its arrival.
+  std::vector<Verdict> replayed(static_cast<std::size_t>(online.numCandidates()));
+  std::set<int> arrived;
+  for (const DecisionChange& change : online.takeChanges()) {
+    const auto k = static_cast<std::size_t>(change.candidate);
+    if (arrived.insert(change.candidate).second) {
+      EXPECT_EQ(change.verdict, Verdict::kPending);
+      EXPECT_EQ(change.cluster, -1);
+    } else {
+      EXPECT_EQ(change.previous, replayed[k]);
+      EXPECT_NE(change.verdict, change.previous);
+      EXPECT_FALSE(change.reason.empty());
+    }
+    replayed[k] = change.verdict;
+  }
+  for (int k = 0; k < online.numCandidates(); ++k) {
+    EXPECT_EQ(replayed[static_cast<std::size_t>(k)], online.verdict(k));
+  }
+  EXPECT_TRUE(online.takeChanges().empty());
+
+  const OnlineRrrStatus s = online.status();
+  EXPECT_EQ(s.nodes, static_cast<int>(input.numNodes()));
+  EXPECT_EQ(s.accepted + s.rejected + s.pending, s.candidates);
+  EXPECT_EQ(s.pending, 0);
+  EXPECT_EQ(s.waiting_candidates, 0);
+  EXPECT_EQ(s.open_clusters, 0);
+}
+
+INSTANTIATE_TEST_SUITE_P(CandidatesAtNewestOrOldestEnd, OnlineRrrStreaming,
+                         ::testing::Values(false, true));
+
+TEST(OnlineRrr, SavedGraphLoadsBackToTheSameDecisions) {
+  const core::PoseGraph input = intelWithOutliers(40, 4, 5);
+  OnlineRrr online(paramsWithGap(5));
+  stream(input, online, false);
+  const std::string path = ::testing::TempDir() + "online_saved.g2o";
+  core::writePoseGraph(online.toPoseGraph(), path);
+  core::GraphReadOptions options;
+  options.allow_disconnected = true;
+  const auto loaded =
+      OnlineRrr::fromPoseGraph(core::readPoseGraph(path, options), paramsWithGap(5));
+  const auto rows = online.decisionRows(), loaded_rows = loaded->decisionRows();
+  ASSERT_EQ(rows.size(), loaded_rows.size());
+  std::map<std::pair<NodeId, NodeId>, std::multiset<int>> a, b;
+  for (const auto& r : rows) a[{r.from, r.to}].insert(static_cast<int>(r.verdict));
+  for (const auto& r : loaded_rows) b[{r.from, r.to}].insert(static_cast<int>(r.verdict));
+  EXPECT_EQ(a, b);
+  // Every loaded candidate is reported, ending at its verdict.
+  std::map<int, Verdict> last;
+  for (const auto& change : loaded->takeChanges()) last[change.candidate] = change.verdict;
+  ASSERT_EQ(static_cast<int>(last.size()), loaded->numCandidates());
+  for (const auto& [k, v] : last) EXPECT_EQ(v, loaded->verdict(k));
+  // The map frame: the optimized graph holds the odometry and the accepted loops.
+  const core::PoseGraph optimized = online.optimizedPoseGraph();
+  EXPECT_EQ(optimized.numNodes(), input.numNodes());
+  EXPECT_EQ(static_cast<int>(optimized.numEdges()),
+            static_cast<int>(input.numNodes()) - 1 + online.status().accepted);
+}
+
+TEST(OnlineRrr, RefusesBadInputNamingTheFieldAndKeepsTheGraph) {
+  OnlineRrr online(paramsWithGap(3));
+  const Eigen::Matrix3d info = Eigen::Matrix3d::Identity();
+  const core::Pose2 step(1.0, 0.0, 0.0);
+  for (NodeId n = 0; n < 6; ++n) online.addOdometry(n, n + 1, step, info);
+  ASSERT_EQ(online.numNodes(), 7);
+  online.addCandidate(6, 0, core::Pose2(-6.0, 0.0, 0.0), info);
+
+  auto expect_refused = [&](auto call, const std::string& words) {
+    const int nodes = online.numNodes(), candidates = online.numCandidates();
+    try {
+      call();
+      ADD_FAILURE() << "accepted input that should fail with '" << words << "'";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find(words), std::string::npos) << e.what();
+    }
+    EXPECT_EQ(online.numNodes(), nodes);
+    EXPECT_EQ(online.numCandidates(), candidates);
+  };
+  const core::Pose2 nan(std::nan(""), 0.0, 0.0);
+  Eigen::Matrix3d indefinite = info;
+  indefinite(2, 2) = -1.0;
+  Eigen::Matrix3d asymmetric = info;
+  asymmetric(0, 1) = 0.5;
+  expect_refused([&] { online.addOdometry(6, 7, nan, info); }, "measurement: x is not finite");
+  expect_refused([&] { online.addOdometry(6, 7, step, indefinite); },
+                 "information: the matrix is not positive definite");
+  expect_refused([&] { online.addCandidate(6, 1, step, asymmetric); }, "not symmetric");
+  expect_refused([&] { online.addOdometry(4, 5, step, info); }, "from_id 4 is not the newest");
+  expect_refused([&] { online.addOdometry(6, 8, step, info); }, "to_id 8 does not follow");
+  expect_refused([&] { online.addOdometry(8, 12, step, info); }, "to_id 12 does not follow");
+  expect_refused([&] { online.addCandidate(6, 0, core::Pose2(-6.0, 0.0, 0.0), info); },
+                 "duplicate candidate");
+  expect_refused([&] { online.addCandidate(3, 4, step, info); }, "joined by odometry");
+  expect_refused([&] { online.addCandidate(3, 3, step, info); }, "equals to_id");
+  expect_refused([&] { online.startSession(5, core::Pose2::Zero()); }, "not newer");
+
+  // A new session skips ids 7..9; a candidate waiting for id 8 is then dropped, and said so.
+  EXPECT_EQ(online.addCandidate(8, 2, step, info), OnlineRrr::CandidateStatus::kWaiting);
+  EXPECT_EQ(online.addCandidate(12, 2, core::Pose2(1, 2, 0), info),
+            OnlineRrr::CandidateStatus::kWaiting);
+  online.addOdometry(10, 11, step, info);
+  const auto dropped = online.takeDroppedCandidates();
+  ASSERT_EQ(dropped.size(), 1u);
+  EXPECT_NE(dropped[0].find("from_id 8 never arrived"), std::string::npos) << dropped[0];
+  EXPECT_EQ(online.status().sessions, 2);
+  EXPECT_EQ(online.status().waiting_candidates, 1);
+  online.addOdometry(11, 12, step, info);
+  EXPECT_EQ(online.status().waiting_candidates, 0);
+  EXPECT_EQ(online.numCandidates(), 2);
+  expect_refused([&] { online.addCandidate(8, 2, step, info); }, "from_id 8 is not a node");
+}
+
+TEST(OnlineRrr, MapToOdomFollowsTheNewestNode) {
+  OnlineRrr online(paramsWithGap(3));
+  EXPECT_TRUE(online.mapToOdom().isZero());
+  const core::Pose2 start(2.0, -1.0, 0.3);
+  online.startSession(0, start);
+  online.addOdometry(0, 1, core::Pose2(1.0, 0.0, 0.1), Eigen::Matrix3d::Identity());
+  // Without loops the map is the odometry frame.
+  EXPECT_LT(online.mapToOdom().norm(), 1e-12);
+  EXPECT_LT((online.odomPoses()[1] - core::compose(start, core::Pose2(1.0, 0.0, 0.1))).norm(),
+            1e-12);
+}
+
+TEST(KeyframeSelector, NodesEveryMinTravelOrRotation) {
+  core::KeyframeSelector selector({0.5, 0.4});
+  EXPECT_TRUE(selector.accept(core::Pose2(0, 0, 0)));
+  EXPECT_FALSE(selector.accept(core::Pose2(0.3, 0, 0)));
+  EXPECT_FALSE(selector.accept(core::Pose2(0.49, 0.0, 0.39)));
+  EXPECT_TRUE(selector.accept(core::Pose2(0.3, 0.4, 0)));  // 0.5 m from the last node
+  EXPECT_FALSE(selector.accept(core::Pose2(0.3, 0.4, 0.2)));
+  EXPECT_TRUE(selector.accept(core::Pose2(0.3, 0.4, -0.45)));  // turned 0.45 rad
+  EXPECT_THROW(core::KeyframeSelector({0.0, 0.1}), std::invalid_argument);
+  EXPECT_THROW(core::KeyframeSelector({0.1, std::nan("")}), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace rrr_graphslam::rrr
