@@ -17,7 +17,10 @@ RRR_WS=${RRR_WS:-${XDG_CACHE_HOME:-${HOME}/.cache}/rrr_graphslam/ws}
 RRR_APT_PACKAGES=(
   build-essential cmake catkin python3-catkin-pkg python3-rospkg
   ros-core-dev libnodeletlib-dev libnodeletlib-tools libtf2-ros-dev libtf2-eigen-dev
-  python3-roslaunch python3-rostest python3-rosbag rosbash
+  python3-roslaunch python3-rostest python3-rosbag rosbash python3-rospy
+  libstd-srvs-dev python3-std-srvs python3-geometry-msgs python3-nav-msgs python3-sensor-msgs
+  python3-visualization-msgs python3-tf2-msgs python3-rosgraph-msgs libnav-msgs-dev
+  libsensor-msgs-dev libvisualization-msgs-dev rviz librviz-dev xvfb x11-apps imagemagick
   libmrpt-graphslam-dev libmrpt-slam-dev libmrpt-maps-dev libmrpt-ros1bridge-dev mrpt-apps
   libsuitesparse-dev libopenblas0-serial libeigen3-dev libboost-math-dev zlib1g-dev
   libgtest-dev googletest clang-format-14

@@ -1,0 +1,39 @@
+#pragma once
+// ROS messages <-> core types, free functions only. Conversions that can meet bad data throw
+// std::invalid_argument naming the message field; the caller adds the topic.
+
+#include <cstdint>
+#include <optional>
+
+#include <geometry_msgs/Pose.h>
+#include <geometry_msgs/Pose2D.h>
+#include <geometry_msgs/Transform.h>
+#include <Eigen/Core>
+#include <boost/array.hpp>
+
+#include "rrr_graphslam/core/se2.h"
+#include "rrr_graphslam/rrr/rrr.h"
+
+namespace rrr_graphslam::ros_adapter {
+
+core::Pose2 toPose2(const geometry_msgs::Pose2D& pose);
+
+/// Row-major 3x3 (x, y, theta), as in LoopCandidate and PoseGraphEdge. Not checked here: the
+/// core refuses non-finite or non-positive-definite information with the field named.
+Eigen::Matrix3d toInformation(const boost::array<double, 9>& row_major);
+
+/// Planar pose of a 3D pose: x, y and yaw. Throws for a non-finite position or a quaternion
+/// that is not of unit length ("position", "orientation").
+core::Pose2 toPose2(const geometry_msgs::Pose& pose);
+
+/// The (x, y, yaw) block of a 6x6 row-major pose covariance (nav_msgs/Odometry); std::nullopt
+/// when the block is all zero (drivers that publish no covariance).
+std::optional<Eigen::Matrix3d> planarCovariance(const boost::array<double, 36>& covariance);
+
+geometry_msgs::Pose toPoseMsg(const core::Pose2& pose);
+geometry_msgs::Transform toTransformMsg(const core::Pose2& pose);
+
+/// LoopClosureDecision's verdict constant.
+std::uint8_t toVerdictMsg(rrr::Verdict verdict);
+
+}  // namespace rrr_graphslam::ros_adapter

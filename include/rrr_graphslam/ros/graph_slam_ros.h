@@ -1,0 +1,121 @@
+#pragma once
+// The ROS adapter around rrr::OnlineRrr, shared by the nodelet and the standalone node.
+//
+// Callbacks only convert and queue; one worker thread owns the graph and runs RRR, so no callback
+// ever waits for an optimization. Services (~save, ~load, ~reset, ~optimize, ~finish) are served
+// on a callback queue of their own and executed by the worker in turn with the input.
+//
+// In (relative to the node handle, remap freely): odom (nav_msgs/Odometry), pose_graph_edges
+// (PoseGraphEdge), loop_candidates (LoopCandidate).
+// Out (private): ~decisions (LoopClosureDecision), ~markers (MarkerArray, latched, built only for
+// subscribers), ~path (nav_msgs/Path, latched), ~status (RrrStatus), tf map -> odom.
+
+#include <atomic>
+#include <condition_variable>
+#include <cstdint>
+#include <deque>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+#include <variant>
+#include <vector>
+
+#include <nav_msgs/Odometry.h>
+#include <ros/callback_queue.h>
+#include <ros/ros.h>
+#include <std_srvs/Trigger.h>
+#include <tf2_ros/transform_broadcaster.h>
+
+#include "rrr_graphslam/LoadGraph.h"
+#include "rrr_graphslam/LoopCandidate.h"
+#include "rrr_graphslam/PoseGraphEdge.h"
+#include "rrr_graphslam/SaveGraph.h"
+#include "rrr_graphslam/core/keyframe_selector.h"
+#include "rrr_graphslam/ros/params.h"
+#include "rrr_graphslam/rrr/online_rrr.h"
+
+namespace rrr_graphslam::ros_adapter {
+
+class GraphSlamRos {
+ public:
+  /// Throws std::invalid_argument for invalid parameters (naming the parameter).
+  GraphSlamRos(ros::NodeHandle nh, ros::NodeHandle private_nh);
+  ~GraphSlamRos();
+  GraphSlamRos(const GraphSlamRos&) = delete;
+  GraphSlamRos& operator=(const GraphSlamRos&) = delete;
+
+ private:
+  enum class Owner { kNone, kOdometry, kEdges };
+  using Command = std::function<void()>;
+  using Input = std::variant<nav_msgs::OdometryConstPtr, PoseGraphEdgeConstPtr,
+                             LoopCandidateConstPtr, Command>;
+
+  // Subscriber threads.
+  void enqueue(Input input, const char* topic);
+  /// Runs `job` in the worker and waits for it; false (with the reason) if it threw.
+  bool runInWorker(const std::function<std::string()>& job, std::string& message);
+
+  // Worker thread.
+  void workerLoop();
+  void process(const Input& input);
+  void handleOdometry(const nav_msgs::Odometry& msg);
+  void handleEdge(const PoseGraphEdge& msg);
+  void handleCandidate(const LoopCandidate& msg);
+  /// False if the other input owns the graph (the message is then counted as ignored).
+  bool claim(Owner owner, const char* topic);
+  void replaceGraph(std::unique_ptr<rrr::OnlineRrr> graph);
+  void publishChanges();
+  void publishOutputs();
+  void publishStatus();
+
+  // Services (their own queue and thread).
+  bool save(SaveGraph::Request& req, SaveGraph::Response& res);
+  bool load(LoadGraph::Request& req, LoadGraph::Response& res);
+  bool reset(std_srvs::Trigger::Request& req, std_srvs::Trigger::Response& res);
+  bool optimize(std_srvs::Trigger::Request& req, std_srvs::Trigger::Response& res);
+  bool finish(std_srvs::Trigger::Request& req, std_srvs::Trigger::Response& res);
+
+  // Timer thread.
+  void broadcastTf(const ros::TimerEvent& event);
+
+  NodeParams params_;
+  ros::NodeHandle nh_, private_nh_;
+
+  // Owned by the worker.
+  std::unique_ptr<rrr::OnlineRrr> graph_;
+  std::vector<ros::Time> node_stamps_;
+  Owner owner_ = Owner::kNone;
+  core::KeyframeSelector keyframes_;
+  std::optional<core::Pose2> last_keyframe_odom_;  // odometry pose of the newest odom node
+  ros::Time last_odom_stamp_;
+  bool dirty_ = false;
+  double last_update_sec_ = 0.0;
+  std::chrono::steady_clock::time_point last_publish_;
+
+  // Shared with the subscriber threads.
+  std::mutex queue_mutex_;
+  std::condition_variable queue_cv_;
+  std::deque<Input> queue_;
+  bool stop_ = false;
+  bool markers_requested_ = false;
+  std::atomic<std::uint64_t> received_{0}, processed_{0}, malformed_{0}, ignored_{0};
+  std::uint64_t decisions_published_ = 0, services_handled_ = 0;  // worker only
+
+  // Shared with the tf timer.
+  std::mutex tf_mutex_;
+  std::optional<core::Pose2> map_to_odom_;
+
+  ros::Publisher decisions_pub_, markers_pub_, path_pub_, status_pub_;
+  std::vector<ros::Subscriber> subscribers_;
+  ros::CallbackQueue service_queue_;
+  std::vector<ros::ServiceServer> services_;
+  std::unique_ptr<ros::AsyncSpinner> service_spinner_;
+  tf2_ros::TransformBroadcaster tf_broadcaster_;
+  ros::Timer tf_timer_;
+  std::thread worker_;
+};
+
+}  // namespace rrr_graphslam::ros_adapter

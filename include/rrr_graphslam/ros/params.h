@@ -1,0 +1,47 @@
+#pragma once
+// Every parameter of the node in one struct with its defaults, and the loader that reads it from
+// the private namespace (config/rrr_graphslam.yaml) and refuses bad values naming the parameter.
+
+#include <string>
+
+#include <ros/node_handle.h>
+#include <Eigen/Core>
+
+#include "rrr_graphslam/core/keyframe_selector.h"
+#include "rrr_graphslam/rrr/online_rrr.h"
+
+namespace rrr_graphslam::ros_adapter {
+
+struct NodeParams {
+  // Frames (REP 105).
+  std::string map_frame = "map";
+  std::string odom_frame = "odom";
+  /// "auto": the first input that creates a node (odom or pose_graph_edges) owns the graph until
+  /// ~reset; "odom" or "edges" fix it. Messages of the other input are counted as ignored.
+  std::string input_mode = "auto";
+
+  // Nodes from odometry.
+  core::KeyframeParams keyframes;
+  /// Standard deviations (m, m, rad) of one odometry step between nodes, used when the Odometry
+  /// message's pose covariance is zero; default 0.05 m, 0.05 m, 0.02 rad.
+  Eigen::Vector3d odometry_stddev{0.05, 0.05, 0.02};
+
+  // RRR (cluster_gap in nodes, alpha, ...).
+  rrr::OnlineRrrParams rrr;
+
+  // Output.
+  bool publish_tf = true;
+  double tf_publish_period = 0.05;   ///< s
+  double transform_tolerance = 0.1;  ///< s added to the map->odom stamp, as amcl does
+  double publish_period = 0.2;       ///< s between path/marker updates while input is queued
+  double status_period = 1.0;        ///< s between status messages when nothing happens
+
+  // Input.
+  int input_queue_size = 10000;  ///< roscpp subscriber queues
+  int max_backlog = 1000000;     ///< messages queued for the worker, at most (then refused, logged)
+};
+
+/// Reads the parameters from `private_nh`; throws std::invalid_argument naming the parameter.
+NodeParams loadParams(const ros::NodeHandle& private_nh);
+
+}  // namespace rrr_graphslam::ros_adapter

@@ -1,0 +1,19 @@
+// rrr_graphslam_node: the same adapter as the nodelet, as a process of its own.
+
+#include <exception>
+
+#include <ros/ros.h>
+
+#include "rrr_graphslam/ros/graph_slam_ros.h"
+
+int main(int argc, char** argv) {
+  ros::init(argc, argv, "rrr_graphslam");
+  try {
+    rrr_graphslam::ros_adapter::GraphSlamRos adapter(ros::NodeHandle(), ros::NodeHandle("~"));
+    ros::spin();
+  } catch (const std::exception& e) {
+    ROS_FATAL("%s", e.what());
+    return 1;
+  }
+  return 0;
+}

@@ -1,0 +1,99 @@
+#include "rrr_graphslam/ros/params.h"
+
+#include <cmath>
+#include <functional>
+#include <sstream>
+#include <stdexcept>
+#include <vector>
+
+namespace rrr_graphslam::ros_adapter {
+namespace {
+
+class ParamReader {
+ public:
+  explicit ParamReader(const ros::NodeHandle& nh) : nh_(nh) {}
+
+  // Reads `name` if set (keeps the default otherwise); `ok` checks the value.
+  template <class T>
+  void read(const std::string& name, T& value, const std::function<bool(const T&)>& ok,
+            const char* requirement) {
+    if (nh_.hasParam(name)) {
+      if (!nh_.getParam(name, value)) fail(name, "has the wrong type");
+    }
+    if (!ok(value)) {
+      std::ostringstream what;
+      what << "must be " << requirement << ", got " << value;
+      fail(name, what.str());
+    }
+  }
+
+  void positive(const std::string& name, double& value) {
+    read<double>(
+        name, value, [](const double& v) { return std::isfinite(v) && v > 0.0; }, "positive");
+  }
+  void positive(const std::string& name, int& value) {
+    read<int>(
+        name, value, [](const int& v) { return v > 0; }, "a positive integer");
+  }
+
+  void vector3(const std::string& name, Eigen::Vector3d& value) {
+    if (!nh_.hasParam(name)) return;
+    std::vector<double> v;
+    if (!nh_.getParam(name, v) || v.size() != 3) fail(name, "must be a list of 3 numbers");
+    for (double x : v) {
+      if (!std::isfinite(x) || x <= 0.0) fail(name, "entries must be positive");
+    }
+    value = Eigen::Vector3d(v[0], v[1], v[2]);
+  }
+
+  [[noreturn]] void fail(const std::string& name, const std::string& what) const {
+    throw std::invalid_argument("parameter " + nh_.resolveName(name) + " " + what);
+  }
+
+ private:
+  const ros::NodeHandle& nh_;
+};
+
+}  // namespace
+
+NodeParams loadParams(const ros::NodeHandle& private_nh) {
+  NodeParams p;
+  ParamReader r(private_nh);
+  auto frame = [](const std::string& f) { return !f.empty() && f.front() != '/'; };
+  r.read<std::string>("map_frame", p.map_frame, frame, "a frame id without a leading '/'");
+  r.read<std::string>("odom_frame", p.odom_frame, frame, "a frame id without a leading '/'");
+  r.read<std::string>(
+      "input_mode", p.input_mode,
+      [](const std::string& m) { return m == "auto" || m == "odom" || m == "edges"; },
+      "auto, odom or edges");
+
+  r.positive("min_travel_m", p.keyframes.min_travel_m);
+  r.positive("min_rotation_rad", p.keyframes.min_rotation_rad);
+  r.vector3("odometry_stddev", p.odometry_stddev);
+
+  rrr::RrrParams& rrr = p.rrr.rrr;
+  r.read<double>(
+      "alpha", rrr.alpha, [](const double& a) { return a > 0.0 && a < 1.0; }, "in (0, 1)");
+  r.positive("cluster_gap", rrr.cluster_gap);
+  r.read<double>(
+      "batch_removal_fraction", rrr.batch_removal_fraction,
+      [](const double& f) { return f >= 0.0 && f <= 1.0; }, "in [0, 1]");
+  r.read<double>(
+      "recover_gate", rrr.recover_gate, [](const double& g) { return g >= 0.0; }, "non-negative");
+  r.positive("incremental_map_update_every", rrr.incremental_map_update_every);
+  r.positive("max_waiting_candidates", p.rrr.max_waiting_candidates);
+
+  r.read<bool>(
+      "publish_tf", p.publish_tf, [](const bool&) { return true; }, "a boolean");
+  r.positive("tf_publish_period", p.tf_publish_period);
+  r.read<double>(
+      "transform_tolerance", p.transform_tolerance, [](const double& t) { return t >= 0.0; },
+      "non-negative");
+  r.positive("publish_period", p.publish_period);
+  r.positive("status_period", p.status_period);
+  r.positive("input_queue_size", p.input_queue_size);
+  r.positive("max_backlog", p.max_backlog);
+  return p;
+}
+
+}  // namespace rrr_graphslam::ros_adapter
