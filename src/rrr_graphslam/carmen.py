@@ -1,0 +1,152 @@
+"""CARMEN log reader (FLASER, ROBOTLASER1, ODOM; plain or .gz), the laser logs of the Radish and
+slamevaluation collections. ROS-free; carmen_ros.py turns the records into messages.
+
+Conventions the logs leave implicit (see the README's data notes):
+- FLASER has no angle fields: the beams span 180 degrees from -90 degrees, one degree (or half a
+  degree) apart: increment pi/n for an even count (180, 360 readings), pi/(n-1) for an odd one
+  (181, 361), so that the beams fall on whole or half degrees.
+- "No return" is written as the sensor's maximum range; readings at or above the log's maximum
+  (max_range) are misses.
+- Timestamps are the ipc_timestamp field (the one relations files use); they may go backwards
+  (Intel): records stay in log order and monotonic_stamps() repairs the order for ROS.
+"""
+
+import math
+from dataclasses import dataclass
+from typing import List, Optional, Tuple
+
+from .graph_io import GraphFileError, between, open_text
+
+Pose = Tuple[float, float, float]
+
+
+@dataclass
+class LaserRecord:
+    timestamp: float        # ipc_timestamp, s
+    angle_min: float        # rad, in the laser frame
+    angle_increment: float  # rad
+    max_range: float        # m, as stated (ROBOTLASER1) or the log's maximum reading (FLASER)
+    ranges: List[float]
+    laser_pose: Pose        # world (odometry) pose of the laser
+    odom_pose: Pose         # odometry pose of the robot
+    line: int
+
+
+@dataclass
+class OdomRecord:
+    timestamp: float
+    pose: Pose
+    tv: float  # m/s
+    rv: float  # rad/s
+    line: int
+
+
+@dataclass
+class CarmenLog:
+    path: str
+    lasers: List[LaserRecord]
+    odometry: List[OdomRecord]  # ODOM lines; empty for logs that have none (odometry then comes with the scans)
+    records: List[object]       # both, in log order
+
+    @property
+    def max_range(self) -> float:
+        return max((r.max_range for r in self.lasers), default=0.0)
+
+    def laser_offset(self) -> Pose:
+        """Laser pose in the robot frame (from the first scan)."""
+        return between(self.lasers[0].odom_pose, self.lasers[0].laser_pose) if self.lasers else (0.0, 0.0, 0.0)
+
+
+def flaser_increment(n: int) -> float:
+    return math.pi / n if n % 2 == 0 else math.pi / (n - 1)
+
+
+def read_carmen(path: str) -> CarmenLog:
+    """Raises GraphFileError (file:line) for malformed FLASER/ROBOTLASER1/ODOM lines; other
+    message types (PARAM, SYNC, TRUEPOS, ...) are skipped."""
+    lasers: List[LaserRecord] = []
+    odometry: List[OdomRecord] = []
+    records: List[object] = []
+    with open_text(path) as f:
+        for number, raw in enumerate(f, start=1):
+            fields = raw.split()
+            if not fields or fields[0].startswith("#"):
+                continue
+            tag = fields[0]
+            if tag not in ("FLASER", "ROBOTLASER1", "ODOM"):
+                continue
+            try:
+                record = _parse(tag, fields, number)
+            except (ValueError, IndexError) as e:
+                raise GraphFileError(path, number, f"malformed {tag} line: {e}") from None
+            (odometry if isinstance(record, OdomRecord) else lasers).append(record)
+            records.append(record)
+    if not lasers:
+        raise GraphFileError(path, 0, "no FLASER or ROBOTLASER1 line")
+    # FLASER states no maximum: the log's largest reading is its "no return" value.
+    flaser_max = max((max(r.ranges) for r in lasers if math.isnan(r.max_range)), default=0.0)
+    for r in lasers:
+        if math.isnan(r.max_range):
+            r.max_range = flaser_max
+    return CarmenLog(path, lasers, odometry, records)
+
+
+def _finite(values, what):
+    for v in values:
+        if not math.isfinite(v):
+            raise ValueError(f"{what} is not finite")
+    return values
+
+
+def _parse(tag: str, f: List[str], line: int):
+    if tag == "ODOM":
+        if len(f) < 8:
+            raise ValueError(f"expected at least 8 fields, found {len(f)}")
+        x, y, t, tv, rv = _finite([float(v) for v in f[1:6]], "pose or velocity")
+        return OdomRecord(float(f[7]), (x, y, t), tv, rv, line)
+    if tag == "FLASER":
+        n = int(f[1])
+        if n < 2 or len(f) < 2 + n + 7:
+            raise ValueError(f"{n} readings need {2 + n + 7} fields, found {len(f)}")
+        ranges = _finite([float(v) for v in f[2:2 + n]], "a range")
+        x, y, t, ox, oy, ot = _finite([float(v) for v in f[2 + n:8 + n]], "a pose")
+        return LaserRecord(float(f[8 + n]), -math.pi / 2, flaser_increment(n), math.nan, ranges,
+                           (x, y, t), (ox, oy, ot), line)
+    # ROBOTLASER1 type start fov resolution max_range accuracy remission_mode n ranges... nrem rems...
+    #   laser x y theta robot x y theta tv rv forward_safety side_safety turn_axis ipc host logger
+    start, fov, resolution, max_range = (float(v) for v in f[2:6])
+    n = int(f[8])
+    k = 9 + n
+    n_rem = int(f[k])
+    k += 1 + n_rem
+    if n < 1 or len(f) < k + 14:
+        raise ValueError(f"expected {k + 14} fields, found {len(f)}")
+    ranges = _finite([float(v) for v in f[9:9 + n]], "a range")
+    lx, ly, lt, rx, ry, rt = _finite([float(v) for v in f[k:k + 6]], "a pose")
+    _finite([start, fov, resolution, max_range], "an angle or the maximum range")
+    if resolution <= 0:
+        raise ValueError("angular resolution must be positive")
+    return LaserRecord(float(f[k + 11]), start, resolution, max_range, ranges, (lx, ly, lt), (rx, ry, rt), line)
+
+
+def monotonic_stamps(times: List[float], step: float = 1e-6) -> Tuple[List[float], int]:
+    """Stamps that never go back (each at least `step` after the previous), and how many changed."""
+    out: List[float] = []
+    changed = 0
+    for t in times:
+        if out and t <= out[-1]:
+            t = out[-1] + step
+            changed += 1
+        out.append(t)
+    return out, changed
+
+
+def odometry_stream(log: CarmenLog) -> List[Tuple[float, Pose, float, float]]:
+    """(time, pose, tv, rv) in log order: the ODOM lines, or the scans' odometry when there are none."""
+    if log.odometry:
+        return [(o.timestamp, o.pose, o.tv, o.rv) for o in log.odometry]
+    return [(r.timestamp, r.odom_pose, 0.0, 0.0) for r in log.lasers]
+
+
+def is_miss(reading: float, max_range: Optional[float]) -> bool:
+    return max_range is not None and reading >= max_range

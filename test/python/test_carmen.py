@@ -1,0 +1,71 @@
+"""CARMEN reader: the three message types, the FLASER angle convention, misses, file:line errors,
+and the ROS-independent timestamp repair."""
+import gzip
+import math
+import os
+
+import pytest
+
+from conftest import DATA
+from rrr_graphslam.carmen import flaser_increment, monotonic_stamps, odometry_stream, read_carmen
+from rrr_graphslam.graph_io import GraphFileError
+
+ROBOTLASER = ("ROBOTLASER1 0 -1.570796 3.141593 0.017453 81.900000 0.010000 0 3 1.0 81.91 2.0 0 "
+              "0.1 0.0 0.0 0.0 0.0 0.0 0.2 0.0 1.0 1.0 0.5 12.5 host 0.0\n")
+
+
+def write(tmp_path, text, name="log.clf"):
+    path = tmp_path / name
+    path.write_text(text)
+    return str(path)
+
+
+def test_flaser_beams_fall_on_whole_or_half_degrees():
+    assert math.degrees(flaser_increment(180)) == pytest.approx(1.0)
+    assert math.degrees(flaser_increment(181)) == pytest.approx(1.0)
+    assert math.degrees(flaser_increment(360)) == pytest.approx(0.5)
+    assert math.degrees(flaser_increment(361)) == pytest.approx(0.5)
+
+
+def test_reads_every_message_type_in_log_order(tmp_path):
+    log = read_carmen(write(tmp_path, "# comment\nPARAM x 1 nohost 0\n"
+                                      "ODOM 1 2 0.5 0.3 0.1 0 10.0 host 0\n"
+                                      "FLASER 4 1 2 3 4 1 2 0.5 1 2 0.5 10.5 host 0\n" + ROBOTLASER))
+    assert [type(r).__name__ for r in log.records] == ["OdomRecord", "LaserRecord", "LaserRecord"]
+    flaser, robot = log.lasers
+    assert flaser.timestamp == 10.5 and flaser.angle_min == pytest.approx(-math.pi / 2)
+    assert flaser.max_range == 4.0  # FLASER: the log's largest reading
+    assert robot.max_range == pytest.approx(81.9) and robot.ranges == [1.0, 81.91, 2.0]
+    assert robot.timestamp == 12.5 and robot.laser_pose == (0.1, 0.0, 0.0)
+    assert log.odometry[0].pose == (1.0, 2.0, 0.5) and log.odometry[0].tv == 0.3
+    assert log.laser_offset() == pytest.approx((0.0, 0.0, 0.0))
+
+
+@pytest.mark.parametrize("line, words", [
+    ("FLASER 4 1 2 3\n", "4 readings need"),
+    ("FLASER 2 1 nan 0 0 0 0 0 0 1 h 0\n", "not finite"),
+    ("ODOM 1 2 x 0 0 0 1 h 0\n", "could not convert"),
+    ("ODOM 1 2\n", "at least 8 fields"),
+])
+def test_malformed_lines_name_file_and_line(tmp_path, line, words):
+    path = write(tmp_path, "ODOM 0 0 0 0 0 0 1 h 0\n" + line)
+    with pytest.raises(GraphFileError) as e:
+        read_carmen(path)
+    assert str(e.value).startswith(f"{path}:2:") and words in str(e.value)
+
+
+def test_log_without_scans_is_refused(tmp_path):
+    with pytest.raises(GraphFileError, match="no FLASER"):
+        read_carmen(write(tmp_path, "ODOM 0 0 0 0 0 0 1 h 0\n"))
+
+
+def test_stamps_that_go_back_are_moved_just_past_the_previous():
+    stamps, moved = monotonic_stamps([1.0, 2.0, 1.5, 1.7, 3.0])
+    assert moved == 2 and stamps[2] > 2.0 and stamps[3] > stamps[2] and stamps[4] == 3.0
+
+
+def test_bundled_aces_head():
+    log = read_carmen(os.path.join(DATA, "carmen", "aces_head.clf.gz"))
+    assert len(log.lasers) > 250 and all(len(r.ranges) == 180 for r in log.lasers)
+    assert log.max_range == pytest.approx(50.0)
+    assert len(odometry_stream(log)) == len(log.odometry) > 250
