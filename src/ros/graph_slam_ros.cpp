@@ -1,5 +1,6 @@
 #include "rrr_graphslam/ros/graph_slam_ros.h"
 
+#include <algorithm>
 #include <chrono>
 #include <future>
 #include <stdexcept>
@@ -155,11 +156,15 @@ void GraphSlamRos::workerLoop() {
     {
       std::unique_lock<std::mutex> lock(queue_mutex_);
       if (queue_.empty() && !stop_) {
+        // Idle: outputs at most every publish_period (a path and markers per message would cost
+        // more than RRR at high input rates), the status at once (replays in lockstep wait on it).
         lock.unlock();
-        if (dirty_) publishOutputs();
+        if (dirty_ && secondsSince(last_publish_) >= params_.publish_period) publishOutputs();
         publishStatus();
         lock.lock();
-        queue_cv_.wait_for(lock, std::chrono::duration<double>(params_.status_period),
+        const double wait =
+            dirty_ ? params_.publish_period - secondsSince(last_publish_) : params_.status_period;
+        queue_cv_.wait_for(lock, std::chrono::duration<double>(std::max(wait, 1e-3)),
                            [this] { return stop_ || !queue_.empty() || markers_requested_; });
       }
       if (stop_) {

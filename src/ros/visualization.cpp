@@ -66,6 +66,10 @@ visualization_msgs::MarkerArray buildMarkers(const rrr::OnlineRrr& graph,
   }
   visualization_msgs::MarkerArray array;
   array.markers = {odometry, accepted, rejected, pending, nodes};
+  // rviz reports an empty line list as an error; an empty namespace is deleted instead.
+  for (auto& m : array.markers) {
+    if (m.points.empty()) m.action = visualization_msgs::Marker::DELETE;
+  }
   return array;
 }
 
