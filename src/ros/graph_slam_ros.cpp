@@ -43,6 +43,14 @@ std::string defaultDecisionsPath(std::string path) {
   return path + ".decisions.tsv";
 }
 
+void logServiceResult(const char* service, bool success, const std::string& message) {
+  if (success) {
+    ROS_INFO("%s: %s", service, message.c_str());
+  } else {
+    ROS_ERROR("%s failed: %s", service, message.c_str());
+  }
+}
+
 }  // namespace
 
 GraphSlamRos::GraphSlamRos(ros::NodeHandle nh, ros::NodeHandle private_nh)
@@ -402,11 +410,7 @@ bool GraphSlamRos::save(SaveGraph::Request& req, SaveGraph::Response& res) {
                std::to_string(graph_->numCandidates()) + " candidates to " + written;
       },
       res.message);
-  if (res.success) {
-    ROS_INFO("~save: %s", res.message.c_str());
-  } else {
-    ROS_ERROR("~save failed: %s", res.message.c_str());
-  }
+  logServiceResult("~save", res.success, res.message);
   return true;
 }
 
@@ -424,11 +428,7 @@ bool GraphSlamRos::load(LoadGraph::Request& req, LoadGraph::Response& res) {
                " rejected";
       },
       res.message);
-  if (res.success) {
-    ROS_INFO("~load: %s", res.message.c_str());
-  } else {
-    ROS_ERROR("~load failed: %s", res.message.c_str());
-  }
+  logServiceResult("~load", res.success, res.message);
   return true;
 }
 

@@ -15,7 +15,7 @@ import math
 from dataclasses import dataclass
 from typing import List, Optional, Tuple
 
-from .graph_io import GraphFileError, between, open_text
+from .graph_io import GraphFileError, between, tagged_lines
 
 Pose = Tuple[float, float, float]
 
@@ -67,20 +67,16 @@ def read_carmen(path: str) -> CarmenLog:
     lasers: List[LaserRecord] = []
     odometry: List[OdomRecord] = []
     records: List[object] = []
-    with open_text(path) as f:
-        for number, raw in enumerate(f, start=1):
-            fields = raw.split()
-            if not fields or fields[0].startswith("#"):
-                continue
-            tag = fields[0]
-            if tag not in ("FLASER", "ROBOTLASER1", "ODOM"):
-                continue
-            try:
-                record = _parse(tag, fields, number)
-            except (ValueError, IndexError) as e:
-                raise GraphFileError(path, number, f"malformed {tag} line: {e}") from None
-            (odometry if isinstance(record, OdomRecord) else lasers).append(record)
-            records.append(record)
+    for number, fields in tagged_lines(path):
+        tag = fields[0]
+        if tag not in ("FLASER", "ROBOTLASER1", "ODOM"):
+            continue
+        try:
+            record = _parse(tag, fields, number)
+        except (ValueError, IndexError) as e:
+            raise GraphFileError(path, number, f"malformed {tag} line: {e}") from None
+        (odometry if isinstance(record, OdomRecord) else lasers).append(record)
+        records.append(record)
     if not lasers:
         raise GraphFileError(path, 0, "no FLASER or ROBOTLASER1 line")
     # FLASER states no maximum: the log's largest reading is its "no return" value.

@@ -81,59 +81,64 @@ def _is_positive_definite(info) -> bool:
     return m1 > 0 and m2 > 0 and m3 > 0
 
 
-def read_graph(path: str, allow_disconnected: bool = True) -> PoseGraph:
-    graph = PoseGraph()
-    vertex_line: Dict[int, int] = {}
+def tagged_lines(path: str):
+    """(line number, fields) of every line that is not blank or a '#' comment; fields[0] is the tag."""
     with open_text(path) as f:
         for number, raw in enumerate(f, start=1):
             fields = raw.split()
-            if not fields or fields[0].startswith("#"):
-                continue
-            tag = fields[0]
+            if fields and not fields[0].startswith("#"):
+                yield number, fields
 
-            def fail(what, number=number):
-                raise GraphFileError(path, number, what)
 
-            def numbers(values):
-                out = []
-                for k, v in enumerate(values):
-                    try:
-                        x = float(v)
-                    except ValueError:
-                        fail(f"field {k + 1} of {tag} ('{v}') is not a number")
-                    if not math.isfinite(x):
-                        fail(f"field {k + 1} of {tag} ('{v}') is not finite")
-                    out.append(x)
-                return out
+def read_graph(path: str, allow_disconnected: bool = True) -> PoseGraph:
+    graph = PoseGraph()
+    vertex_line: Dict[int, int] = {}
+    for number, fields in tagged_lines(path):
+        tag = fields[0]
 
-            def node_id(v):
-                if not v.isdigit():
-                    fail(f"'{v}' is not a node id (a non-negative integer)")
-                return int(v)
+        def fail(what, number=number):
+            raise GraphFileError(path, number, what)
 
-            if tag in ("VERTEX_SE2", "VERTEX2"):
-                if len(fields) != 5:
-                    fail(f"{tag} expects 4 fields after the tag, found {len(fields) - 1}")
-                i = node_id(fields[1])
-                if i in vertex_line:
-                    fail(f"duplicate vertex id {i} (first defined on line {vertex_line[i]})")
-                vertex_line[i] = number
-                graph.poses[i] = tuple(numbers(fields[2:5]))
-            elif tag in ("EDGE_SE2", "EDGE2"):
-                if len(fields) != 12:
-                    fail(f"{tag} expects 11 fields after the tag, found {len(fields) - 1}")
-                i, j = node_id(fields[1]), node_id(fields[2])
-                if i == j:
-                    fail(f"self-loop: edge from node {i} to itself")
-                values = numbers(fields[3:12])
-                raw_info = values[3:]
-                info = tuple(raw_info[k] for k in (TORO_TO_G2O if tag == "EDGE2" else G2O_ORDER))
-                if not _is_positive_definite(info):
-                    fail(f"information matrix of {tag} is not positive definite")
-                z = (values[0], values[1], normalize_angle(values[2]))
-                graph.edges.append(Edge(i, j, z, info, number))
-            else:
-                fail(f"unknown tag '{tag}' (expected VERTEX_SE2, EDGE_SE2, VERTEX2 or EDGE2)")
+        def numbers(values):
+            out = []
+            for k, v in enumerate(values):
+                try:
+                    x = float(v)
+                except ValueError:
+                    fail(f"field {k + 1} of {tag} ('{v}') is not a number")
+                if not math.isfinite(x):
+                    fail(f"field {k + 1} of {tag} ('{v}') is not finite")
+                out.append(x)
+            return out
+
+        def node_id(v):
+            if not v.isdigit():
+                fail(f"'{v}' is not a node id (a non-negative integer)")
+            return int(v)
+
+        if tag in ("VERTEX_SE2", "VERTEX2"):
+            if len(fields) != 5:
+                fail(f"{tag} expects 4 fields after the tag, found {len(fields) - 1}")
+            i = node_id(fields[1])
+            if i in vertex_line:
+                fail(f"duplicate vertex id {i} (first defined on line {vertex_line[i]})")
+            vertex_line[i] = number
+            graph.poses[i] = tuple(numbers(fields[2:5]))
+        elif tag in ("EDGE_SE2", "EDGE2"):
+            if len(fields) != 12:
+                fail(f"{tag} expects 11 fields after the tag, found {len(fields) - 1}")
+            i, j = node_id(fields[1]), node_id(fields[2])
+            if i == j:
+                fail(f"self-loop: edge from node {i} to itself")
+            values = numbers(fields[3:12])
+            raw_info = values[3:]
+            info = tuple(raw_info[k] for k in (TORO_TO_G2O if tag == "EDGE2" else G2O_ORDER))
+            if not _is_positive_definite(info):
+                fail(f"information matrix of {tag} is not positive definite")
+            z = (values[0], values[1], normalize_angle(values[2]))
+            graph.edges.append(Edge(i, j, z, info, number))
+        else:
+            fail(f"unknown tag '{tag}' (expected VERTEX_SE2, EDGE_SE2, VERTEX2 or EDGE2)")
     if not vertex_line:
         _chain_initial_poses(graph)
     for e in graph.edges:
