@@ -238,28 +238,10 @@ core::Pose2 OnlineRrr::mapToOdom() const {
   return core::compose(mapPoses().back(), core::inverse(odomPoses().back()));
 }
 
-core::PoseGraph OnlineRrr::toPoseGraph() const {
+core::PoseGraph OnlineRrr::poseGraph(const std::vector<core::Pose2>& poses,
+                                     bool accepted_only) const {
   core::PoseGraph g;
   const auto& ids = nodeIds();
-  for (int k = 0; k < numNodes(); ++k) {
-    g.addNode(ids[static_cast<std::size_t>(k)], odomPoses()[static_cast<std::size_t>(k)]);
-  }
-  for (const Odometry& o : odometry_) {
-    g.addEdge(ids[static_cast<std::size_t>(o.from)], ids[static_cast<std::size_t>(o.to)],
-              o.measurement, o.information, core::EdgeKind::kOdometry);
-  }
-  for (int k = 0; k < numCandidates(); ++k) {
-    const LoopCandidate& c = candidate(k);
-    g.addEdge(ids[static_cast<std::size_t>(c.from)], ids[static_cast<std::size_t>(c.to)],
-              c.measurement, c.information, core::EdgeKind::kLoopCandidate);
-  }
-  return g;
-}
-
-core::PoseGraph OnlineRrr::optimizedPoseGraph() const {
-  core::PoseGraph g;
-  const auto& ids = nodeIds();
-  const std::vector<core::Pose2> poses = mapPoses();
   for (int k = 0; k < numNodes(); ++k) {
     g.addNode(ids[static_cast<std::size_t>(k)], poses[static_cast<std::size_t>(k)]);
   }
@@ -268,13 +250,17 @@ core::PoseGraph OnlineRrr::optimizedPoseGraph() const {
               o.measurement, o.information, core::EdgeKind::kOdometry);
   }
   for (int k = 0; k < numCandidates(); ++k) {
-    if (verdict(k) != Verdict::kAccepted) continue;
+    if (accepted_only && verdict(k) != Verdict::kAccepted) continue;
     const LoopCandidate& c = candidate(k);
     g.addEdge(ids[static_cast<std::size_t>(c.from)], ids[static_cast<std::size_t>(c.to)],
               c.measurement, c.information, core::EdgeKind::kLoopCandidate);
   }
   return g;
 }
+
+core::PoseGraph OnlineRrr::toPoseGraph() const { return poseGraph(odomPoses(), false); }
+
+core::PoseGraph OnlineRrr::optimizedPoseGraph() const { return poseGraph(mapPoses(), true); }
 
 std::vector<DecisionRow> OnlineRrr::decisionRows() const {
   std::vector<DecisionRow> rows;

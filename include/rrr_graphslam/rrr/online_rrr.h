@@ -147,6 +147,8 @@ class OnlineRrr {
   };
 
   int appendNode(NodeId id, const core::Pose2& odom_pose);
+  /// Nodes at `poses`, the odometry, then the candidates (all, or the accepted ones).
+  core::PoseGraph poseGraph(const std::vector<core::Pose2>& poses, bool accepted_only) const;
   void insertCandidate(int from, int to, const core::Pose2& measurement,
                        const Eigen::Matrix3d& information);
   void admitWaitingCandidates();
