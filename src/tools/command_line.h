@@ -9,8 +9,17 @@ namespace rrr_graphslam::tools {
 
 class CommandLine {
  public:
+  /// Prints the usage and exits 0 if any argument is -h or --help (as argparse does).
   CommandLine(int argc, char** argv, const char* program, const char* usage)
-      : argc_(argc), argv_(argv), program_(program), usage_(usage) {}
+      : argc_(argc), argv_(argv), program_(program), usage_(usage) {
+    for (int i = 1; i < argc; ++i) {
+      const std::string a = argv[i];
+      if (a == "-h" || a == "--help") {
+        std::cout << usage;
+        std::exit(0);
+      }
+    }
+  }
 
   [[noreturn]] void fail(const std::string& what) const {
     std::cerr << program_ << ": " << what << "\n" << usage_;

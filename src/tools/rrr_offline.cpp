@@ -55,10 +55,7 @@ Arguments parseArguments(int argc, char** argv) {
   Arguments args;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
-    if (a == "-h" || a == "--help") {
-      std::cout << kUsage;
-      std::exit(0);
-    } else if (a == "--decisions") {
+    if (a == "--decisions") {
       args.decisions = cli.value(i, a);
     } else if (a == "--output" || a == "-o") {
       args.output = cli.value(i, a);
