@@ -11,6 +11,7 @@
 
 #include "rrr_graphslam/core/constraint_check.h"
 #include "rrr_graphslam/core/input_error.h"
+#include "rrr_graphslam/core/line_parser.h"
 #include "rrr_graphslam/core/text_file.h"
 
 namespace rrr_graphslam::core {
@@ -26,84 +27,23 @@ struct ParsedEdge {
   std::size_t line;
 };
 
-std::vector<std::string_view> splitFields(std::string_view line) {
-  std::vector<std::string_view> fields;
-  std::size_t i = 0;
-  while (i < line.size()) {
-    while (i < line.size() && std::isspace(static_cast<unsigned char>(line[i]))) ++i;
-    const std::size_t start = i;
-    while (i < line.size() && !std::isspace(static_cast<unsigned char>(line[i]))) ++i;
-    if (i > start) fields.push_back(line.substr(start, i - start));
-  }
-  return fields;
+NodeId nodeId(const LineParser& parse, std::size_t k) {
+  return static_cast<NodeId>(parse.unsignedInteger(k, "a node id (a non-negative integer)"));
 }
 
-// Parses the fields of one line, after its tag, with errors that name the line.
-class LineParser {
- public:
-  LineParser(const LineReader& reader, std::string_view tag,
-             const std::vector<std::string_view>& fields)
-      : reader_(reader), tag_(tag), fields_(fields) {}
-
-  void expectCount(std::size_t count) const {
-    if (fields_.size() - 1 != count) {
-      fail(std::string(tag_) + " expects " + std::to_string(count) +
-           " fields after the tag, found " + std::to_string(fields_.size() - 1));
-    }
+// Reads the six upper-triangle values starting at `first`; `order` gives the (row, col) of each.
+Eigen::Matrix3d information(const LineParser& parse, std::string_view tag, std::size_t first,
+                            const int (&order)[6][2]) {
+  Eigen::Matrix3d info;
+  for (int k = 0; k < 6; ++k) {
+    const double v = parse.number(first + static_cast<std::size_t>(k));
+    info(order[k][0], order[k][1]) = v;
+    info(order[k][1], order[k][0]) = v;
   }
-
-  NodeId id(std::size_t k) const {
-    const std::string_view f = fields_[k];
-    NodeId value = 0;
-    const auto [end, ec] = std::from_chars(f.data(), f.data() + f.size(), value);
-    if (ec != std::errc() || end != f.data() + f.size()) {
-      fail("field " + std::to_string(k) + " of " + std::string(tag_) + " ('" + std::string(f) +
-           "') is not a node id (a non-negative integer)");
-    }
-    return value;
-  }
-
-  double number(std::size_t k) const {
-    const std::string_view f = fields_[k];
-    double value = 0.0;
-    const auto [end, ec] = std::from_chars(f.data(), f.data() + f.size(), value);
-    if ((ec != std::errc() && ec != std::errc::result_out_of_range) || end != f.data() + f.size()) {
-      fail("field " + std::to_string(k) + " of " + std::string(tag_) + " ('" + std::string(f) +
-           "') is not a number");
-    }
-    if (!std::isfinite(value) || ec == std::errc::result_out_of_range) {
-      fail("field " + std::to_string(k) + " of " + std::string(tag_) + " ('" + std::string(f) +
-           "') is not finite");
-    }
-    return value;
-  }
-
-  Pose2 pose(std::size_t first) const {
-    return {number(first), number(first + 1), number(first + 2)};
-  }
-
-  // Reads the six upper-triangle values starting at `first`; `order` gives the (row, col) of each.
-  Eigen::Matrix3d information(std::size_t first, const int (&order)[6][2]) const {
-    Eigen::Matrix3d info;
-    for (int k = 0; k < 6; ++k) {
-      const double v = number(first + static_cast<std::size_t>(k));
-      info(order[k][0], order[k][1]) = v;
-      info(order[k][1], order[k][0]) = v;
-    }
-    const std::string problem = informationProblem(info);
-    if (!problem.empty()) fail("information matrix of " + std::string(tag_) + ": " + problem);
-    return info;
-  }
-
-  [[noreturn]] void fail(const std::string& what) const {
-    throw InputError(reader_.path(), reader_.lineNumber(), what);
-  }
-
- private:
-  const LineReader& reader_;
-  std::string_view tag_;
-  const std::vector<std::string_view>& fields_;
-};
+  const std::string problem = informationProblem(info);
+  if (!problem.empty()) parse.fail("information matrix of " + std::string(tag) + ": " + problem);
+  return info;
+}
 
 constexpr int kG2oOrder[6][2] = {{0, 0}, {0, 1}, {0, 2}, {1, 1}, {1, 2}, {2, 2}};
 constexpr int kToroOrder[6][2] = {{0, 0}, {0, 1}, {1, 1}, {2, 2}, {0, 2}, {1, 2}};
@@ -202,7 +142,7 @@ PoseGraph readPoseGraph(const std::string& path, const GraphReadOptions& options
     const LineParser parse(reader, tag, fields);
     if (tag == "VERTEX_SE2" || tag == "VERTEX2") {
       parse.expectCount(4);
-      const NodeId id = parse.id(1);
+      const NodeId id = nodeId(parse, 1);
       const Pose2 pose = parse.pose(2);
       const auto [it, inserted] = vertex_line.emplace(id, reader.lineNumber());
       if (!inserted) {
@@ -213,13 +153,13 @@ PoseGraph readPoseGraph(const std::string& path, const GraphReadOptions& options
     } else if (tag == "EDGE_SE2" || tag == "EDGE2") {
       parse.expectCount(11);
       ParsedEdge e;
-      e.from = parse.id(1);
-      e.to = parse.id(2);
+      e.from = nodeId(parse, 1);
+      e.to = nodeId(parse, 2);
       if (e.from == e.to)
         parse.fail("self-loop: edge from node " + std::to_string(e.from) + " to itself");
       e.measurement = parse.pose(3);
       e.measurement.z() = normalizeAngle(e.measurement.z());
-      e.information = parse.information(6, tag == "EDGE_SE2" ? kG2oOrder : kToroOrder);
+      e.information = information(parse, tag, 6, tag == "EDGE_SE2" ? kG2oOrder : kToroOrder);
       e.line = reader.lineNumber();
       edges.push_back(e);
     } else {

@@ -262,6 +262,8 @@ core::PoseGraph OnlineRrr::toPoseGraph() const { return poseGraph(odomPoses(), f
 
 core::PoseGraph OnlineRrr::optimizedPoseGraph() const { return poseGraph(mapPoses(), true); }
 
+core::PoseGraph OnlineRrr::mapPoseGraph() const { return poseGraph(mapPoses(), false); }
+
 std::vector<DecisionRow> OnlineRrr::decisionRows() const {
   std::vector<DecisionRow> rows;
   const auto& ids = nodeIds();

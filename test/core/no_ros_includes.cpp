@@ -30,8 +30,8 @@ void expectNoRosIncludes(const std::filesystem::path& dir) {
 
 TEST(CoreLayering, CoreSourcesIncludeNoRosHeaders) {
   const std::filesystem::path root(RRR_SOURCE_DIR);
-  for (const char* dir :
-       {"include/rrr_graphslam/core", "src/core", "include/rrr_graphslam/rrr", "src/rrr"}) {
+  for (const char* dir : {"include/rrr_graphslam/core", "src/core", "include/rrr_graphslam/rrr",
+                          "src/rrr", "include/rrr_graphslam/frontend", "src/frontend"}) {
     if (std::filesystem::exists(root / dir)) expectNoRosIncludes(root / dir);
   }
   expectNoRosIncludes(root / "src/core");

@@ -131,6 +131,8 @@ class OnlineRrr {
   std::vector<DecisionRow> decisionRows() const;
   /// Odometry + accepted loops at the map poses.
   core::PoseGraph optimizedPoseGraph() const;
+  /// Odometry + every candidate at the map poses (what a SLAM run produced, for rrr_offline).
+  core::PoseGraph mapPoseGraph() const;
 
  private:
   struct Odometry {

@@ -1,0 +1,81 @@
+#pragma once
+// Branch-and-bound scan-to-submap matching (Hess et al., ICRA 2016, Algorithms 2-3; the bounds of
+// Olson, ICRA 2009): the best pose of a scan in a search window, exactly as an exhaustive search
+// over the same discretization would find it (matchExhaustive is that slow obvious version; the
+// tests compare them), without scoring most of the window.
+//
+// Discretization: translations on the grid's cells, rotations in steps so that the farthest point
+// moves by at most one cell. Score: the mean over the points of the (quantized) probability of the
+// cell they fall in; a match must score above min_score.
+
+#include <optional>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "rrr_graphslam/core/se2.h"
+#include "rrr_graphslam/frontend/precomputation_grid.h"
+
+namespace rrr_graphslam::frontend {
+
+using PointCloud = std::vector<Eigen::Vector2d>;
+
+struct SearchWindow {
+  double linear_m = 7.0;                   ///< half-width of the square of translations
+  double angular_rad = 30.0 * M_PI / 180;  ///< half-width of the rotations
+};
+
+struct ScanMatch {
+  core::Pose2 pose;  ///< the scan's pose in the submap frame
+  double score;      ///< in [0, 1]
+};
+
+class FastCorrelativeScanMatcher {
+ public:
+  /// Precomputes `depth` levels of max-grids (level depth-1 is the coarsest).
+  FastCorrelativeScanMatcher(const MatchGrid& grid, int depth);
+
+  /// The best pose within `window` around `initial` (submap frame) scoring above `min_score`.
+  std::optional<ScanMatch> match(const core::Pose2& initial, const PointCloud& points,
+                                 const SearchWindow& window, double min_score) const;
+  /// Relocalization: every translation that keeps the scan's origin on the submap, every rotation.
+  std::optional<ScanMatch> matchFullSubmap(const PointCloud& points, double min_score) const;
+  /// The same result by scoring every discrete pose of the window (for tests and benchmarks).
+  std::optional<ScanMatch> matchExhaustive(const core::Pose2& initial, const PointCloud& points,
+                                           const SearchWindow& window, double min_score) const;
+
+  const PrecomputationGridStack& grids() const { return grids_; }
+  /// Number of candidates scored by the last match() (all levels) or matchExhaustive().
+  long long lastScored() const { return last_scored_; }
+
+ private:
+  struct DiscreteScan {
+    double angle;                       ///< absolute rotation of the scan
+    std::vector<Eigen::Array2i> cells;  ///< points at the initial translation, as cells
+  };
+  struct Candidate {
+    int scan;
+    int x;
+    int y;
+    int score;  ///< sum of quantized values
+  };
+  struct Discretization {
+    std::vector<DiscreteScan> scans;
+    int window_cells;
+  };
+
+  Discretization discretize(const core::Pose2& initial, const PointCloud& points,
+                            const SearchWindow& window) const;
+  int score(const DiscreteScan& scan, int level, int x, int y) const;
+  std::optional<Candidate> search(const Discretization& d, std::vector<Candidate>& candidates,
+                                  int level, int min_score) const;
+  ScanMatch toMatch(const core::Pose2& initial, const Discretization& d, const Candidate& c,
+                    std::size_t num_points) const;
+
+  PrecomputationGridStack grids_;
+  Eigen::Vector2d grid_center_;
+  double grid_radius_;
+  mutable long long last_scored_ = 0;
+};
+
+}  // namespace rrr_graphslam::frontend

@@ -1,0 +1,61 @@
+#pragma once
+// Local SLAM (Cartographer's LocalTrajectoryBuilder2D): every scan is matched against the active
+// submap, starting from the odometry prediction (correlative search, then least squares); scans
+// that moved far enough since the last inserted one (the motion filter) become nodes and are
+// inserted into both active submaps.
+
+#include <memory>
+#include <optional>
+
+#include "rrr_graphslam/core/keyframe_selector.h"
+#include "rrr_graphslam/frontend/range_scan.h"
+#include "rrr_graphslam/frontend/scan_matcher.h"
+#include "rrr_graphslam/frontend/submap.h"
+
+namespace rrr_graphslam::frontend {
+
+struct LocalSlamParams {
+  RangeScanParams scan;
+  SubmapParams submap;
+  bool use_correlative_search = true;
+  CorrelativeParams correlative;
+  LeastSquaresParams least_squares;
+  /// Motion filter: a scan becomes a node after this much travel or rotation.
+  core::KeyframeParams motion_filter{0.2, 5.0 * M_PI / 180};
+  /// Scans with fewer matching points are not matched (the prediction is kept).
+  int min_points = 20;
+};
+
+struct LocalSlamResult {
+  core::Pose2 local_pose;  ///< the scan's robot pose in the local SLAM frame
+  PointCloud points;       ///< matching points, robot frame
+  bool matched = false;    ///< false: the odometry prediction was kept
+  /// Set when the scan became node `node` and was inserted.
+  std::optional<int> node;
+  /// A submap this insertion finished.
+  std::shared_ptr<Submap> finished_submap;
+};
+
+class LocalSlam {
+ public:
+  explicit LocalSlam(const LocalSlamParams& params);
+
+  /// A scan with the robot's odometry pose at its time. The local frame starts at the first
+  /// scan's odometry pose.
+  LocalSlamResult addScan(const RangeScan& scan, const core::Pose2& odom_pose);
+
+  const ActiveSubmaps& submaps() const { return submaps_; }
+  int numNodes() const { return next_node_; }
+  const LocalSlamParams& params() const { return params_; }
+
+ private:
+  LocalSlamParams params_;
+  ActiveSubmaps submaps_;
+  core::KeyframeSelector motion_filter_;
+  bool started_ = false;
+  core::Pose2 last_odom_ = core::Pose2::Zero();
+  core::Pose2 last_local_ = core::Pose2::Zero();
+  int next_node_ = 0;
+};
+
+}  // namespace rrr_graphslam::frontend

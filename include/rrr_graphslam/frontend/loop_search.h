@@ -1,0 +1,48 @@
+#pragma once
+// Loop-candidate search (Hess et al., ICRA 2016, section V): a node is matched against a finished
+// submap by branch-and-bound in a window around where the current map estimate puts it, then
+// refined by least squares; a match above min_score becomes a loop candidate between the submap's
+// anchor node and the node, with the information matrix of the refinement. The front end proposes
+// liberally; RRR decides.
+
+#include <optional>
+
+#include "rrr_graphslam/frontend/scan_matcher.h"
+#include "rrr_graphslam/frontend/submap.h"
+
+namespace rrr_graphslam::frontend {
+
+struct LoopSearchParams {
+  /// Submaps whose anchor is farther than this from the node (map estimate) are not searched.
+  double max_constraint_distance_m = 15.0;
+  SearchWindow window;  ///< 7 m, 30 degrees
+  double min_score = 0.55;
+  /// Submaps holding any of the last min_node_separation nodes are local SLAM's business.
+  int min_node_separation = 100;
+  /// Search every n-th node (Cartographer's sampling ratio 1/n).
+  int search_every_n_nodes = 1;
+  /// Least-squares refinement of a match (weak pull toward the branch-and-bound pose).
+  LeastSquaresParams refinement{1.0, 1.0, 1.0, 20, {0.05, 0.05, 0.5 * M_PI / 180}};
+};
+
+struct LoopMatch {
+  int submap;
+  int from;                     ///< the submap's anchor node
+  int to;                       ///< the node
+  core::Pose2 measurement;      ///< pose of `to` in the frame of `from`
+  Eigen::Matrix3d information;  ///< of `measurement`
+  double score;                 ///< branch-and-bound score in [0, 1]
+};
+
+/// `initial` is the node's guessed pose in the submap frame; nullopt if nothing scores above
+/// min_score in the window (or the submap is not finished).
+std::optional<LoopMatch> matchNodeToSubmap(const Submap& submap, int node, const PointCloud& points,
+                                           const core::Pose2& initial,
+                                           const LoopSearchParams& params);
+
+/// Relocalization: the whole submap, every rotation.
+std::optional<LoopMatch> matchNodeToWholeSubmap(const Submap& submap, int node,
+                                                const PointCloud& points,
+                                                const LoopSearchParams& params);
+
+}  // namespace rrr_graphslam::frontend

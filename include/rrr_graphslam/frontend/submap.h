@@ -1,0 +1,92 @@
+#pragma once
+// A submap (Cartographer's term): an occupancy grid built from a fixed number of consecutive
+// scans at their local-SLAM poses, held in MRPT's COccupancyGridMap2D (log-odds cells, hit/miss
+// updates along each ray). Its frame is the local SLAM frame; its anchor is the first node inserted
+// (a loop candidate is a constraint between the anchor and the node matched against the submap).
+// Once finished it is frozen into a MatchGrid and the branch-and-bound max-grids, and the MRPT grid
+// is released.
+
+#include <memory>
+#include <optional>
+
+#include <mrpt/maps/COccupancyGridMap2D.h>
+
+#include "rrr_graphslam/frontend/branch_and_bound.h"
+#include "rrr_graphslam/frontend/match_grid.h"
+
+namespace rrr_graphslam::frontend {
+
+struct SubmapParams {
+  int scans_per_submap = 90;  ///< insertions until finished; a new submap starts at half
+  double resolution_m = 0.05;
+  /// Rays are inserted up to this range (misses clear space up to it); keep it at the scan's
+  /// max_range_m.
+  float max_insertion_range_m = 30.0F;
+  float hit_probability = 0.60F;   ///< MRPT's maxOccupancyUpdateCertainty
+  float miss_probability = 0.45F;  ///< MRPT's maxFreenessUpdateCertainty is 1 - this
+  float unknown_value = 0.1F;      ///< what never-observed cells score in matching
+  int branch_and_bound_depth = 7;  ///< levels of max-grids built when the submap is finished
+};
+
+class Submap {
+ public:
+  Submap(int index, int anchor_node, const core::Pose2& anchor_local_pose,
+         const SubmapParams& params);
+
+  int index() const { return index_; }
+  int anchorNode() const { return anchor_node_; }
+  int lastNode() const { return last_node_; }
+  /// The anchor's local-SLAM pose (the submap frame is the local frame).
+  const core::Pose2& anchorPose() const { return anchor_pose_; }
+  int numScans() const { return num_scans_; }
+  bool finished() const { return matcher_ != nullptr; }
+
+  /// Inserts a scan taken at `local_pose` by node `node`. Throws std::logic_error once finished.
+  void insert(const mrpt::obs::CObservation2DRangeScan& scan, const core::Pose2& local_pose,
+              int node);
+  /// Freezes the grid: builds the match grid and the branch-and-bound max-grids.
+  void finish();
+
+  /// The grid as matching reads it (rebuilt lazily after insertions while active).
+  const MatchGrid& matchGrid() const;
+  /// Branch-and-bound matcher; only for finished submaps (nullptr before).
+  const FastCorrelativeScanMatcher* matcher() const { return matcher_.get(); }
+
+ private:
+  int index_;
+  int anchor_node_;
+  int last_node_;
+  core::Pose2 anchor_pose_;
+  SubmapParams params_;
+  int num_scans_ = 0;
+  std::unique_ptr<mrpt::maps::COccupancyGridMap2D> grid_;
+  mutable MatchGrid match_grid_;
+  mutable bool match_grid_dirty_ = true;
+  std::unique_ptr<FastCorrelativeScanMatcher> matcher_;
+};
+
+/// The two submaps local SLAM inserts into (Cartographer's ActiveSubmaps2D): every scan goes into
+/// both; the older one is finished after scans_per_submap insertions, and a new one starts when
+/// the newer one is half full, so consecutive submaps overlap by half.
+class ActiveSubmaps {
+ public:
+  explicit ActiveSubmaps(const SubmapParams& params);
+
+  /// Inserts; returns the submap finished by this insertion, if any.
+  std::shared_ptr<Submap> insert(const mrpt::obs::CObservation2DRangeScan& scan,
+                                 const core::Pose2& local_pose, int node);
+  /// The submap to match new scans against (the older, fuller one); nullptr before any insertion.
+  std::shared_ptr<const Submap> matchingSubmap() const {
+    return active_.empty() ? nullptr : active_.front();
+  }
+  const std::vector<std::shared_ptr<Submap>>& active() const { return active_; }
+  int numSubmaps() const { return next_index_; }
+
+ private:
+  SubmapParams params_;
+  std::vector<std::shared_ptr<Submap>> active_;
+  int next_index_ = 0;
+  bool start_next_ = true;
+};
+
+}  // namespace rrr_graphslam::frontend

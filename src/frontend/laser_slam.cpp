@@ -1,0 +1,118 @@
+#include "rrr_graphslam/frontend/laser_slam.h"
+
+#include <chrono>
+#include <stdexcept>
+
+#include <mrpt/poses/CPose3D.h>
+
+namespace rrr_graphslam::frontend {
+namespace {
+
+double secondsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+}  // namespace
+
+LaserSlam::LaserSlam(const LaserSlamParams& params)
+    : params_(params), local_(params.local), rrr_(std::make_unique<rrr::OnlineRrr>(params.rrr)) {
+  if (!(params.odometry_stddev.array() > 0.0).all()) {
+    throw std::invalid_argument("odometry_stddev must be positive");
+  }
+  if (params.loops.search_every_n_nodes < 1) {
+    throw std::invalid_argument("search_every_n_nodes must be at least 1");
+  }
+  odometry_information_ = params.odometry_stddev.cwiseAbs2().cwiseInverse().asDiagonal();
+}
+
+std::optional<int> LaserSlam::addScan(const RangeScan& scan, const core::Pose2& odom_pose) {
+  auto start = std::chrono::steady_clock::now();
+  LocalSlamResult result = local_.addScan(scan, odom_pose);
+  stats_.local_slam_seconds += secondsSince(start);
+  ++stats_.scans;
+  stats_.matched_scans += result.matched ? 1 : 0;
+  scan_timestamps_.push_back(scan.timestamp);
+
+  if (result.node) {
+    const int node = *result.node;
+    start = std::chrono::steady_clock::now();
+    if (node == 0) {
+      rrr_->startSession(0, result.local_pose);
+    } else {
+      rrr_->addOdometry(node - 1, node, core::between(node_local_poses_.back(), result.local_pose),
+                        odometry_information_);
+    }
+    stats_.rrr_seconds += secondsSince(start);
+    node_local_poses_.push_back(result.local_pose);
+    node_scans_.push_back(toObservation(scan, params_.local.scan));
+    stats_.nodes = node + 1;
+    stats_.submaps = local_.submaps().numSubmaps();
+    if (result.finished_submap) {
+      finished_.push_back(result.finished_submap);
+      ++stats_.finished_submaps;
+    }
+    if (node % params_.loops.search_every_n_nodes == 0) searchLoops(node, result.points);
+  }
+  const int newest = static_cast<int>(node_local_poses_.size()) - 1;
+  scan_node_.push_back(newest);
+  scan_offset_.push_back(
+      core::between(node_local_poses_[static_cast<std::size_t>(newest)], result.local_pose));
+  return result.node;
+}
+
+void LaserSlam::searchLoops(int node, const PointCloud& points) {
+  if (finished_.empty() || points.empty()) return;
+  const std::vector<core::Pose2> map = rrr_->mapPoses();
+  const core::Pose2& node_pose = map[static_cast<std::size_t>(node)];
+  const auto& p = params_.loops;
+  for (const auto& submap : finished_) {
+    if (node - submap->lastNode() < p.min_node_separation) continue;
+    const core::Pose2& anchor = map[static_cast<std::size_t>(submap->anchorNode())];
+    if ((anchor.head<2>() - node_pose.head<2>()).norm() > p.max_constraint_distance_m) continue;
+    const core::Pose2 initial =
+        core::compose(submap->anchorPose(), core::between(anchor, node_pose));
+    auto start = std::chrono::steady_clock::now();
+    const auto loop = matchNodeToSubmap(*submap, node, points, initial, p);
+    stats_.loop_search_seconds += secondsSince(start);
+    ++stats_.loop_searches;
+    if (!loop) continue;
+    start = std::chrono::steady_clock::now();
+    rrr_->addCandidate(loop->from, loop->to, loop->measurement, loop->information);
+    stats_.rrr_seconds += secondsSince(start);
+    loops_.push_back(*loop);
+    ++stats_.candidates;
+  }
+}
+
+void LaserSlam::finish() {
+  const auto start = std::chrono::steady_clock::now();
+  rrr_->finish();
+  stats_.rrr_seconds += secondsSince(start);
+}
+
+std::vector<core::Pose2> LaserSlam::scanMapPoses() const {
+  const std::vector<core::Pose2> map = rrr_->mapPoses();
+  std::vector<core::Pose2> poses;
+  poses.reserve(scan_node_.size());
+  for (std::size_t k = 0; k < scan_node_.size(); ++k) {
+    poses.push_back(core::compose(map[static_cast<std::size_t>(scan_node_[k])], scan_offset_[k]));
+  }
+  return poses;
+}
+
+mrpt::maps::COccupancyGridMap2D LaserSlam::renderMap(double resolution_m) const {
+  mrpt::maps::COccupancyGridMap2D grid(-10.0F, 10.0F, -10.0F, 10.0F,
+                                       static_cast<float>(resolution_m));
+  auto& options = grid.insertionOptions;
+  options.maxOccupancyUpdateCertainty = params_.local.submap.hit_probability;
+  options.maxFreenessUpdateCertainty = 1.0F - params_.local.submap.miss_probability;
+  options.maxDistanceInsertion = params_.local.submap.max_insertion_range_m;
+  const std::vector<core::Pose2> map = rrr_->mapPoses();
+  for (std::size_t k = 0; k < node_scans_.size(); ++k) {
+    const core::Pose2& x = map[k];
+    grid.insertObservation(node_scans_[k], mrpt::poses::CPose3D(x.x(), x.y(), 0.0, x.z(), 0, 0));
+  }
+  return grid;
+}
+
+}  // namespace rrr_graphslam::frontend

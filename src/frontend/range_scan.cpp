@@ -1,0 +1,64 @@
+#include "rrr_graphslam/frontend/range_scan.h"
+
+#include <cmath>
+#include <unordered_set>
+
+#include <mrpt/poses/CPose3D.h>
+
+namespace rrr_graphslam::frontend {
+
+RangeScan RangeScan::fromCarmen(const LaserRecord& record) {
+  RangeScan scan;
+  scan.timestamp = record.timestamp;
+  scan.angle_min = record.angle_min;
+  scan.angle_increment = record.angle_increment;
+  scan.max_range = record.max_range;
+  scan.ranges = record.ranges;
+  scan.laser_in_robot = record.laserInRobot();
+  return scan;
+}
+
+PointCloud matchingPoints(const RangeScan& scan, const RangeScanParams& params) {
+  PointCloud points;
+  points.reserve(scan.ranges.size());
+  std::unordered_set<std::int64_t> voxels;
+  const Eigen::Matrix2d R = core::rotation(scan.laser_in_robot.z());
+  for (std::size_t i = 0; i < scan.ranges.size(); ++i) {
+    const double r = scan.ranges[i];
+    if (scan.isMiss(i) || r < params.min_range_m || r > params.max_range_m) continue;
+    const double a = scan.angle_min + static_cast<double>(i) * scan.angle_increment;
+    const Eigen::Vector2d p =
+        scan.laser_in_robot.head<2>() + R * Eigen::Vector2d(r * std::cos(a), r * std::sin(a));
+    const auto vx = static_cast<std::int64_t>(std::floor(p.x() / params.voxel_size_m));
+    const auto vy = static_cast<std::int64_t>(std::floor(p.y() / params.voxel_size_m));
+    if (voxels.insert(vx * 2000003 + vy).second) points.push_back(p);
+  }
+  return points;
+}
+
+mrpt::obs::CObservation2DRangeScan toObservation(const RangeScan& scan,
+                                                 const RangeScanParams& params) {
+  mrpt::obs::CObservation2DRangeScan obs;
+  const std::size_t n = scan.ranges.size();
+  // MRPT 2.5's grid insertion spaces the rays aperture/N apart starting at -aperture/2 (not
+  // aperture/(N-1) as getScanAngle() does; test_scan_matcher checks the geometry): choose the
+  // aperture and the sensor's heading so that ray i falls at angle_min + i * angle_increment.
+  const double aperture = static_cast<double>(n) * scan.angle_increment;
+  const double centre = scan.angle_min + 0.5 * aperture;
+  obs.aperture = static_cast<float>(aperture);
+  obs.rightToLeft = true;
+  obs.maxRange = static_cast<float>(params.max_range_m);
+  obs.sensorPose =
+      mrpt::poses::CPose3D(scan.laser_in_robot.x(), scan.laser_in_robot.y(), 0.0,
+                           core::normalizeAngle(scan.laser_in_robot.z() + centre), 0.0, 0.0);
+  obs.resizeScan(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const float r = scan.ranges[i];
+    const bool valid = !scan.isMiss(i) && r <= params.max_range_m && r >= params.min_range_m;
+    obs.setScanRange(i, valid ? r : 0.0F);
+    obs.setScanRangeValidity(i, valid);
+  }
+  return obs;
+}
+
+}  // namespace rrr_graphslam::frontend

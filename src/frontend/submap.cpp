@@ -1,0 +1,80 @@
+#include "rrr_graphslam/frontend/submap.h"
+
+#include <stdexcept>
+
+#include <mrpt/poses/CPose3D.h>
+
+namespace rrr_graphslam::frontend {
+
+Submap::Submap(int index, int anchor_node, const core::Pose2& anchor_local_pose,
+               const SubmapParams& params)
+    : index_(index),
+      anchor_node_(anchor_node),
+      last_node_(anchor_node),
+      anchor_pose_(anchor_local_pose),
+      params_(params) {
+  // Start small around the anchor; MRPT grows the grid to fit what is inserted.
+  const auto x = static_cast<float>(anchor_local_pose.x());
+  const auto y = static_cast<float>(anchor_local_pose.y());
+  grid_ = std::make_unique<mrpt::maps::COccupancyGridMap2D>(
+      x - 10.0F, x + 10.0F, y - 10.0F, y + 10.0F, static_cast<float>(params.resolution_m));
+  auto& options = grid_->insertionOptions;
+  options.maxOccupancyUpdateCertainty = params.hit_probability;
+  options.maxFreenessUpdateCertainty = 1.0F - params.miss_probability;
+  options.maxDistanceInsertion = params.max_insertion_range_m;
+  options.considerInvalidRangesAsFreeSpace = true;
+  options.wideningBeamsWithDistance = false;
+}
+
+void Submap::insert(const mrpt::obs::CObservation2DRangeScan& scan, const core::Pose2& local_pose,
+                    int node) {
+  if (finished()) throw std::logic_error("Submap::insert: submap is finished");
+  const mrpt::poses::CPose3D robot(local_pose.x(), local_pose.y(), 0.0, local_pose.z(), 0.0, 0.0);
+  grid_->insertObservation(scan, robot);
+  ++num_scans_;
+  last_node_ = node;
+  match_grid_dirty_ = true;
+}
+
+const MatchGrid& Submap::matchGrid() const {
+  if (match_grid_dirty_ && grid_) {
+    match_grid_ = MatchGrid::fromOccupancyGrid(*grid_, params_.unknown_value);
+    match_grid_dirty_ = false;
+  }
+  return match_grid_;
+}
+
+void Submap::finish() {
+  if (finished()) return;
+  matchGrid();
+  matcher_ =
+      std::make_unique<FastCorrelativeScanMatcher>(match_grid_, params_.branch_and_bound_depth);
+  grid_.reset();
+}
+
+ActiveSubmaps::ActiveSubmaps(const SubmapParams& params) : params_(params) {
+  if (params.scans_per_submap < 2) throw std::invalid_argument("scans_per_submap must be >= 2");
+  if (!(params.resolution_m > 0.0)) throw std::invalid_argument("resolution must be positive");
+}
+
+std::shared_ptr<Submap> ActiveSubmaps::insert(const mrpt::obs::CObservation2DRangeScan& scan,
+                                              const core::Pose2& local_pose, int node) {
+  if (start_next_) {
+    start_next_ = false;
+    active_.push_back(std::make_shared<Submap>(next_index_++, node, local_pose, params_));
+  }
+  for (auto& submap : active_) submap->insert(scan, local_pose, node);
+  std::shared_ptr<Submap> finished;
+  if (active_.front()->numScans() >= params_.scans_per_submap) {
+    finished = active_.front();
+    finished->finish();
+    active_.erase(active_.begin());
+  }
+  // The newer submap is half full: the next scan starts (and anchors) a new one.
+  if (active_.empty() || active_.back()->numScans() == params_.scans_per_submap / 2) {
+    start_next_ = true;
+  }
+  return finished;
+}
+
+}  // namespace rrr_graphslam::frontend

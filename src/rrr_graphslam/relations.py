@@ -1,0 +1,98 @@
+"""The relation metric of Kümmerle et al. 2009 ("On measuring the accuracy of SLAM algorithms"):
+for each relation (t1, t2, delta) of a relations file, the error between the estimated relative pose
+of the scans at t1 and t2 and delta; reported as mean and standard deviation of the absolute
+translational (m) and rotational (deg) errors, and of their squares, as the metric's tools do.
+
+Trajectories are TUM files ('t x y z qx qy qz qw', rrr_slam_offline --trajectory); relations files
+are 't1 t2 x y z roll pitch yaw' (the slamevaluation .relations files). Timestamps are matched
+exactly (within `tolerance` seconds): both come from the log's ipc_timestamp.
+"""
+
+import bisect
+import math
+from dataclasses import dataclass
+from typing import Dict, List, Tuple
+
+from .graph_io import GraphFileError, between, tagged_lines
+
+Pose = Tuple[float, float, float]
+
+
+@dataclass
+class RelationError:
+    count: int            # relations scored
+    missing: int          # relations whose timestamps are not in the trajectory
+    trans_mean: float     # m
+    trans_std: float
+    rot_mean_deg: float
+    rot_std_deg: float
+    trans_sq_mean: float  # m^2
+    rot_sq_mean_deg2: float
+
+
+def read_tum(path: str) -> Tuple[List[float], List[Pose]]:
+    """Stamps and (x, y, yaw) of a TUM trajectory, in file order."""
+    stamps, poses = [], []
+    for number, f in tagged_lines(path):
+        if len(f) != 8:
+            raise GraphFileError(path, number, f"expected 8 fields 't x y z qx qy qz qw', found {len(f)}")
+        try:
+            t, x, y, _, qx, qy, qz, qw = (float(v) for v in f)
+        except ValueError as e:
+            raise GraphFileError(path, number, str(e)) from None
+        yaw = math.atan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz))
+        stamps.append(t)
+        poses.append((x, y, yaw))
+    return stamps, poses
+
+
+def read_relations(path: str) -> List[Tuple[float, float, Pose]]:
+    relations = []
+    for number, f in tagged_lines(path):
+        if len(f) != 8:
+            raise GraphFileError(path, number, f"expected 8 fields 't1 t2 x y z roll pitch yaw', found {len(f)}")
+        try:
+            t1, t2, x, y, _, _, _, yaw = (float(v) for v in f)
+        except ValueError as e:
+            raise GraphFileError(path, number, str(e)) from None
+        relations.append((t1, t2, (x, y, yaw)))
+    return relations
+
+
+def _index(stamps: List[float]) -> Tuple[List[float], List[int]]:
+    order = sorted(range(len(stamps)), key=lambda k: stamps[k])
+    return [stamps[k] for k in order], order
+
+
+def _lookup(sorted_stamps, order, t, tolerance):
+    i = bisect.bisect_left(sorted_stamps, t - tolerance)
+    if i < len(sorted_stamps) and abs(sorted_stamps[i] - t) <= tolerance:
+        return order[i]
+    return None
+
+
+def relation_error(stamps: List[float], poses: List[Pose], relations, tolerance: float = 1e-3) -> RelationError:
+    sorted_stamps, order = _index(stamps)
+    trans, rot = [], []
+    missing = 0
+    for t1, t2, delta in relations:
+        i = _lookup(sorted_stamps, order, t1, tolerance)
+        j = _lookup(sorted_stamps, order, t2, tolerance)
+        if i is None or j is None:
+            missing += 1
+            continue
+        estimate = between(poses[i], poses[j])
+        e = between(delta, estimate)
+        trans.append(math.hypot(e[0], e[1]))
+        rot.append(abs(math.degrees(e[2])))
+
+    def mean_std(v):
+        if not v:
+            return math.nan, math.nan
+        m = sum(v) / len(v)
+        return m, math.sqrt(sum((x - m) ** 2 for x in v) / len(v))
+
+    tm, ts = mean_std(trans)
+    rm, rs = mean_std(rot)
+    return RelationError(len(trans), missing, tm, ts, rm, rs,
+                         mean_std([x * x for x in trans])[0], mean_std([x * x for x in rot])[0])

@@ -1,0 +1,207 @@
+// rrr_slam_offline LOG.clf[.gz] --output graph.g2o --decisions decisions.tsv --trajectory traj.txt
+//                  --map map [...]
+// 2D laser SLAM on a CARMEN log: local SLAM into submaps, branch-and-bound loop search, RRR on the
+// candidates; writes the graph, the decisions, every scan's optimized pose (TUM format, ipc
+// timestamps) and the map (map_server PGM + YAML, and a PNG with the loops).
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <exception>
+#include <iomanip>
+#include <iostream>
+#include <string>
+
+#include "command_line.h"
+#include "rrr_graphslam/core/graph_io.h"
+#include "rrr_graphslam/core/text_file.h"
+#include "rrr_graphslam/frontend/carmen_log.h"
+#include "rrr_graphslam/frontend/laser_slam.h"
+#include "rrr_graphslam/frontend/map_io.h"
+#include "rrr_graphslam/rrr/decisions_io.h"
+
+namespace {
+
+namespace tools = rrr_graphslam::tools;
+namespace core = rrr_graphslam::core;
+namespace frontend = rrr_graphslam::frontend;
+namespace rrr = rrr_graphslam::rrr;
+
+const char* const kUsage =
+    "usage: rrr_slam_offline LOG.clf[.gz] [--output GRAPH.g2o] [--decisions DECISIONS.tsv]\n"
+    "                        [--trajectory TRAJ.txt] [--map MAP] [--map-resolution M]\n"
+    "                        [--scans-per-submap N] [--min-score S] [--max-constraint-distance M]\n"
+    "                        [--linear-window M] [--angular-window DEG] [--depth D]\n"
+    "                        [--search-every N] [--max-range M] [--alpha A] [--max-scans N]\n"
+    "                        [--quiet]\n"
+    "  LOG               CARMEN log (FLASER or ROBOTLASER1 lines; the scans carry the odometry)\n"
+    "  --output          the pose graph: nodes at their optimized poses, odometry and every loop\n"
+    "                    candidate (rrr_offline can decide it again)\n"
+    "  --decisions       TSV 'from to cluster verdict', one row per loop candidate\n"
+    "  --trajectory      optimized pose of every scan, TUM format 't x y z qx qy qz qw' with the\n"
+    "                    log's ipc_timestamp\n"
+    "  --map             writes MAP.pgm + MAP.yaml (map_server) and MAP.png (accepted loops\n"
+    "                    green, rejected red)\n"
+    "  --map-resolution  m per cell of the written map (default 0.05)\n"
+    "  --scans-per-submap, --min-score, --max-constraint-distance, --linear-window,\n"
+    "  --angular-window, --depth, --search-every, --max-range: front-end settings (see README)\n"
+    "  --alpha           confidence of RRR's chi-square tests (default 0.95)\n"
+    "  --max-scans       stop after the first N scans of the log\n"
+    "  --quiet           no progress line\n";
+
+struct Arguments {
+  std::string log;
+  std::string output;
+  std::string decisions;
+  std::string trajectory;
+  std::string map;
+  double map_resolution = 0.05;
+  bool quiet = false;
+  std::size_t max_scans = 0;  ///< 0: all
+  frontend::LaserSlamParams params;
+};
+
+Arguments parseArguments(int argc, char** argv) {
+  const tools::CommandLine cli(argc, argv, "rrr_slam_offline", kUsage);
+  Arguments args;
+  auto& p = args.params;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    auto number = [&](double low, double high) {
+      return cli.number(a, cli.value(i, a), low, high);
+    };
+    if (a == "--output" || a == "-o") {
+      args.output = cli.value(i, a);
+    } else if (a == "--decisions") {
+      args.decisions = cli.value(i, a);
+    } else if (a == "--trajectory") {
+      args.trajectory = cli.value(i, a);
+    } else if (a == "--map") {
+      args.map = cli.value(i, a);
+    } else if (a == "--map-resolution") {
+      args.map_resolution = number(0.005, 10.0);
+    } else if (a == "--scans-per-submap") {
+      p.local.submap.scans_per_submap = static_cast<int>(number(2, 1e6));
+    } else if (a == "--min-score") {
+      p.loops.min_score = number(0.0, 1.0);
+    } else if (a == "--max-constraint-distance") {
+      p.loops.max_constraint_distance_m = number(0.0, 1e6);
+    } else if (a == "--linear-window") {
+      p.loops.window.linear_m = number(0.0, 1e3);
+    } else if (a == "--angular-window") {
+      p.loops.window.angular_rad = number(0.0, 180.0) * M_PI / 180.0;
+    } else if (a == "--depth") {
+      p.local.submap.branch_and_bound_depth = static_cast<int>(number(1, 12));
+    } else if (a == "--search-every") {
+      p.loops.search_every_n_nodes = static_cast<int>(number(1, 1e6));
+    } else if (a == "--max-range") {
+      p.local.scan.max_range_m = number(0.1, 1e3);
+      p.local.submap.max_insertion_range_m = static_cast<float>(p.local.scan.max_range_m);
+    } else if (a == "--alpha") {
+      p.rrr.rrr.alpha = number(1e-6, 1.0 - 1e-9);
+    } else if (a == "--max-scans") {
+      args.max_scans = static_cast<std::size_t>(number(1, 1e12));
+    } else if (a == "--quiet") {
+      args.quiet = true;
+    } else {
+      cli.positional(a, args.log);
+    }
+  }
+  if (args.log.empty()) cli.fail("no log file given");
+  return args;
+}
+
+void writeTrajectory(const std::string& path, const std::vector<double>& stamps,
+                     const std::vector<core::Pose2>& poses) {
+  core::writeFileAtomically(path, [&](std::ostream& out) {
+    out << "# t x y z qx qy qz qw (rrr_slam_offline; t = ipc_timestamp)\n" << std::fixed;
+    for (std::size_t k = 0; k < poses.size(); ++k) {
+      const core::Pose2& x = poses[k];
+      out << std::setprecision(6) << stamps[k] << ' ' << std::setprecision(6) << x.x() << ' '
+          << x.y() << " 0 0 0 " << std::setprecision(9) << std::sin(0.5 * x.z()) << ' '
+          << std::cos(0.5 * x.z()) << '\n';
+    }
+  });
+}
+
+std::vector<frontend::LoopLine> loopLines(const frontend::LaserSlam& slam) {
+  const auto poses = slam.rrr().mapPoses();
+  std::vector<frontend::LoopLine> lines;
+  for (int k = 0; k < slam.rrr().numCandidates(); ++k) {
+    const auto& c = slam.rrr().candidate(k);
+    lines.push_back({poses[static_cast<std::size_t>(c.from)], poses[static_cast<std::size_t>(c.to)],
+                     slam.rrr().verdict(k) == rrr::Verdict::kAccepted});
+  }
+  return lines;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const Arguments args = parseArguments(argc, argv);
+  try {
+    const auto start = std::chrono::steady_clock::now();
+    const frontend::CarmenLog log = frontend::readCarmenLog(args.log);
+    frontend::LaserSlam slam(args.params);
+    const bool progress = !args.quiet && isatty(STDERR_FILENO);
+    const std::size_t n =
+        args.max_scans > 0 ? std::min(args.max_scans, log.scans.size()) : log.scans.size();
+    for (std::size_t k = 0; k < n; ++k) {
+      const auto& record = log.scans[k];
+      slam.addScan(frontend::RangeScan::fromCarmen(record), record.odom_pose);
+      if (progress && (k % 100 == 0 || k + 1 == n)) {
+        const auto status = slam.rrr().status();
+        std::fprintf(
+            stderr, "\r[slam] scan %zu/%zu  nodes %d  submaps %d  candidates %d  accepted %d   ",
+            k + 1, n, status.nodes, slam.stats().submaps, status.candidates, status.accepted);
+      }
+    }
+    if (progress) std::fprintf(stderr, "\n");
+    slam.finish();
+    const double seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    const auto& stats = slam.stats();
+    const auto status = slam.rrr().status();
+    const double duration = log.scans[n - 1].timestamp - log.scans.front().timestamp;
+
+    std::printf("log            %s: %zu scans, %.1f s\n", args.log.c_str(), n, duration);
+    std::printf("nodes          %d in %d submaps\n", stats.nodes, stats.submaps);
+    std::printf("loop search    %lld node-submap pairs, %.2f ms each\n", stats.loop_searches,
+                stats.loop_searches > 0
+                    ? 1e3 * stats.loop_search_seconds / static_cast<double>(stats.loop_searches)
+                    : 0.0);
+    std::printf("candidates     %d in %d clusters\n", status.candidates, status.clusters);
+    std::printf("accepted       %d\n", status.accepted);
+    std::printf("rejected       %d\n", status.rejected);
+    std::printf(
+        "time           %.2f s (local SLAM %.2f, loop search %.2f, RRR %.2f), %.1fx real time\n",
+        seconds, stats.local_slam_seconds, stats.loop_search_seconds, stats.rrr_seconds,
+        seconds > 0 ? duration / seconds : 0.0);
+
+    if (!args.output.empty()) {
+      core::writePoseGraph(slam.rrr().mapPoseGraph(), args.output);
+      std::printf("output         %s\n", args.output.c_str());
+    }
+    if (!args.decisions.empty()) {
+      rrr::writeDecisions(args.decisions, slam.rrr().decisionRows());
+      std::printf("decisions      %s\n", args.decisions.c_str());
+    }
+    if (!args.trajectory.empty()) {
+      writeTrajectory(args.trajectory, slam.scanTimestamps(), slam.scanMapPoses());
+      std::printf("trajectory     %s\n", args.trajectory.c_str());
+    }
+    if (!args.map.empty()) {
+      const auto grid = slam.renderMap(args.map_resolution);
+      frontend::writeMapServerFiles(grid, args.map);
+      frontend::writeMapPng(grid, args.map + ".png", slam.rrr().mapPoses(), loopLines(slam));
+      std::printf("map            %s.pgm, %s.yaml, %s.png\n", args.map.c_str(), args.map.c_str(),
+                  args.map.c_str());
+    }
+    return 0;
+  } catch (const std::exception& e) {
+    std::cerr << "rrr_slam_offline: " << e.what() << "\n";
+    return 1;
+  }
+}

@@ -1,0 +1,136 @@
+// Scan matching in a synthetic room: a submap built from scans at known poses, then a scan from a
+// known pose matched from a wrong initial guess must come back to that pose.
+
+#include <gtest/gtest.h>
+
+#include <Eigen/LU>
+
+#include "rrr_graphslam/frontend/local_slam.h"
+#include "rrr_graphslam/frontend/loop_search.h"
+#include "rrr_graphslam/frontend/scan_matcher.h"
+#include "rrr_graphslam/frontend/submap.h"
+#include "synthetic_room.h"
+
+namespace rrr_graphslam::frontend {
+namespace {
+
+using testing::castScan;
+using testing::room;
+
+Submap buildSubmap(const SubmapParams& params, const RangeScanParams& scan_params) {
+  Submap submap(0, 0, core::Pose2(3.0, 2.0, 0.0), params);
+  int node = 0;
+  for (const core::Pose2& p :
+       {core::Pose2(3.0, 2.0, 0.0), core::Pose2(6.0, 2.5, 0.5), core::Pose2(9.0, 3.0, 1.0),
+        core::Pose2(6.0, 6.0, -2.0), core::Pose2(2.0, 4.0, 2.5)}) {
+    submap.insert(toObservation(castScan(room(), p), scan_params), p, node++);
+  }
+  return submap;
+}
+
+TEST(ScanMatcher, LocalMatchRecoversAKnownOffset) {
+  const RangeScanParams scan_params;
+  const Submap submap = buildSubmap(SubmapParams{}, scan_params);
+  const core::Pose2 truth(5.0, 4.0, 0.3);
+  const PointCloud points = matchingPoints(castScan(room(), truth), scan_params);
+  const core::Pose2 prediction = truth + core::Pose2(0.08, -0.06, 0.05);
+  const core::Pose2 coarse =
+      realTimeCorrelativeMatch(submap.matchGrid(), prediction, points, CorrelativeParams{});
+  EXPECT_LT((coarse.head<2>() - truth.head<2>()).norm(), 0.06) << coarse.transpose();
+  LeastSquaresParams ls;
+  ls.translation_weight = 0.1;  // a weak prior: the scan decides
+  ls.rotation_weight = 0.1;
+  const RefinedMatch refined = refineLeastSquares(submap.matchGrid(), coarse, coarse, points, ls);
+  EXPECT_LT((refined.pose.head<2>() - truth.head<2>()).norm(), 0.02) << refined.pose.transpose();
+  EXPECT_NEAR(core::normalizeAngle(refined.pose.z() - truth.z()), 0.0, 0.005);
+  EXPECT_GT(refined.mean_probability, 0.6);
+  EXPECT_TRUE(refined.information.allFinite());
+  EXPECT_GT(refined.information.determinant(), 0.0);
+}
+
+TEST(ScanMatcher, LoopSearchFindsTheScanMetresAway) {
+  const RangeScanParams scan_params;
+  Submap submap = buildSubmap(SubmapParams{}, scan_params);
+  submap.finish();
+  ASSERT_NE(submap.matcher(), nullptr);
+  const core::Pose2 truth(8.0, 2.0, -0.4);
+  const PointCloud points = matchingPoints(castScan(room(), truth), scan_params);
+  LoopSearchParams params;
+  const core::Pose2 guess = truth + core::Pose2(-2.5, 1.5, 0.3);
+  const auto loop = matchNodeToSubmap(submap, 7, points, guess, params);
+  ASSERT_TRUE(loop.has_value());
+  EXPECT_EQ(loop->from, 0);
+  EXPECT_EQ(loop->to, 7);
+  const core::Pose2 found = core::compose(submap.anchorPose(), loop->measurement);
+  EXPECT_LT((found.head<2>() - truth.head<2>()).norm(), 0.03) << found.transpose();
+  EXPECT_NEAR(core::normalizeAngle(found.z() - truth.z()), 0.0, 0.01);
+  EXPECT_GT(loop->score, params.min_score);
+
+  // On a real map the bounds prune: far fewer poses scored than the window holds.
+  const SearchWindow small{2.0, 0.35};
+  const core::Pose2 near_guess = truth + core::Pose2(-1.0, 0.8, 0.2);
+  const auto fast = submap.matcher()->match(near_guess, points, small, params.min_score);
+  const long long fast_scored = submap.matcher()->lastScored();
+  const auto slow = submap.matcher()->matchExhaustive(near_guess, points, small, params.min_score);
+  ASSERT_TRUE(fast && slow);
+  EXPECT_DOUBLE_EQ(fast->score, slow->score);
+  EXPECT_LT((fast->pose - slow->pose).norm(), 1e-9);
+  EXPECT_LT(fast_scored * 20, submap.matcher()->lastScored());
+
+  // Relocalization: no guess at all.
+  const auto relocalized = matchNodeToWholeSubmap(submap, 7, points, params);
+  ASSERT_TRUE(relocalized.has_value());
+  const core::Pose2 again = core::compose(submap.anchorPose(), relocalized->measurement);
+  EXPECT_LT((again.head<2>() - truth.head<2>()).norm(), 0.03) << again.transpose();
+}
+
+TEST(LocalSlam, TracksARobotDrivingThroughTheRoomDespiteBiasedOdometry) {
+  LocalSlamParams params;
+  params.submap.scans_per_submap = 10;
+  LocalSlam slam(params);
+  core::Pose2 odom = core::Pose2::Zero();
+  core::Pose2 truth(2.0, 2.0, 0.0);
+  core::Pose2 last_truth = truth;
+  core::Pose2 first_local = core::Pose2::Zero();
+  for (int k = 0; k < 60; ++k) {
+    truth = core::Pose2(2.0 + 0.12 * k, 2.0 + 0.05 * k, 0.02 * k);
+    // Odometry overestimates every step by 10% and turns 0.5 degree too much.
+    core::Pose2 step = core::between(last_truth, truth);
+    step.head<2>() *= 1.1;
+    step.z() += 0.5 * M_PI / 180;
+    odom = core::compose(odom, step);
+    last_truth = truth;
+    const LocalSlamResult r = slam.addScan(castScan(room(), truth), odom);
+    if (k == 0) first_local = r.local_pose;
+    // local pose = truth expressed from the first scan's frame, placed at the first odometry pose
+    const core::Pose2 expected =
+        core::compose(first_local, core::between(core::Pose2(2.0, 2.0, 0.0), truth));
+    EXPECT_LT((r.local_pose.head<2>() - expected.head<2>()).norm(), 0.05) << "scan " << k;
+    EXPECT_NEAR(core::normalizeAngle(r.local_pose.z() - expected.z()), 0.0, 0.01) << "scan " << k;
+  }
+  EXPECT_GT(slam.numNodes(), 10);
+  EXPECT_GE(slam.submaps().numSubmaps(), 3);
+}
+
+TEST(ActiveSubmaps, TwoActiveHalfOverlappingSubmapsOfFixedSize) {
+  SubmapParams params;
+  params.scans_per_submap = 4;
+  ActiveSubmaps submaps(params);
+  const auto scan = toObservation(castScan(room(), core::Pose2(3, 3, 0)), RangeScanParams{});
+  std::vector<std::shared_ptr<Submap>> finished;
+  for (int node = 0; node < 12; ++node) {
+    if (auto f = submaps.insert(scan, core::Pose2(3, 3, 0), node)) finished.push_back(f);
+    EXPECT_LE(submaps.active().size(), 2U);
+  }
+  // Submaps start at nodes 0, 2, 4, 6, ...; each holds 4 scans.
+  ASSERT_EQ(finished.size(), 5U);
+  for (std::size_t k = 0; k < finished.size(); ++k) {
+    EXPECT_EQ(finished[k]->anchorNode(), static_cast<int>(2 * k));
+    EXPECT_EQ(finished[k]->lastNode(), static_cast<int>(2 * k + 3));
+    EXPECT_EQ(finished[k]->numScans(), 4);
+    EXPECT_TRUE(finished[k]->finished());
+  }
+}
+
+}  // namespace
+}  // namespace rrr_graphslam::frontend
