@@ -85,3 +85,57 @@ def test_optimize_reaches_the_reference_chi2(tmp_path):
         assert result.returncode == 0, result.stderr
         final = float(next(l for l in result.stdout.splitlines() if l.startswith("final chi2")).split()[2])
         assert final == pytest.approx(546.461, rel=1e-3)
+
+
+SLAM_OFFLINE = os.environ.get("RRR_SLAM_OFFLINE")
+needs_slam = pytest.mark.skipif(not SLAM_OFFLINE, reason="rrr_slam_offline not given")
+ACES_HEAD = os.path.join(DATA, "carmen", "aces_head.clf.gz")
+
+
+@needs_slam
+def test_slam_offline_builds_graph_trajectory_and_map_from_a_log(tmp_path):
+    from rrr_graphslam.carmen import read_carmen
+    from rrr_graphslam.relations import read_tum
+    out = {k: tmp_path / v for k, v in
+           dict(graph="g.g2o", decisions="d.tsv", trajectory="t.txt", map="map").items()}
+    result = run(SLAM_OFFLINE, ACES_HEAD, "--output", out["graph"], "--decisions", out["decisions"],
+                 "--trajectory", out["trajectory"], "--map", out["map"], "--scans-per-submap", 10,
+                 "--min-node-separation", 15, "--quiet")
+    assert result.returncode == 0, result.stderr
+    log = read_carmen(ACES_HEAD)
+    # One TUM row per scan, stamped with the scan's ipc_timestamp, in log order.
+    stamps, poses = read_tum(str(out["trajectory"]))
+    assert stamps == pytest.approx([r.timestamp for r in log.lasers], abs=1e-6)
+    # Local SLAM stays near the (good, short-range) odometry of this 60 s head of ACES.
+    first, last = log.lasers[0].odom_pose, log.lasers[-1].odom_pose
+    travelled = ((last[0] - first[0]) ** 2 + (last[1] - first[1]) ** 2) ** 0.5
+    estimated = ((poses[-1][0] - poses[0][0]) ** 2 + (poses[-1][1] - poses[0][1]) ** 2) ** 0.5
+    assert abs(travelled - estimated) < 0.1 * travelled
+    # The graph: one node per motion-filtered scan, loop candidates between submap anchors and nodes.
+    graph = read_graph(str(out["graph"]))
+    decisions = read_decisions(str(out["decisions"]))
+    assert len(graph.poses) > 30
+    assert len(decisions) == len(graph.loops()) > 0
+    assert all(d.verdict in ("accepted", "rejected") for d in decisions)
+    # map_server files: PGM (P5) with the YAML's image, resolution, origin and thresholds.
+    yaml = (tmp_path / "map.yaml").read_text()
+    assert "image: map.pgm" in yaml and "resolution: 0.05" in yaml and "origin: [" in yaml
+    assert "occupied_thresh: 0.65" in yaml and "free_thresh: 0.196" in yaml
+    pgm = (tmp_path / "map.pgm").read_bytes()
+    assert pgm.startswith(b"P5")
+    width, height = (int(v) for v in pgm.split(b"\n")[2].split())
+    pixels = pgm[-width * height:]
+    assert set(pixels) <= {0, 205, 254} and pixels.count(0) > 500 and pixels.count(254) > 5000
+    assert (tmp_path / "map.png").read_bytes().startswith(b"\x89PNG")
+    assert not list(tmp_path.glob("*.tmp*"))  # written atomically, nothing left behind
+
+
+@needs_slam
+def test_slam_offline_rejects_a_malformed_log_with_file_and_line(tmp_path):
+    bad = tmp_path / "bad.clf"
+    bad.write_text("FLASER 3 1.0 2.0 3.0 0 0 0 0 0 0 1.5 host 1.5\nFLASER 3 1.0 x 3.0 0 0 0 0 0 0 2 host 2\n")
+    result = run(SLAM_OFFLINE, bad, "--quiet")
+    assert result.returncode == 1
+    assert f"{bad}:2" in result.stderr and "not a number" in result.stderr
+    result = run(SLAM_OFFLINE, "--depth", 0, bad)
+    assert result.returncode == 2 and "--depth" in result.stderr
