@@ -16,7 +16,7 @@ RRR_WS=${RRR_WS:-${XDG_CACHE_HOME:-${HOME}/.cache}/rrr_graphslam/ws}
 
 RRR_APT_PACKAGES=(
   build-essential cmake catkin python3-catkin-pkg python3-rospkg
-  ros-core-dev libnodeletlib-dev libnodeletlib-tools libtf2-ros-dev libtf2-eigen-dev
+  ros-core-dev libnodeletlib-dev libnodeletlib-tools libtf2-ros-dev libmessage-filters-dev libtf2-eigen-dev
   python3-roslaunch python3-rostest python3-rosbag rosbash python3-rospy
   libstd-srvs-dev python3-std-srvs python3-geometry-msgs python3-nav-msgs python3-sensor-msgs
   python3-visualization-msgs python3-tf2-msgs python3-rosgraph-msgs libnav-msgs-dev

@@ -1,5 +1,9 @@
 #include "rrr_graphslam/ros/conversions.h"
 
+#include <limits>
+
+#include <mrpt/maps/COccupancyGridMap2D.h>
+
 #include <cmath>
 #include <stdexcept>
 
@@ -32,6 +36,65 @@ core::Pose2 toPose2(const geometry_msgs::Pose& pose) {
                                 std::to_string(norm) + ")");
   }
   return {p.x, p.y, tf2::getYaw(tf2::Quaternion(q.x, q.y, q.z, q.w))};
+}
+
+core::Pose2 toPose2(const geometry_msgs::Transform& transform) {
+  geometry_msgs::Pose pose;
+  pose.position.x = transform.translation.x;
+  pose.position.y = transform.translation.y;
+  pose.position.z = transform.translation.z;
+  pose.orientation = transform.rotation;
+  return toPose2(pose);
+}
+
+frontend::RangeScan toRangeScan(const sensor_msgs::LaserScan& msg,
+                                const core::Pose2& laser_in_robot) {
+  auto positive = [](double v) { return std::isfinite(v) && v > 0.0; };
+  if (msg.ranges.size() < 2) {
+    throw std::invalid_argument("ranges holds " + std::to_string(msg.ranges.size()) +
+                                " readings; a scan needs at least 2");
+  }
+  if (!positive(msg.angle_increment)) {
+    throw std::invalid_argument("angle_increment must be positive, got " +
+                                std::to_string(msg.angle_increment));
+  }
+  if (!positive(msg.range_max)) {
+    throw std::invalid_argument("range_max must be positive, got " + std::to_string(msg.range_max));
+  }
+  if (!std::isfinite(msg.angle_min)) throw std::invalid_argument("angle_min is not finite");
+  frontend::RangeScan scan;
+  scan.timestamp = msg.header.stamp.toSec();
+  scan.angle_min = msg.angle_min;
+  scan.angle_increment = msg.angle_increment;
+  scan.max_range = msg.range_max;
+  scan.laser_in_robot = laser_in_robot;
+  scan.ranges.reserve(msg.ranges.size());
+  for (const float r : msg.ranges) {
+    // Below range_min: no information (the matcher drops readings under its min_range).
+    scan.ranges.push_back(std::isnan(r)       ? std::numeric_limits<float>::infinity()
+                          : r < msg.range_min ? 0.0F
+                                              : r);
+  }
+  return scan;
+}
+
+void toOccupancyGridMsg(const mrpt::maps::COccupancyGridMap2D& grid, nav_msgs::OccupancyGrid& msg) {
+  msg.info.resolution = grid.getResolution();
+  msg.info.width = grid.getSizeX();
+  msg.info.height = grid.getSizeY();
+  msg.info.origin.position.x = grid.getXMin();
+  msg.info.origin.position.y = grid.getYMin();
+  msg.info.origin.orientation.w = 1.0;
+  const auto& raw = grid.getRawMap();
+  msg.data.resize(raw.size());
+  for (std::size_t k = 0; k < raw.size(); ++k) {
+    // MRPT cells: log-odds of being free; 0 = never observed. Both grids are rows of x from the
+    // lower-left corner.
+    msg.data[k] = raw[k] == 0
+                      ? std::int8_t{-1}
+                      : static_cast<std::int8_t>(std::lround(
+                            100.0F * (1.0F - mrpt::maps::COccupancyGridMap2D::l2p(raw[k]))));
+  }
 }
 
 std::optional<Eigen::Matrix3d> planarCovariance(const boost::array<double, 36>& covariance) {

@@ -22,9 +22,10 @@ namespace {
 constexpr const char* kOdomTopic = "odom";
 constexpr const char* kEdgesTopic = "pose_graph_edges";
 constexpr const char* kCandidatesTopic = "loop_candidates";
+constexpr const char* kScanTopic = "scan";
 
 const char* ownerName(int owner) {
-  static const char* const kNames[] = {"auto", "odom", "edges"};
+  static const char* const kNames[] = {"auto", "odom", "edges", "scan"};
   return kNames[owner];
 }
 
@@ -70,6 +71,12 @@ GraphSlamRos::GraphSlamRos(ros::NodeHandle nh, ros::NodeHandle private_nh)
       ros::SubscriberStatusCallback(), ros::VoidConstPtr(), true);
   path_pub_ = private_nh_.advertise<nav_msgs::Path>("path", 1, true);
   status_pub_ = private_nh_.advertise<RrrStatus>("status", 10);
+  if (params_.input_mode == "scan") {
+    startSlam();
+    map_pub_ = nh_.advertise<nav_msgs::OccupancyGrid>("map", 1, true);
+    tf_buffer_ = std::make_unique<tf2_ros::Buffer>();
+    tf_listener_ = std::make_unique<tf2_ros::TransformListener>(*tf_buffer_);
+  }
 
   const auto hints = ros::TransportHints().tcpNoDelay();
   const auto q = static_cast<std::uint32_t>(params_.input_queue_size);
@@ -82,6 +89,23 @@ GraphSlamRos::GraphSlamRos(ros::NodeHandle nh, ros::NodeHandle private_nh)
   subscribers_.push_back(nh_.subscribe<LoopCandidate>(
       kCandidatesTopic, q, [this](const LoopCandidateConstPtr& m) { enqueue(m, kCandidatesTopic); },
       ros::VoidConstPtr(), hints));
+
+  if (slam_) {
+    scan_sub_ = std::make_unique<message_filters::Subscriber<sensor_msgs::LaserScan>>(
+        nh_, kScanTopic, q, hints);
+    scan_filter_ = std::make_unique<tf2_ros::MessageFilter<sensor_msgs::LaserScan>>(
+        *scan_sub_, *tf_buffer_, params_.odom_frame, q, nh_);
+    scan_filter_->registerCallback(&GraphSlamRos::scanCallback, this);
+    scan_filter_->registerFailureCallback(
+        [this](const sensor_msgs::LaserScanConstPtr& msg,
+               tf2_ros::filter_failure_reasons::FilterFailureReason reason) {
+          dropScan(*msg, reason == tf2_ros::filter_failure_reasons::OutTheBack
+                             ? "older than the tf buffer"
+                         : reason == tf2_ros::filter_failure_reasons::EmptyFrameID
+                             ? "header.frame_id is empty"
+                             : "its transform never arrived (tf queue full)");
+        });
+  }
 
   worker_ = std::thread([this] { workerLoop(); });
 
@@ -98,6 +122,11 @@ GraphSlamRos::GraphSlamRos(ros::NodeHandle nh, ros::NodeHandle private_nh)
   if (params_.publish_tf) {
     tf_timer_ =
         nh_.createTimer(ros::Duration(params_.tf_publish_period), &GraphSlamRos::broadcastTf, this);
+  }
+  if (slam_) {
+    ROS_INFO("rrr_graphslam: slam mode: scans on %s placed by tf %s -> %s; map on %s",
+             nh_.resolveName(kScanTopic).c_str(), params_.odom_frame.c_str(),
+             params_.base_frame.c_str(), nh_.resolveName("map").c_str());
   }
   ROS_INFO("rrr_graphslam: listening on %s, %s and %s (input_mode %s, cluster_gap %d, alpha %g)",
            nh_.resolveName(kOdomTopic).c_str(), nh_.resolveName(kEdgesTopic).c_str(),
@@ -135,6 +164,32 @@ void GraphSlamRos::enqueue(Input input, const char* topic) {
   queue_cv_.notify_one();
 }
 
+void GraphSlamRos::scanCallback(const sensor_msgs::LaserScanConstPtr& msg) {
+  try {
+    // The filter let the scan through: both transforms are known at its stamp.
+    const ros::Duration timeout(params_.tf_timeout);
+    const auto odom = tf_buffer_->lookupTransform(params_.odom_frame, params_.base_frame,
+                                                  msg->header.stamp, timeout);
+    const auto laser = tf_buffer_->lookupTransform(params_.base_frame, msg->header.frame_id,
+                                                   msg->header.stamp, timeout);
+    enqueue(ScanInput{msg, toPose2(odom.transform), toPose2(laser.transform)}, kScanTopic);
+  } catch (const std::exception& e) {  // tf2::TransformException, or a bad transform
+    dropScan(*msg, e.what());
+  }
+}
+
+void GraphSlamRos::dropScan(const sensor_msgs::LaserScan& msg, const std::string& why) {
+  ++received_;
+  ++malformed_;
+  ++processed_;
+  ROS_ERROR_THROTTLE(1.0,
+                     "%s: scan at header.stamp %.6f (header.frame_id '%s') dropped: no usable "
+                     "transform %s -> %s -> scan: %s",
+                     nh_.resolveName(kScanTopic).c_str(), msg.header.stamp.toSec(),
+                     msg.header.frame_id.c_str(), params_.odom_frame.c_str(),
+                     params_.base_frame.c_str(), why.c_str());
+}
+
 bool GraphSlamRos::runInWorker(const std::function<std::string()>& job, std::string& message) {
   auto task = std::make_shared<std::packaged_task<std::string()>>(job);
   std::future<std::string> result = task->get_future();
@@ -168,6 +223,9 @@ void GraphSlamRos::workerLoop() {
         // more than RRR at high input rates), the status at once (replays in lockstep wait on it).
         lock.unlock();
         if (dirty_ && secondsSince(last_publish_) >= params_.publish_period) publishOutputs();
+        if (slam_ && map_dirty_ && secondsSince(last_map_) >= params_.map_publish_period) {
+          publishMap();
+        }
         publishStatus();
         lock.lock();
         const double wait =
@@ -218,6 +276,9 @@ void GraphSlamRos::process(const Input& input) {
     } else if (const auto* candidate = std::get_if<LoopCandidateConstPtr>(&input)) {
       topic = kCandidatesTopic;
       handleCandidate(**candidate);
+    } else if (const auto* scan = std::get_if<ScanInput>(&input)) {
+      topic = kScanTopic;
+      handleScan(*scan);
     } else {
       ++services_handled_;
       std::get<Command>(input)();
@@ -236,6 +297,7 @@ void GraphSlamRos::process(const Input& input) {
 bool GraphSlamRos::claim(Owner owner, const char* topic) {
   const Owner wanted = params_.input_mode == "odom"    ? Owner::kOdometry
                        : params_.input_mode == "edges" ? Owner::kEdges
+                       : params_.input_mode == "scan"  ? Owner::kScan
                                                        : owner;
   if (owner != wanted || (owner_ != Owner::kNone && owner_ != owner)) {
     ++ignored_;
@@ -276,12 +338,12 @@ void GraphSlamRos::handleOdometry(const nav_msgs::Odometry& msg) {
   last_odom_stamp_ = msg.header.stamp;
   if (!keyframes_.accept(pose)) return;
 
-  const bool continues = last_keyframe_odom_.has_value() && !graph_->empty();
-  const auto id = graph_->empty() ? rrr::OnlineRrr::NodeId{0} : graph_->nodeIds().back() + 1;
+  const bool continues = last_keyframe_odom_.has_value() && !graph().empty();
+  const auto id = graph().empty() ? rrr::OnlineRrr::NodeId{0} : graph().nodeIds().back() + 1;
   if (continues) {
-    graph_->addOdometry(id - 1, id, core::between(*last_keyframe_odom_, pose), information);
+    graph().addOdometry(id - 1, id, core::between(*last_keyframe_odom_, pose), information);
   } else {
-    graph_->startSession(id, pose);  // first node, or the first after ~load
+    graph().startSession(id, pose);  // first node, or the first after ~load
   }
   owner_ = Owner::kOdometry;
   last_keyframe_odom_ = pose;
@@ -291,28 +353,67 @@ void GraphSlamRos::handleOdometry(const nav_msgs::Odometry& msg) {
 
 void GraphSlamRos::handleEdge(const PoseGraphEdge& msg) {
   if (!claim(Owner::kEdges, kEdgesTopic)) return;
-  const int before = graph_->numNodes();
-  graph_->addOdometry(msg.from_id, msg.to_id, toPose2(msg.measurement),
+  const int before = graph().numNodes();
+  graph().addOdometry(msg.from_id, msg.to_id, toPose2(msg.measurement),
                       toInformation(msg.information));
   owner_ = Owner::kEdges;
-  node_stamps_.resize(static_cast<std::size_t>(graph_->numNodes()), msg.header.stamp);
-  dirty_ = dirty_ || graph_->numNodes() != before;
+  node_stamps_.resize(static_cast<std::size_t>(graph().numNodes()), msg.header.stamp);
+  dirty_ = dirty_ || graph().numNodes() != before;
 }
 
 void GraphSlamRos::handleCandidate(const LoopCandidate& msg) {
-  graph_->addCandidate(msg.from_id, msg.to_id, toPose2(msg.measurement),
+  graph().addCandidate(msg.from_id, msg.to_id, toPose2(msg.measurement),
                        toInformation(msg.information));
   ROS_DEBUG("loop candidate %u -> %u from '%s' (score %g)", msg.from_id, msg.to_id,
             msg.source.c_str(), msg.score);
   dirty_ = true;
 }
 
+void GraphSlamRos::handleScan(const ScanInput& input) {
+  if (!claim(Owner::kScan, kScanTopic)) return;
+  const sensor_msgs::LaserScan& msg = *input.msg;
+  if (!last_scan_stamp_.isZero() && msg.header.stamp <= last_scan_stamp_) {
+    throw std::invalid_argument("header.stamp " + std::to_string(msg.header.stamp.toSec()) +
+                                " is not after the previous scan's " +
+                                std::to_string(last_scan_stamp_.toSec()));
+  }
+  const frontend::RangeScan scan = toRangeScan(msg, input.laser_in_base);
+  last_scan_stamp_ = msg.header.stamp;
+  owner_ = Owner::kScan;
+  if (slam_->addScan(scan, input.odom)) {
+    node_stamps_.push_back(msg.header.stamp);
+    node_odom_poses_.push_back(input.odom);
+    dirty_ = true;
+    map_dirty_ = true;
+  }
+}
+
+void GraphSlamRos::startSlam() {
+  frontend::LaserSlamParams p = params_.slam;
+  p.rrr = params_.rrr;
+  slam_ = std::make_unique<frontend::LaserSlam>(p);
+  node_odom_poses_.clear();
+  last_scan_stamp_ = ros::Time();
+  map_dirty_ = true;
+}
+
+void GraphSlamRos::publishMap() {
+  map_dirty_ = false;
+  last_map_ = std::chrono::steady_clock::now();
+  nav_msgs::OccupancyGrid msg;
+  msg.header.stamp = ros::Time::now();
+  msg.header.frame_id = params_.map_frame;
+  msg.info.map_load_time = msg.header.stamp;
+  toOccupancyGridMsg(slam_->renderMap(params_.map_resolution), msg);
+  map_pub_.publish(msg);
+}
+
 void GraphSlamRos::publishChanges() {
-  for (const std::string& dropped : graph_->takeDroppedCandidates()) {
+  for (const std::string& dropped : graph().takeDroppedCandidates()) {
     ++malformed_;
     ROS_ERROR("%s: %s", nh_.resolveName(kCandidatesTopic).c_str(), dropped.c_str());
   }
-  const std::vector<rrr::DecisionChange> changes = graph_->takeChanges();
+  const std::vector<rrr::DecisionChange> changes = graph().takeChanges();
   if (changes.empty()) return;
   dirty_ = true;
   const ros::Time now = ros::Time::now();
@@ -335,24 +436,28 @@ void GraphSlamRos::publishChanges() {
 void GraphSlamRos::publishOutputs() {
   dirty_ = false;
   last_publish_ = std::chrono::steady_clock::now();
-  const std::vector<core::Pose2> poses = graph_->mapPoses();
+  const std::vector<core::Pose2> poses = graph().mapPoses();
   const ros::Time now = ros::Time::now();
   {
     std::lock_guard<std::mutex> lock(tf_mutex_);
-    if (graph_->empty()) {
+    if (graph().empty()) {
       map_to_odom_.reset();
+    } else if (slam_) {
+      // The graph's node poses are local-SLAM poses; odom_frame is the robot's odometry.
+      map_to_odom_ = core::compose(poses.back(), core::inverse(node_odom_poses_.back()));
     } else {
-      map_to_odom_ = graph_->mapToOdom();
+      map_to_odom_ = graph().mapToOdom();
     }
   }
-  path_pub_.publish(buildPath(*graph_, poses, node_stamps_, params_.map_frame, now));
+  path_pub_.publish(buildPath(graph(), poses, node_stamps_, params_.map_frame, now));
+  if (slam_ && map_dirty_ && secondsSince(last_map_) >= params_.map_publish_period) publishMap();
   if (markers_pub_.getNumSubscribers() > 0) {
-    markers_pub_.publish(buildMarkers(*graph_, poses, params_.map_frame, now));
+    markers_pub_.publish(buildMarkers(graph(), poses, params_.map_frame, now));
   }
 }
 
 void GraphSlamRos::publishStatus() {
-  const rrr::OnlineRrrStatus s = graph_->status();
+  const rrr::OnlineRrrStatus s = graph().status();
   RrrStatus msg;
   msg.header.stamp = ros::Time::now();
   msg.input_mode = ownerName(static_cast<int>(owner_));
@@ -380,13 +485,17 @@ void GraphSlamRos::publishStatus() {
   status_pub_.publish(msg);
 }
 
-void GraphSlamRos::replaceGraph(std::unique_ptr<rrr::OnlineRrr> graph) {
-  graph_ = std::move(graph);
+void GraphSlamRos::replaceGraph(std::unique_ptr<rrr::OnlineRrr> replacement) {
+  if (slam_) {
+    startSlam();  // a fresh front end (its graph holds no scans to go on from a loaded one)
+  } else {
+    graph_ = std::move(replacement);
+  }
   owner_ = Owner::kNone;
   keyframes_.reset();
   last_keyframe_odom_.reset();
   last_odom_stamp_ = ros::Time();
-  node_stamps_.assign(static_cast<std::size_t>(graph_->numNodes()), ros::Time::now());
+  node_stamps_.assign(static_cast<std::size_t>(graph().numNodes()), ros::Time::now());
   dirty_ = true;
   publishChanges();
 }
@@ -399,15 +508,15 @@ bool GraphSlamRos::save(SaveGraph::Request& req, SaveGraph::Response& res) {
         if (req.path.empty()) throw std::invalid_argument("path is empty");
         const std::string decisions =
             req.decisions_path.empty() ? defaultDecisionsPath(req.path) : req.decisions_path;
-        core::writePoseGraph(graph_->toPoseGraph(), req.path);
-        rrr::writeDecisions(decisions, graph_->decisionRows());
+        core::writePoseGraph(graph().toPoseGraph(), req.path);
+        rrr::writeDecisions(decisions, graph().decisionRows());
         std::string written = req.path + " and " + decisions;
         if (!req.optimized_path.empty()) {
-          core::writePoseGraph(graph_->optimizedPoseGraph(), req.optimized_path);
+          core::writePoseGraph(graph().optimizedPoseGraph(), req.optimized_path);
           written += " and " + req.optimized_path;
         }
-        return "saved " + std::to_string(graph_->numNodes()) + " nodes and " +
-               std::to_string(graph_->numCandidates()) + " candidates to " + written;
+        return "saved " + std::to_string(graph().numNodes()) + " nodes and " +
+               std::to_string(graph().numCandidates()) + " candidates to " + written;
       },
       res.message);
   logServiceResult("~save", res.success, res.message);
@@ -417,11 +526,16 @@ bool GraphSlamRos::save(SaveGraph::Request& req, SaveGraph::Response& res) {
 bool GraphSlamRos::load(LoadGraph::Request& req, LoadGraph::Response& res) {
   res.success = runInWorker(
       [&]() -> std::string {
+        if (slam_) {
+          throw std::invalid_argument(
+              "~load is not available in slam mode: a saved graph holds no scans to match new "
+              "ones against");
+        }
         core::GraphReadOptions options;
         options.allow_disconnected = true;
         replaceGraph(
             rrr::OnlineRrr::fromPoseGraph(core::readPoseGraph(req.path, options), params_.rrr));
-        const rrr::OnlineRrrStatus s = graph_->status();
+        const rrr::OnlineRrrStatus s = graph().status();
         return "loaded " + std::to_string(s.nodes) + " nodes (" + std::to_string(s.sessions) +
                " sessions) and " + std::to_string(s.candidates) + " candidates from " + req.path +
                ": " + std::to_string(s.accepted) + " accepted, " + std::to_string(s.rejected) +
@@ -448,10 +562,10 @@ bool GraphSlamRos::optimize(std_srvs::Trigger::Request&, std_srvs::Trigger::Resp
   res.success = runInWorker(
       [&]() -> std::string {
         const auto start = std::chrono::steady_clock::now();
-        graph_->decideClosedFromScratch();
+        graph().decideClosedFromScratch();
         publishChanges();
         dirty_ = true;
-        const rrr::OnlineRrrStatus s = graph_->status();
+        const rrr::OnlineRrrStatus s = graph().status();
         return "closed clusters decided again in " + std::to_string(secondsSince(start)) +
                " s: " + std::to_string(s.accepted) + " accepted, " + std::to_string(s.rejected) +
                " rejected, " + std::to_string(s.pending) + " pending";
@@ -463,10 +577,15 @@ bool GraphSlamRos::optimize(std_srvs::Trigger::Request&, std_srvs::Trigger::Resp
 bool GraphSlamRos::finish(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res) {
   res.success = runInWorker(
       [&]() -> std::string {
-        graph_->finish();
+        if (slam_) {
+          slam_->finish();
+          publishMap();
+        } else {
+          graph().finish();
+        }
         publishChanges();
         dirty_ = true;
-        const rrr::OnlineRrrStatus s = graph_->status();
+        const rrr::OnlineRrrStatus s = graph().status();
         return "every cluster closed and decided: " + std::to_string(s.accepted) + " accepted, " +
                std::to_string(s.rejected) + " rejected";
       },
@@ -484,6 +603,8 @@ void GraphSlamRos::broadcastTf(const ros::TimerEvent&) {
   }
   const ros::Time now = ros::Time::now();
   if (!map_to_odom || now.isZero()) return;  // no node yet, or no /clock yet
+  if (now == last_tf_time_) return;          // sim time paused: tf2 refuses repeated stamps
+  last_tf_time_ = now;
   geometry_msgs::TransformStamped t;
   t.header.stamp = now + ros::Duration(params_.transform_tolerance);
   t.header.frame_id = params_.map_frame;

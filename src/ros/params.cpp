@@ -64,8 +64,11 @@ NodeParams loadParams(const ros::NodeHandle& private_nh) {
   r.read<std::string>("odom_frame", p.odom_frame, frame, "a frame id without a leading '/'");
   r.read<std::string>(
       "input_mode", p.input_mode,
-      [](const std::string& m) { return m == "auto" || m == "odom" || m == "edges"; },
-      "auto, odom or edges");
+      [](const std::string& m) {
+        return m == "auto" || m == "odom" || m == "edges" || m == "scan";
+      },
+      "auto, odom, edges or scan");
+  r.read<std::string>("base_frame", p.base_frame, frame, "a frame id without a leading '/'");
 
   r.positive("min_travel_m", p.keyframes.min_travel_m);
   r.positive("min_rotation_rad", p.keyframes.min_rotation_rad);
@@ -82,6 +85,30 @@ NodeParams loadParams(const ros::NodeHandle& private_nh) {
       "recover_gate", rrr.recover_gate, [](const double& g) { return g >= 0.0; }, "non-negative");
   r.positive("incremental_map_update_every", rrr.incremental_map_update_every);
   r.positive("max_waiting_candidates", p.rrr.max_waiting_candidates);
+
+  // Front end (slam mode).
+  frontend::LaserSlamParams& slam = p.slam;
+  r.positive("scans_per_submap", slam.local.submap.scans_per_submap);
+  r.positive("submap_resolution", slam.local.submap.resolution_m);
+  r.positive("scan_max_range", slam.local.scan.max_range_m);
+  slam.local.submap.max_insertion_range_m = static_cast<float>(slam.local.scan.max_range_m);
+  r.positive("scan_min_travel_m", slam.local.motion_filter.min_travel_m);
+  r.positive("scan_min_rotation_rad", slam.local.motion_filter.min_rotation_rad);
+  r.read<double>(
+      "min_score", slam.loops.min_score, [](const double& v) { return v >= 0.0 && v <= 1.0; },
+      "in [0, 1]");
+  r.positive("max_constraint_distance", slam.loops.max_constraint_distance_m);
+  r.positive("linear_search_window", slam.loops.window.linear_m);
+  r.positive("angular_search_window", slam.loops.window.angular_rad);
+  r.read<int>(
+      "branch_and_bound_depth", slam.local.submap.branch_and_bound_depth,
+      [](const int& d) { return d >= 1 && d <= 12; }, "in [1, 12]");
+  r.positive("min_node_separation", slam.loops.min_node_separation);
+  r.positive("search_every_n_nodes", slam.loops.search_every_n_nodes);
+  r.vector3("scan_odometry_stddev", slam.odometry_stddev);
+  r.positive("map_resolution", p.map_resolution);
+  r.positive("map_publish_period", p.map_publish_period);
+  r.positive("tf_timeout", p.tf_timeout);
 
   r.read<bool>(
       "publish_tf", p.publish_tf, [](const bool&) { return true; }, "a boolean");

@@ -8,11 +8,18 @@
 #include <geometry_msgs/Pose.h>
 #include <geometry_msgs/Pose2D.h>
 #include <geometry_msgs/Transform.h>
+#include <nav_msgs/OccupancyGrid.h>
+#include <sensor_msgs/LaserScan.h>
 #include <Eigen/Core>
 #include <boost/array.hpp>
 
 #include "rrr_graphslam/core/se2.h"
+#include "rrr_graphslam/frontend/range_scan.h"
 #include "rrr_graphslam/rrr/rrr.h"
+
+namespace mrpt::maps {
+class COccupancyGridMap2D;
+}
 
 namespace rrr_graphslam::ros_adapter {
 
@@ -32,6 +39,18 @@ std::optional<Eigen::Matrix3d> planarCovariance(const boost::array<double, 36>& 
 
 geometry_msgs::Pose toPoseMsg(const core::Pose2& pose);
 geometry_msgs::Transform toTransformMsg(const core::Pose2& pose);
+
+/// Planar pose of a transform (translation x, y and yaw); throws like toPose2(Pose).
+core::Pose2 toPose2(const geometry_msgs::Transform& transform);
+
+/// A LaserScan as the front end reads it. Throws for an empty or one-beam scan, a non-positive
+/// or non-finite angle_increment, range_max or angle_min ("ranges", "angle_increment", ...).
+/// Readings that are NaN, +inf or above range_max are misses; below range_min they are dropped.
+frontend::RangeScan toRangeScan(const sensor_msgs::LaserScan& msg,
+                                const core::Pose2& laser_in_robot);
+
+/// nav_msgs/OccupancyGrid of an MRPT grid: 0..100 occupancy, -1 for cells never observed.
+void toOccupancyGridMsg(const mrpt::maps::COccupancyGridMap2D& grid, nav_msgs::OccupancyGrid& msg);
 
 /// LoopClosureDecision's verdict constant.
 std::uint8_t toVerdictMsg(rrr::Verdict verdict);

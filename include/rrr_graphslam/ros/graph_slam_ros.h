@@ -6,9 +6,12 @@
 // on a callback queue of their own and executed by the worker in turn with the input.
 //
 // In (relative to the node handle, remap freely): odom (nav_msgs/Odometry), pose_graph_edges
-// (PoseGraphEdge), loop_candidates (LoopCandidate).
+// (PoseGraphEdge), loop_candidates (LoopCandidate); in slam mode (input_mode scan) scan
+// (sensor_msgs/LaserScan) with tf odom_frame -> base_frame -> the scan's frame (a tf2 message
+// filter holds each scan until its transforms are known).
 // Out (private): ~decisions (LoopClosureDecision), ~markers (MarkerArray, latched, built only for
-// subscribers), ~path (nav_msgs/Path, latched), ~status (RrrStatus), tf map -> odom.
+// subscribers), ~path (nav_msgs/Path, latched), ~status (RrrStatus), tf map -> odom; in slam mode
+// also map (nav_msgs/OccupancyGrid, latched, relative to the node handle like map_server's).
 
 #include <atomic>
 #include <condition_variable>
@@ -23,17 +26,23 @@
 #include <variant>
 #include <vector>
 
+#include <message_filters/subscriber.h>
 #include <nav_msgs/Odometry.h>
 #include <ros/callback_queue.h>
 #include <ros/ros.h>
+#include <sensor_msgs/LaserScan.h>
 #include <std_srvs/Trigger.h>
+#include <tf2_ros/buffer.h>
+#include <tf2_ros/message_filter.h>
 #include <tf2_ros/transform_broadcaster.h>
+#include <tf2_ros/transform_listener.h>
 
 #include "rrr_graphslam/LoadGraph.h"
 #include "rrr_graphslam/LoopCandidate.h"
 #include "rrr_graphslam/PoseGraphEdge.h"
 #include "rrr_graphslam/SaveGraph.h"
 #include "rrr_graphslam/core/keyframe_selector.h"
+#include "rrr_graphslam/frontend/laser_slam.h"
 #include "rrr_graphslam/ros/params.h"
 #include "rrr_graphslam/rrr/online_rrr.h"
 
@@ -48,13 +57,21 @@ class GraphSlamRos {
   GraphSlamRos& operator=(const GraphSlamRos&) = delete;
 
  private:
-  enum class Owner { kNone, kOdometry, kEdges };
+  enum class Owner { kNone, kOdometry, kEdges, kScan };
   using Command = std::function<void()>;
+  /// A scan with the transforms looked up at its stamp (in the subscriber thread).
+  struct ScanInput {
+    sensor_msgs::LaserScanConstPtr msg;
+    core::Pose2 odom;           ///< base_frame in odom_frame
+    core::Pose2 laser_in_base;  ///< the scan's frame in base_frame
+  };
   using Input = std::variant<nav_msgs::OdometryConstPtr, PoseGraphEdgeConstPtr,
-                             LoopCandidateConstPtr, Command>;
+                             LoopCandidateConstPtr, ScanInput, Command>;
 
   // Subscriber threads.
   void enqueue(Input input, const char* topic);
+  void scanCallback(const sensor_msgs::LaserScanConstPtr& msg);
+  void dropScan(const sensor_msgs::LaserScan& msg, const std::string& why);
   /// Runs `job` in the worker and waits for it; false (with the reason) if it threw.
   bool runInWorker(const std::function<std::string()>& job, std::string& message);
 
@@ -64,12 +81,18 @@ class GraphSlamRos {
   void handleOdometry(const nav_msgs::Odometry& msg);
   void handleEdge(const PoseGraphEdge& msg);
   void handleCandidate(const LoopCandidate& msg);
+  void handleScan(const ScanInput& input);
+  /// The graph RRR decides: the front end's in slam mode, else the node's own.
+  rrr::OnlineRrr& graph() { return slam_ ? slam_->rrr() : *graph_; }
+  /// Slam mode: a fresh front end (start, ~reset).
+  void startSlam();
   /// False if the other input owns the graph (the message is then counted as ignored).
   bool claim(Owner owner, const char* topic);
-  void replaceGraph(std::unique_ptr<rrr::OnlineRrr> graph);
+  void replaceGraph(std::unique_ptr<rrr::OnlineRrr> replacement);
   void publishChanges();
   void publishOutputs();
   void publishStatus();
+  void publishMap();
 
   // Services (their own queue and thread).
   bool save(SaveGraph::Request& req, SaveGraph::Response& res);
@@ -86,7 +109,12 @@ class GraphSlamRos {
 
   // Owned by the worker.
   std::unique_ptr<rrr::OnlineRrr> graph_;
+  std::unique_ptr<frontend::LaserSlam> slam_;  // slam mode only
   std::vector<ros::Time> node_stamps_;
+  std::vector<core::Pose2> node_odom_poses_;  // slam mode: odom_frame pose of every node
+  ros::Time last_scan_stamp_;
+  bool map_dirty_ = false;
+  std::chrono::steady_clock::time_point last_map_;
   Owner owner_ = Owner::kNone;
   core::KeyframeSelector keyframes_;
   std::optional<core::Pose2> last_keyframe_odom_;  // odometry pose of the newest odom node
@@ -107,8 +135,14 @@ class GraphSlamRos {
   // Shared with the tf timer.
   std::mutex tf_mutex_;
   std::optional<core::Pose2> map_to_odom_;
+  ros::Time last_tf_time_;  // timer thread only
 
-  ros::Publisher decisions_pub_, markers_pub_, path_pub_, status_pub_;
+  ros::Publisher decisions_pub_, markers_pub_, path_pub_, status_pub_, map_pub_;
+  std::unique_ptr<tf2_ros::Buffer> tf_buffer_;  // slam mode only
+  std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
+  // Scans wait in the filter until odom_frame -> their frame is known at their stamp.
+  std::unique_ptr<message_filters::Subscriber<sensor_msgs::LaserScan>> scan_sub_;
+  std::unique_ptr<tf2_ros::MessageFilter<sensor_msgs::LaserScan>> scan_filter_;
   std::vector<ros::Subscriber> subscribers_;
   ros::CallbackQueue service_queue_;
   std::vector<ros::ServiceServer> services_;

@@ -8,6 +8,7 @@
 #include <Eigen/Core>
 
 #include "rrr_graphslam/core/keyframe_selector.h"
+#include "rrr_graphslam/frontend/laser_slam.h"
 #include "rrr_graphslam/rrr/online_rrr.h"
 
 namespace rrr_graphslam::ros_adapter {
@@ -16,8 +17,11 @@ struct NodeParams {
   // Frames (REP 105).
   std::string map_frame = "map";
   std::string odom_frame = "odom";
+  std::string base_frame = "base_link";  ///< slam mode: the robot frame the scans are placed in
   /// "auto": the first input that creates a node (odom or pose_graph_edges) owns the graph until
-  /// ~reset; "odom" or "edges" fix it. Messages of the other input are counted as ignored.
+  /// ~reset; "odom" or "edges" fix it. "scan": slam mode, the front end builds the graph from
+  /// `scan` (sensor_msgs/LaserScan) and tf odom_frame -> base_frame and publishes `map`.
+  /// Messages of the other inputs are counted as ignored.
   std::string input_mode = "auto";
 
   // Nodes from odometry.
@@ -28,6 +32,13 @@ struct NodeParams {
 
   // RRR (cluster_gap in nodes, alpha, ...).
   rrr::OnlineRrrParams rrr;
+
+  // Slam mode: the front end (its rrr member is ignored: `rrr` above is used), the map output and
+  // how long a scan waits for its tf.
+  frontend::LaserSlamParams slam;
+  double map_resolution = 0.05;     ///< m per cell of the published map
+  double map_publish_period = 5.0;  ///< s between map renderings while scans arrive
+  double tf_timeout = 0.2;          ///< s a scan waits for odom_frame -> base_frame
 
   // Output.
   bool publish_tf = true;
