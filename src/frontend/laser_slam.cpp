@@ -60,11 +60,15 @@ std::optional<int> LaserSlam::addScan(const RangeScan& scan, const core::Pose2& 
   return result.node;
 }
 
-void LaserSlam::searchLoops(int node, const PointCloud& points) {
-  if (finished_.empty() || points.empty()) return;
+void LaserSlam::searchLoops(int node, const PointCloud& scan_points) {
+  const auto& p = params_.loops;
+  PointCloud points;
+  for (const auto& q : scan_points) {
+    if (q.norm() <= p.max_point_range_m) points.push_back(q);
+  }
+  if (finished_.empty() || points.size() < 10) return;
   const std::vector<core::Pose2> map = rrr_->mapPoses();
   const core::Pose2& node_pose = map[static_cast<std::size_t>(node)];
-  const auto& p = params_.loops;
   for (const auto& submap : finished_) {
     if (node - submap->lastNode() < p.min_node_separation) continue;
     const core::Pose2& anchor = map[static_cast<std::size_t>(submap->anchorNode())];

@@ -104,6 +104,7 @@ NodeParams loadParams(const ros::NodeHandle& private_nh) {
       "branch_and_bound_depth", slam.local.submap.branch_and_bound_depth,
       [](const int& d) { return d >= 1 && d <= 12; }, "in [1, 12]");
   r.positive("min_node_separation", slam.loops.min_node_separation);
+  r.positive("loop_search_max_range", slam.loops.max_point_range_m);
   r.positive("search_every_n_nodes", slam.loops.search_every_n_nodes);
   r.vector3("scan_odometry_stddev", slam.odometry_stddev);
   r.positive("map_resolution", p.map_resolution);

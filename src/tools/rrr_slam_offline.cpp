@@ -34,9 +34,8 @@ const char* const kUsage =
     "                        [--trajectory TRAJ.txt] [--map MAP] [--map-resolution M]\n"
     "                        [--scans-per-submap N] [--min-score S] [--max-constraint-distance M]\n"
     "                        [--linear-window M] [--angular-window DEG] [--depth D]\n"
-    "                        [--min-node-separation N] [--search-every N] [--max-range M] [--alpha "
-    "A] [--max-scans N]\n"
-    "                        [--quiet]\n"
+    "                        [--min-node-separation N] [--search-every N] [--max-range M]\n"
+    "                        [--loop-max-range M] [--alpha A] [--max-scans N] [--quiet]\n"
     "  LOG               CARMEN log (FLASER or ROBOTLASER1 lines; the scans carry the odometry)\n"
     "  --output          the pose graph: nodes at their optimized poses, odometry and every loop\n"
     "                    candidate (rrr_offline can decide it again)\n"
@@ -47,8 +46,8 @@ const char* const kUsage =
     "                    green, rejected red)\n"
     "  --map-resolution  m per cell of the written map (default 0.05)\n"
     "  --scans-per-submap, --min-score, --max-constraint-distance, --linear-window,\n"
-    "  --angular-window, --depth, --min-node-separation, --search-every, --max-range: front-end\n"
-    "                    settings (see README)\n"
+    "  --angular-window, --depth, --min-node-separation, --search-every, --max-range,\n"
+    "  --loop-max-range: front-end settings (see README)\n"
     "  --alpha           confidence of RRR's chi-square tests (default 0.95)\n"
     "  --max-scans       stop after the first N scans of the log\n"
     "  --quiet           no progress line\n";
@@ -98,6 +97,8 @@ Arguments parseArguments(int argc, char** argv) {
       p.local.submap.branch_and_bound_depth = static_cast<int>(number(1, 12));
     } else if (a == "--min-node-separation") {
       p.loops.min_node_separation = static_cast<int>(number(1, 1e9));
+    } else if (a == "--loop-max-range") {
+      p.loops.max_point_range_m = number(0.1, 1e3);
     } else if (a == "--search-every") {
       p.loops.search_every_n_nodes = static_cast<int>(number(1, 1e6));
     } else if (a == "--max-range") {

@@ -19,6 +19,9 @@ struct LoopSearchParams {
   double min_score = 0.55;
   /// Submaps holding any of the last min_node_separation nodes are local SLAM's business.
   int min_node_separation = 100;
+  /// Points farther than this from the robot are left out of the search: the angular step of
+  /// branch and bound shrinks with the farthest point, and its cost grows with it.
+  double max_point_range_m = 15.0;
   /// Search every n-th node (Cartographer's sampling ratio 1/n).
   int search_every_n_nodes = 1;
   /// Least-squares refinement of a match (weak pull toward the branch-and-bound pose).
