@@ -35,7 +35,8 @@ const char* const kUsage =
     "                        [--scans-per-submap N] [--min-score S] [--max-constraint-distance M]\n"
     "                        [--linear-window M] [--angular-window DEG] [--depth D]\n"
     "                        [--min-node-separation N] [--search-every N] [--max-range M]\n"
-    "                        [--loop-max-range M] [--alpha A] [--max-scans N] [--quiet]\n"
+    "                        [--loop-max-range M] [--submap-resolution M] [--voxel M]\n"
+    "                        [--odometry-stddev M] [--alpha A] [--max-scans N] [--quiet]\n"
     "  LOG               CARMEN log (FLASER or ROBOTLASER1 lines; the scans carry the odometry)\n"
     "  --output          the pose graph: nodes at their optimized poses, odometry and every loop\n"
     "                    candidate (rrr_offline can decide it again)\n"
@@ -47,7 +48,9 @@ const char* const kUsage =
     "  --map-resolution  m per cell of the written map (default 0.05)\n"
     "  --scans-per-submap, --min-score, --max-constraint-distance, --linear-window,\n"
     "  --angular-window, --depth, --min-node-separation, --search-every, --max-range,\n"
-    "  --loop-max-range: front-end settings (see README)\n"
+    "  --loop-max-range, --submap-resolution, --voxel (matching points' voxel size):\n"
+    "                    front-end settings (see README)\n"
+    "  --odometry-stddev M  std of one local-SLAM step between nodes: M m, M/2 rad\n"
     "  --alpha           confidence of RRR's chi-square tests (default 0.95)\n"
     "  --max-scans       stop after the first N scans of the log\n"
     "  --quiet           no progress line\n";
@@ -97,6 +100,13 @@ Arguments parseArguments(int argc, char** argv) {
       p.local.submap.branch_and_bound_depth = static_cast<int>(number(1, 12));
     } else if (a == "--min-node-separation") {
       p.loops.min_node_separation = static_cast<int>(number(1, 1e9));
+    } else if (a == "--submap-resolution") {
+      p.local.submap.resolution_m = number(0.005, 1.0);
+    } else if (a == "--voxel") {
+      p.local.scan.voxel_size_m = number(0.001, 1.0);
+    } else if (a == "--odometry-stddev") {
+      const double xy = number(1e-6, 10.0);
+      p.odometry_stddev = Eigen::Vector3d(xy, xy, xy / 2.0);
     } else if (a == "--loop-max-range") {
       p.loops.max_point_range_m = number(0.1, 1e3);
     } else if (a == "--search-every") {

@@ -23,7 +23,9 @@ Submap buildSubmap(const SubmapParams& params, const RangeScanParams& scan_param
   for (const core::Pose2& p :
        {core::Pose2(3.0, 2.0, 0.0), core::Pose2(6.0, 2.5, 0.5), core::Pose2(9.0, 3.0, 1.0),
         core::Pose2(6.0, 6.0, -2.0), core::Pose2(2.0, 4.0, 2.5)}) {
-    submap.insert(toObservation(castScan(room(), p), scan_params), p, node++);
+    // Each view a few times, as a real submap sees a place from many scans.
+    for (int k = 0; k < 4; ++k)
+      submap.insert(toObservation(castScan(room(), p), scan_params), p, node++);
   }
   return submap;
 }

@@ -106,11 +106,11 @@ def test_slam_offline_builds_graph_trajectory_and_map_from_a_log(tmp_path):
     # One TUM row per scan, stamped with the scan's ipc_timestamp, in log order.
     stamps, poses = read_tum(str(out["trajectory"]))
     assert stamps == pytest.approx([r.timestamp for r in log.lasers], abs=1e-6)
-    # Local SLAM stays near the (good, short-range) odometry of this 60 s head of ACES.
+    # Local SLAM stays near the (good, short-range) odometry of this 60 s, 1 m head of ACES.
     first, last = log.lasers[0].odom_pose, log.lasers[-1].odom_pose
     travelled = ((last[0] - first[0]) ** 2 + (last[1] - first[1]) ** 2) ** 0.5
     estimated = ((poses[-1][0] - poses[0][0]) ** 2 + (poses[-1][1] - poses[0][1]) ** 2) ** 0.5
-    assert abs(travelled - estimated) < 0.1 * travelled
+    assert abs(travelled - estimated) < 0.2
     # The graph: one node per motion-filtered scan, loop candidates between submap anchors and nodes.
     graph = read_graph(str(out["graph"]))
     decisions = read_decisions(str(out["decisions"]))

@@ -24,7 +24,7 @@ struct LaserSlamParams {
   LoopSearchParams loops;
   rrr::OnlineRrrParams rrr;
   /// Standard deviations (m, m, rad) of the local-SLAM step between consecutive nodes.
-  Eigen::Vector3d odometry_stddev{0.02, 0.02, 0.01};
+  Eigen::Vector3d odometry_stddev{0.01, 0.01, 0.005};
 };
 
 /// Counters for progress lines and benchmarks.

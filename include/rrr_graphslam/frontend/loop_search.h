@@ -16,7 +16,7 @@ struct LoopSearchParams {
   /// Submaps whose anchor is farther than this from the node (map estimate) are not searched.
   double max_constraint_distance_m = 15.0;
   SearchWindow window;  ///< 7 m, 30 degrees
-  double min_score = 0.55;
+  double min_score = 0.6;
   /// Submaps holding any of the last min_node_separation nodes are local SLAM's business.
   int min_node_separation = 100;
   /// Points farther than this from the robot are left out of the search: the angular step of

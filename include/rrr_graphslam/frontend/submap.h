@@ -22,8 +22,8 @@ struct SubmapParams {
   /// Rays are inserted up to this range (misses clear space up to it); keep it at the scan's
   /// max_range_m.
   float max_insertion_range_m = 30.0F;
-  float hit_probability = 0.60F;   ///< MRPT's maxOccupancyUpdateCertainty
-  float miss_probability = 0.45F;  ///< MRPT's maxFreenessUpdateCertainty is 1 - this
+  float hit_probability = 0.55F;   ///< MRPT's maxOccupancyUpdateCertainty
+  float miss_probability = 0.49F;  ///< MRPT's maxFreenessUpdateCertainty is 1 - this
   float unknown_value = 0.1F;      ///< what never-observed cells score in matching
   int branch_and_bound_depth = 7;  ///< levels of max-grids built when the submap is finished
 };
