@@ -19,8 +19,10 @@ LaserSlam::LaserSlam(const LaserSlamParams& params)
   if (!(params.odometry_stddev.array() > 0.0).all()) {
     throw std::invalid_argument("odometry_stddev must be positive");
   }
-  if (params.loops.search_every_n_nodes < 1) {
-    throw std::invalid_argument("search_every_n_nodes must be at least 1");
+  if (params.loops.search_every_n_nodes < 1 || params.loops.threads < 1 ||
+      params.loops.pause_after_match_nodes < 0) {
+    throw std::invalid_argument(
+        "search_every_n_nodes and threads must be at least 1, pause_after_match_nodes at least 0");
   }
   odometry_information_ = params.odometry_stddev.cwiseAbs2().cwiseInverse().asDiagonal();
 }
@@ -49,9 +51,10 @@ std::optional<int> LaserSlam::addScan(const RangeScan& scan, const core::Pose2& 
     stats_.submaps = local_.submaps().numSubmaps();
     if (result.finished_submap) {
       finished_.push_back(result.finished_submap);
+      search_state_.resize(static_cast<std::size_t>(result.finished_submap->index()) + 1);
       ++stats_.finished_submaps;
     }
-    if (node % params_.loops.search_every_n_nodes == 0) searchLoops(node, result.points);
+    searchLoops(node, result.points);
   }
   const int newest = static_cast<int>(node_local_poses_.size()) - 1;
   scan_node_.push_back(newest);
@@ -69,21 +72,50 @@ void LaserSlam::searchLoops(int node, const PointCloud& scan_points) {
   if (finished_.empty() || points.size() < 10) return;
   const std::vector<core::Pose2> map = rrr_->mapPoses();
   const core::Pose2& node_pose = map[static_cast<std::size_t>(node)];
+
+  // Which submaps to search, and from where (in node order, so the result does not depend on
+  // the threads).
+  struct Search {
+    const Submap* submap;
+    core::Pose2 initial;
+    std::optional<LoopMatch> loop;
+    double seconds = 0.0;
+  };
+  std::vector<Search> searches;
   for (const auto& submap : finished_) {
     if (node - submap->lastNode() < p.min_node_separation) continue;
     const core::Pose2& anchor = map[static_cast<std::size_t>(submap->anchorNode())];
     if ((anchor.head<2>() - node_pose.head<2>()).norm() > p.max_constraint_distance_m) continue;
-    const core::Pose2 initial =
-        core::compose(submap->anchorPose(), core::between(anchor, node_pose));
-    auto start = std::chrono::steady_clock::now();
-    const auto loop = matchNodeToSubmap(*submap, node, points, initial, p);
-    stats_.loop_search_seconds += secondsSince(start);
-    ++stats_.loop_searches;
-    if (!loop) continue;
-    start = std::chrono::steady_clock::now();
-    rrr_->addCandidate(loop->from, loop->to, loop->measurement, loop->information);
-    stats_.rrr_seconds += secondsSince(start);
-    loops_.push_back(*loop);
+    SubmapSearchState& state = search_state_[static_cast<std::size_t>(submap->index())];
+    // Cartographer's per-submap sampling, and a pause after a match: the next few nodes would
+    // tell RRR the same thing about this submap.
+    if (node - state.last_searched < p.search_every_n_nodes) continue;
+    if (node - state.last_matched < p.pause_after_match_nodes) continue;
+    state.last_searched = node;
+    searches.push_back({submap.get(),
+                        core::compose(submap->anchorPose(), core::between(anchor, node_pose)),
+                        {},
+                        0.0});
+  }
+  const auto start = std::chrono::steady_clock::now();
+  const int n = static_cast<int>(searches.size());
+#pragma omp parallel for schedule(dynamic) num_threads(p.threads) if (p.threads > 1 && n > 1)
+  for (int k = 0; k < n; ++k) {
+    Search& s = searches[static_cast<std::size_t>(k)];
+    const auto match_start = std::chrono::steady_clock::now();
+    s.loop = matchNodeToSubmap(*s.submap, node, points, s.initial, p);
+    s.seconds = secondsSince(match_start);
+  }
+  stats_.loop_search_seconds += secondsSince(start);
+  for (const Search& s : searches) stats_.loop_search_pair_seconds += s.seconds;
+  stats_.loop_searches += n;
+  for (const Search& s : searches) {
+    if (!s.loop) continue;
+    search_state_[static_cast<std::size_t>(s.submap->index())].last_matched = node;
+    const auto rrr_start = std::chrono::steady_clock::now();
+    rrr_->addCandidate(s.loop->from, s.loop->to, s.loop->measurement, s.loop->information);
+    stats_.rrr_seconds += secondsSince(rrr_start);
+    loops_.push_back(*s.loop);
     ++stats_.candidates;
   }
 }

@@ -106,6 +106,10 @@ NodeParams loadParams(const ros::NodeHandle& private_nh) {
   r.positive("min_node_separation", slam.loops.min_node_separation);
   r.positive("loop_search_max_range", slam.loops.max_point_range_m);
   r.positive("search_every_n_nodes", slam.loops.search_every_n_nodes);
+  r.read<int>(
+      "pause_after_match_nodes", slam.loops.pause_after_match_nodes,
+      [](const int& n) { return n >= 0; }, "non-negative");
+  r.positive("loop_search_threads", slam.loops.threads);
   r.vector3("scan_odometry_stddev", slam.odometry_stddev);
   r.positive("map_resolution", p.map_resolution);
   r.positive("map_publish_period", p.map_publish_period);

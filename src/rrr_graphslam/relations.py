@@ -11,7 +11,7 @@ exactly (within `tolerance` seconds): both come from the log's ipc_timestamp.
 import bisect
 import math
 from dataclasses import dataclass
-from typing import Dict, List, Tuple
+from typing import List, Tuple
 
 from .graph_io import GraphFileError, between, tagged_lines
 
@@ -30,33 +30,30 @@ class RelationError:
     rot_sq_mean_deg2: float
 
 
+def _numeric_rows(path: str, layout: str):
+    """(line, floats) of every row of `path`, which must have the fields named in `layout`."""
+    count = len(layout.split())
+    for number, f in tagged_lines(path):
+        if len(f) != count:
+            raise GraphFileError(path, number, f"expected {count} fields '{layout}', found {len(f)}")
+        try:
+            yield number, [float(v) for v in f]
+        except ValueError as e:
+            raise GraphFileError(path, number, str(e)) from None
+
+
 def read_tum(path: str) -> Tuple[List[float], List[Pose]]:
     """Stamps and (x, y, yaw) of a TUM trajectory, in file order."""
     stamps, poses = [], []
-    for number, f in tagged_lines(path):
-        if len(f) != 8:
-            raise GraphFileError(path, number, f"expected 8 fields 't x y z qx qy qz qw', found {len(f)}")
-        try:
-            t, x, y, _, qx, qy, qz, qw = (float(v) for v in f)
-        except ValueError as e:
-            raise GraphFileError(path, number, str(e)) from None
-        yaw = math.atan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz))
+    for _, (t, x, y, _, qx, qy, qz, qw) in _numeric_rows(path, "t x y z qx qy qz qw"):
         stamps.append(t)
-        poses.append((x, y, yaw))
+        poses.append((x, y, math.atan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz))))
     return stamps, poses
 
 
 def read_relations(path: str) -> List[Tuple[float, float, Pose]]:
-    relations = []
-    for number, f in tagged_lines(path):
-        if len(f) != 8:
-            raise GraphFileError(path, number, f"expected 8 fields 't1 t2 x y z roll pitch yaw', found {len(f)}")
-        try:
-            t1, t2, x, y, _, _, _, yaw = (float(v) for v in f)
-        except ValueError as e:
-            raise GraphFileError(path, number, str(e)) from None
-        relations.append((t1, t2, (x, y, yaw)))
-    return relations
+    return [(t1, t2, (x, y, yaw))
+            for _, (t1, t2, x, y, _, _, _, yaw) in _numeric_rows(path, "t1 t2 x y z roll pitch yaw")]
 
 
 def _index(stamps: List[float]) -> Tuple[List[float], List[int]]:

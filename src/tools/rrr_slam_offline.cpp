@@ -36,7 +36,8 @@ const char* const kUsage =
     "                        [--linear-window M] [--angular-window DEG] [--depth D]\n"
     "                        [--min-node-separation N] [--search-every N] [--max-range M]\n"
     "                        [--loop-max-range M] [--submap-resolution M] [--voxel M]\n"
-    "                        [--odometry-stddev M] [--alpha A] [--max-scans N] [--quiet]\n"
+    "                        [--odometry-stddev M] [--pause-after-match N] [--threads N]\n"
+    "                        [--alpha A] [--max-scans N] [--quiet]\n"
     "  LOG               CARMEN log (FLASER or ROBOTLASER1 lines; the scans carry the odometry)\n"
     "  --output          the pose graph: nodes at their optimized poses, odometry and every loop\n"
     "                    candidate (rrr_offline can decide it again)\n"
@@ -51,6 +52,9 @@ const char* const kUsage =
     "  --loop-max-range, --submap-resolution, --voxel (matching points' voxel size):\n"
     "                    front-end settings (see README)\n"
     "  --odometry-stddev M  std of one local-SLAM step between nodes: M m, M/2 rad\n"
+    "  --search-every N  a submap is searched by at most every N-th node (default 2)\n"
+    "  --pause-after-match N  nodes a submap rests after a match (default 10)\n"
+    "  --threads N       threads of the loop search (default 2)\n"
     "  --alpha           confidence of RRR's chi-square tests (default 0.95)\n"
     "  --max-scans       stop after the first N scans of the log\n"
     "  --quiet           no progress line\n";
@@ -109,6 +113,10 @@ Arguments parseArguments(int argc, char** argv) {
       p.odometry_stddev = Eigen::Vector3d(xy, xy, xy / 2.0);
     } else if (a == "--loop-max-range") {
       p.loops.max_point_range_m = number(0.1, 1e3);
+    } else if (a == "--pause-after-match") {
+      p.loops.pause_after_match_nodes = static_cast<int>(number(0, 1e9));
+    } else if (a == "--threads") {
+      p.loops.threads = static_cast<int>(number(1, 256));
     } else if (a == "--search-every") {
       p.loops.search_every_n_nodes = static_cast<int>(number(1, 1e6));
     } else if (a == "--max-range") {
@@ -183,10 +191,12 @@ int main(int argc, char** argv) {
 
     std::printf("log            %s: %zu scans, %.1f s\n", args.log.c_str(), n, duration);
     std::printf("nodes          %d in %d submaps\n", stats.nodes, stats.submaps);
-    std::printf("loop search    %lld node-submap pairs, %.2f ms each\n", stats.loop_searches,
-                stats.loop_searches > 0
-                    ? 1e3 * stats.loop_search_seconds / static_cast<double>(stats.loop_searches)
-                    : 0.0);
+    std::printf("loop search    %lld node-submap pairs, %.2f ms each (%.2f s on %d threads)\n",
+                stats.loop_searches,
+                stats.loop_searches > 0 ? 1e3 * stats.loop_search_pair_seconds /
+                                              static_cast<double>(stats.loop_searches)
+                                        : 0.0,
+                stats.loop_search_seconds, args.params.loops.threads);
     std::printf("candidates     %d in %d clusters\n", status.candidates, status.clusters);
     std::printf("accepted       %d\n", status.accepted);
     std::printf("rejected       %d\n", status.rejected);

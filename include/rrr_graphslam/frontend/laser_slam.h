@@ -34,8 +34,9 @@ struct LaserSlamStats {
   int nodes = 0;
   int submaps = 0;
   int finished_submaps = 0;
-  long long loop_searches = 0;  ///< node-submap pairs searched by branch and bound
-  double loop_search_seconds = 0.0;
+  long long loop_searches = 0;            ///< node-submap pairs searched by branch and bound
+  double loop_search_seconds = 0.0;       ///< wall time (the searches of a node run in parallel)
+  double loop_search_pair_seconds = 0.0;  ///< sum over the pairs of each one's own time
   double local_slam_seconds = 0.0;
   double rrr_seconds = 0.0;
   int candidates = 0;
@@ -78,6 +79,11 @@ class LaserSlam {
   std::vector<int> scan_node_;
   std::vector<core::Pose2> scan_offset_;
   std::vector<double> scan_timestamps_;
+  struct SubmapSearchState {
+    int last_searched = -1000000000;
+    int last_matched = -1000000000;
+  };
+  std::vector<SubmapSearchState> search_state_;  // by submap index
   LaserSlamStats stats_;
 };
 

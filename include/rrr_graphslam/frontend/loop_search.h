@@ -22,8 +22,13 @@ struct LoopSearchParams {
   /// Points farther than this from the robot are left out of the search: the angular step of
   /// branch and bound shrinks with the farthest point, and its cost grows with it.
   double max_point_range_m = 15.0;
-  /// Search every n-th node (Cartographer's sampling ratio 1/n).
-  int search_every_n_nodes = 1;
+  /// A submap is searched by at most every n-th node (Cartographer's per-submap sampling, ratio
+  /// 1/n).
+  int search_every_n_nodes = 2;
+  /// After a match, a submap rests for this many nodes (they would tell RRR the same thing).
+  int pause_after_match_nodes = 10;
+  /// Threads matching one node against its submaps (OpenMP).
+  int threads = 2;
   /// Least-squares refinement of a match (weak pull toward the branch-and-bound pose).
   LeastSquaresParams refinement{1.0, 1.0, 1.0, 20, {0.05, 0.05, 0.5 * M_PI / 180}};
 };
