@@ -137,13 +137,26 @@ std::vector<core::Pose2> LaserSlam::scanMapPoses() const {
 }
 
 mrpt::maps::COccupancyGridMap2D LaserSlam::renderMap(double resolution_m) const {
-  mrpt::maps::COccupancyGridMap2D grid(-10.0F, 10.0F, -10.0F, 10.0F,
-                                       static_cast<float>(resolution_m));
+  const std::vector<core::Pose2> map = rrr_->mapPoses();
+  // Start from the trajectory's bounding box (MRPT grows the grid to fit the rays); the log's
+  // odometry origin may lie hundreds of metres away.
+  Eigen::Vector2d low(-1.0, -1.0);
+  Eigen::Vector2d high(1.0, 1.0);
+  if (!map.empty()) {
+    low = high = map.front().head<2>();
+    for (const auto& x : map) {
+      low = low.cwiseMin(x.head<2>());
+      high = high.cwiseMax(x.head<2>());
+    }
+  }
+  mrpt::maps::COccupancyGridMap2D grid(
+      static_cast<float>(low.x() - 1.0), static_cast<float>(high.x() + 1.0),
+      static_cast<float>(low.y() - 1.0), static_cast<float>(high.y() + 1.0),
+      static_cast<float>(resolution_m));
   auto& options = grid.insertionOptions;
   options.maxOccupancyUpdateCertainty = params_.local.submap.hit_probability;
   options.maxFreenessUpdateCertainty = 1.0F - params_.local.submap.miss_probability;
   options.maxDistanceInsertion = params_.local.submap.max_insertion_range_m;
-  const std::vector<core::Pose2> map = rrr_->mapPoses();
   for (std::size_t k = 0; k < node_scans_.size(); ++k) {
     const core::Pose2& x = map[k];
     grid.insertObservation(node_scans_[k], mrpt::poses::CPose3D(x.x(), x.y(), 0.0, x.z(), 0, 0));

@@ -109,9 +109,9 @@ def main(argv=None):
                 row["icp"] = relation_error(*read_tum(traj), rel)
         if args.maps:
             os.makedirs(args.maps, exist_ok=True)
-            with open(files["map"] + ".png", "rb") as src, \
-                    open(os.path.join(args.maps, f"{name}.png"), "wb") as dst:
-                dst.write(src.read())
+            # A README-sized copy (Debian's imagemagick); the full-size map stays in the cache.
+            subprocess.run(["/usr/bin/convert", files["map"] + ".png", "-resize", "1000x1000>", "-strip",
+                            os.path.join(args.maps, f"{name}.png")], check=True)
         rows.append(row)
 
     def rel(e):
