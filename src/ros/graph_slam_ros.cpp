@@ -103,7 +103,8 @@ GraphSlamRos::GraphSlamRos(ros::NodeHandle nh, ros::NodeHandle private_nh)
                              ? "older than the tf buffer"
                          : reason == tf2_ros::filter_failure_reasons::EmptyFrameID
                              ? "header.frame_id is empty"
-                             : "its transform never arrived (tf queue full)");
+                             : "the tf2 message filter could not transform it (queue overflow or "
+                               "tf failure)");
         });
   }
 
