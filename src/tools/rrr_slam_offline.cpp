@@ -37,7 +37,8 @@ const char* const kUsage =
     "                        [--min-node-separation N] [--search-every N] [--max-range M]\n"
     "                        [--loop-max-range M] [--submap-resolution M] [--voxel M]\n"
     "                        [--odometry-stddev M] [--pause-after-match N] [--threads N]\n"
-    "                        [--alpha A] [--max-scans N] [--quiet]\n"
+    "                        [--min-travel M] [--min-rotation DEG] [--alpha A] [--max-scans N]\n"
+    "                        [--quiet]\n"
     "  LOG               CARMEN log (FLASER or ROBOTLASER1 lines; the scans carry the odometry)\n"
     "  --output          the pose graph: nodes at their optimized poses, odometry and every loop\n"
     "                    candidate (rrr_offline can decide it again)\n"
@@ -55,6 +56,8 @@ const char* const kUsage =
     "  --search-every N  a submap is searched by at most every N-th node (default 2)\n"
     "  --pause-after-match N  nodes a submap rests after a match (default 10)\n"
     "  --threads N       threads of the loop search (default 2)\n"
+    "  --min-travel M, --min-rotation DEG  motion filter: a scan becomes a node after this\n"
+    "                    travel or rotation (default 0.1 m, 2 deg)\n"
     "  --alpha           confidence of RRR's chi-square tests (default 0.95)\n"
     "  --max-scans       stop after the first N scans of the log\n"
     "  --quiet           no progress line\n";
@@ -113,6 +116,10 @@ Arguments parseArguments(int argc, char** argv) {
       p.odometry_stddev = Eigen::Vector3d(xy, xy, xy / 2.0);
     } else if (a == "--loop-max-range") {
       p.loops.max_point_range_m = number(0.1, 1e3);
+    } else if (a == "--min-travel") {
+      p.local.motion_filter.min_travel_m = number(1e-6, 1e3);
+    } else if (a == "--min-rotation") {
+      p.local.motion_filter.min_rotation_rad = number(1e-6, 180.0) * M_PI / 180.0;
     } else if (a == "--pause-after-match") {
       p.loops.pause_after_match_nodes = static_cast<int>(number(0, 1e9));
     } else if (a == "--threads") {

@@ -21,7 +21,7 @@ struct LocalSlamParams {
   CorrelativeParams correlative;
   LeastSquaresParams least_squares;
   /// Motion filter: a scan becomes a node after this much travel or rotation.
-  core::KeyframeParams motion_filter{0.2, 5.0 * M_PI / 180};
+  core::KeyframeParams motion_filter{0.1, 2.0 * M_PI / 180};
   /// Scans with fewer matching points are not matched (the prediction is kept).
   int min_points = 20;
 };

@@ -17,7 +17,7 @@
 namespace rrr_graphslam::frontend {
 
 struct SubmapParams {
-  int scans_per_submap = 90;  ///< insertions until finished; a new submap starts at half
+  int scans_per_submap = 240;  ///< insertions until finished; a new submap starts at half
   double resolution_m = 0.05;
   /// Rays are inserted up to this range (misses clear space up to it); keep it at the scan's
   /// max_range_m.
