@@ -46,7 +46,7 @@ std::optional<int> LaserSlam::addScan(const RangeScan& scan, const core::Pose2& 
     }
     stats_.rrr_seconds += secondsSince(start);
     node_local_poses_.push_back(result.local_pose);
-    node_scans_.push_back(toObservation(scan, params_.local.scan));
+    node_scans_.push_back(std::move(*result.observation));
     stats_.nodes = node + 1;
     stats_.submaps = local_.submaps().numSubmaps();
     if (result.finished_submap) {
@@ -153,10 +153,7 @@ mrpt::maps::COccupancyGridMap2D LaserSlam::renderMap(double resolution_m) const 
       static_cast<float>(low.x() - 1.0), static_cast<float>(high.x() + 1.0),
       static_cast<float>(low.y() - 1.0), static_cast<float>(high.y() + 1.0),
       static_cast<float>(resolution_m));
-  auto& options = grid.insertionOptions;
-  options.maxOccupancyUpdateCertainty = params_.local.submap.hit_probability;
-  options.maxFreenessUpdateCertainty = 1.0F - params_.local.submap.miss_probability;
-  options.maxDistanceInsertion = params_.local.submap.max_insertion_range_m;
+  configureInsertion(grid, params_.local.submap);
   for (std::size_t k = 0; k < node_scans_.size(); ++k) {
     const core::Pose2& x = map[k];
     grid.insertObservation(node_scans_[k], mrpt::poses::CPose3D(x.x(), x.y(), 0.0, x.z(), 0, 0));

@@ -33,8 +33,8 @@ LocalSlamResult LocalSlam::addScan(const RangeScan& scan, const core::Pose2& odo
   if (motion_filter_.accept(result.local_pose)) {
     const int node = next_node_++;
     result.node = node;
-    result.finished_submap =
-        submaps_.insert(toObservation(scan, params_.scan), result.local_pose, node);
+    result.observation = toObservation(scan, params_.scan);
+    result.finished_submap = submaps_.insert(*result.observation, result.local_pose, node);
   }
   return result;
 }

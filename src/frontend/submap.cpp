@@ -6,6 +6,15 @@
 
 namespace rrr_graphslam::frontend {
 
+void configureInsertion(mrpt::maps::COccupancyGridMap2D& grid, const SubmapParams& params) {
+  auto& options = grid.insertionOptions;
+  options.maxOccupancyUpdateCertainty = params.hit_probability;
+  options.maxFreenessUpdateCertainty = 1.0F - params.miss_probability;
+  options.maxDistanceInsertion = params.max_insertion_range_m;
+  options.considerInvalidRangesAsFreeSpace = true;
+  options.wideningBeamsWithDistance = false;
+}
+
 Submap::Submap(int index, int anchor_node, const core::Pose2& anchor_local_pose,
                const SubmapParams& params)
     : index_(index),
@@ -18,12 +27,7 @@ Submap::Submap(int index, int anchor_node, const core::Pose2& anchor_local_pose,
   const auto y = static_cast<float>(anchor_local_pose.y());
   grid_ = std::make_unique<mrpt::maps::COccupancyGridMap2D>(
       x - 10.0F, x + 10.0F, y - 10.0F, y + 10.0F, static_cast<float>(params.resolution_m));
-  auto& options = grid_->insertionOptions;
-  options.maxOccupancyUpdateCertainty = params.hit_probability;
-  options.maxFreenessUpdateCertainty = 1.0F - params.miss_probability;
-  options.maxDistanceInsertion = params.max_insertion_range_m;
-  options.considerInvalidRangesAsFreeSpace = true;
-  options.wideningBeamsWithDistance = false;
+  configureInsertion(*grid_, params);
 }
 
 void Submap::insert(const mrpt::obs::CObservation2DRangeScan& scan, const core::Pose2& local_pose,

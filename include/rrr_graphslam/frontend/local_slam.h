@@ -30,8 +30,9 @@ struct LocalSlamResult {
   core::Pose2 local_pose;  ///< the scan's robot pose in the local SLAM frame
   PointCloud points;       ///< matching points, robot frame
   bool matched = false;    ///< false: the odometry prediction was kept
-  /// Set when the scan became node `node` and was inserted.
+  /// Set when the scan became node `node` and was inserted (as `observation`).
   std::optional<int> node;
+  std::optional<mrpt::obs::CObservation2DRangeScan> observation;
   /// A submap this insertion finished.
   std::shared_ptr<Submap> finished_submap;
 };

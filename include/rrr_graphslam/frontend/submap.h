@@ -28,6 +28,10 @@ struct SubmapParams {
   int branch_and_bound_depth = 7;  ///< levels of max-grids built when the submap is finished
 };
 
+/// MRPT insertion options of a grid built like a submap (hit/miss updates, insertion range); the
+/// rendered map uses them too.
+void configureInsertion(mrpt::maps::COccupancyGridMap2D& grid, const SubmapParams& params);
+
 class Submap {
  public:
   Submap(int index, int anchor_node, const core::Pose2& anchor_local_pose,
