@@ -115,7 +115,6 @@ void LaserSlam::searchLoops(int node, const PointCloud& scan_points) {
     const auto rrr_start = std::chrono::steady_clock::now();
     rrr_->addCandidate(s.loop->from, s.loop->to, s.loop->measurement, s.loop->information);
     stats_.rrr_seconds += secondsSince(rrr_start);
-    loops_.push_back(*s.loop);
     ++stats_.candidates;
   }
 }

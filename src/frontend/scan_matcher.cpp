@@ -52,23 +52,28 @@ RefinedMatch refineLeastSquares(const MatchGrid& grid, const core::Pose2& prior,
   Eigen::Matrix3d H_scan = Eigen::Matrix3d::Zero();
   double sum_sq = 0.0;
   double sum_p = 0.0;
-  // Scan term at x: residuals, their squares and the Gauss-Newton Hessian and gradient.
-  auto scanTerm = [&](const core::Pose2& pose, Eigen::Matrix3d& H, Eigen::Vector3d& g) {
-    H.setZero();
-    g.setZero();
+  // Scan term at x: residuals and their squares, and (when H and g are given) the Gauss-Newton
+  // Hessian and gradient; the line search needs only the cost.
+  auto scanTerm = [&](const core::Pose2& pose, Eigen::Matrix3d* H, Eigen::Vector3d* g) {
+    if (H != nullptr) {
+      H->setZero();
+      g->setZero();
+    }
     sum_sq = 0.0;
     sum_p = 0.0;
     const Eigen::Matrix2d R = core::rotation(pose.z());
     for (const auto& p : points) {
       const Eigen::Vector2d rp = R * p;
       Eigen::Vector2d grad;
-      const double m = grid.interpolate(pose.head<2>() + rp, &grad);
+      const double m = grid.interpolate(pose.head<2>() + rp, H != nullptr ? &grad : nullptr);
       const double r = w_occ * (1.0 - m);
-      // d(world point)/d(theta) = (-rp.y, rp.x)
-      const Eigen::Vector3d J =
-          -w_occ * Eigen::Vector3d(grad.x(), grad.y(), grad.x() * -rp.y() + grad.y() * rp.x());
-      H += J * J.transpose();
-      g += J * r;
+      if (H != nullptr) {
+        // d(world point)/d(theta) = (-rp.y, rp.x)
+        const Eigen::Vector3d J =
+            -w_occ * Eigen::Vector3d(grad.x(), grad.y(), grad.x() * -rp.y() + grad.y() * rp.x());
+        *H += J * J.transpose();
+        *g += J * r;
+      }
       sum_sq += r * r;
       sum_p += m;
     }
@@ -76,9 +81,7 @@ RefinedMatch refineLeastSquares(const MatchGrid& grid, const core::Pose2& prior,
   const double wt2 = params.translation_weight * params.translation_weight;
   const double wr2 = params.rotation_weight * params.rotation_weight;
   auto cost = [&](const core::Pose2& pose) {
-    Eigen::Matrix3d H;
-    Eigen::Vector3d g;
-    scanTerm(pose, H, g);
+    scanTerm(pose, nullptr, nullptr);
     return sum_sq + wt2 * (pose.head<2>() - prior.head<2>()).squaredNorm() +
            wr2 * std::pow(core::normalizeAngle(pose.z() - prior.z()), 2);
   };
@@ -86,7 +89,7 @@ RefinedMatch refineLeastSquares(const MatchGrid& grid, const core::Pose2& prior,
   for (int it = 0; it < params.max_iterations; ++it) {
     Eigen::Matrix3d H;
     Eigen::Vector3d g;
-    scanTerm(x, H, g);
+    scanTerm(x, &H, &g);
     H(0, 0) += wt2;
     H(1, 1) += wt2;
     H(2, 2) += wr2;
@@ -111,7 +114,7 @@ RefinedMatch refineLeastSquares(const MatchGrid& grid, const core::Pose2& prior,
     if (!improved || step.norm() * scale < 1e-6) break;
   }
   Eigen::Vector3d g;
-  scanTerm(x, H_scan, g);
+  scanTerm(x, &H_scan, &g);
   // Covariance of the scan term: sigma^2 H^-1 with sigma^2 the residual variance, plus the floor.
   const double dof = std::max(n - 3.0, 1.0);
   const double sigma2 = std::max(sum_sq / dof, 1e-9);

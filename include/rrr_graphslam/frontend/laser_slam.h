@@ -53,7 +53,6 @@ class LaserSlam {
 
   const rrr::OnlineRrr& rrr() const { return *rrr_; }
   rrr::OnlineRrr& rrr() { return *rrr_; }
-  const std::vector<LoopMatch>& loops() const { return loops_; }  ///< in candidate order
   const LaserSlamStats& stats() const { return stats_; }
   const LaserSlamParams& params() const { return params_; }
 
@@ -72,7 +71,6 @@ class LaserSlam {
   std::unique_ptr<rrr::OnlineRrr> rrr_;
   Eigen::Matrix3d odometry_information_;
   std::vector<std::shared_ptr<const Submap>> finished_;
-  std::vector<LoopMatch> loops_;
   std::vector<core::Pose2> node_local_poses_;
   std::vector<mrpt::obs::CObservation2DRangeScan> node_scans_;
   // Per scan: the newest node at its time and the scan's pose relative to it.
