@@ -20,6 +20,7 @@
 #include "rrr_graphslam/frontend/carmen_log.h"
 #include "rrr_graphslam/frontend/laser_slam.h"
 #include "rrr_graphslam/frontend/map_io.h"
+#include "rrr_graphslam/frontend/trajectory_refinement.h"
 #include "rrr_graphslam/rrr/decisions_io.h"
 
 namespace {
@@ -37,7 +38,10 @@ const char* const kUsage =
     "                        [--min-node-separation N] [--search-every N] [--max-range M]\n"
     "                        [--loop-max-range M] [--submap-resolution M] [--voxel M]\n"
     "                        [--odometry-stddev M] [--pause-after-match N] [--threads N]\n"
-    "                        [--min-travel M] [--min-rotation DEG] [--alpha A] [--max-scans N]\n"
+    "                        [--min-travel M] [--min-rotation DEG] [--correlative-window M]\n"
+    "                        [--correlative-translation-cost W] [--correlative-rotation-cost W]\n"
+    "                        [--translation-weight W] [--rotation-weight W]\n"
+    "                        [--refine-resolution M] [--alpha A] [--max-scans N]\n"
     "                        [--quiet]\n"
     "  LOG               CARMEN log (FLASER or ROBOTLASER1 lines; the scans carry the odometry)\n"
     "  --output          the pose graph: nodes at their optimized poses, odometry and every loop\n"
@@ -58,6 +62,15 @@ const char* const kUsage =
     "  --threads N       threads of the loop search (default 2)\n"
     "  --min-travel M, --min-rotation DEG  motion filter: a scan becomes a node after this\n"
     "                    travel or rotation (default 0.1 m, 2 deg)\n"
+    "  --correlative-window M  local SLAM's correlative search: +-M m (0 = least squares only;\n"
+    "                    default 0.15)\n"
+    "  --correlative-translation-cost WT, --correlative-rotation-cost WR  its score discount\n"
+    "                    exp(-(WT |dt|^2 + WR dtheta^2)) (defaults 0.1, 0.1)\n"
+    "  --translation-weight W, --rotation-weight W  least-squares pull toward the odometry\n"
+    "                    prediction (defaults 2, 10)\n"
+    "  --refine-resolution M  before --trajectory is written, every scan is matched once more\n"
+    "                    against the final map rendered at M m per cell (default 0.04; 0 = off:\n"
+    "                    scans follow their nodes rigidly)\n"
     "  --alpha           confidence of RRR's chi-square tests (default 0.95)\n"
     "  --max-scans       stop after the first N scans of the log\n"
     "  --quiet           no progress line\n";
@@ -70,6 +83,7 @@ struct Arguments {
   std::string map;
   double map_resolution = 0.05;
   bool quiet = false;
+  frontend::TrajectoryRefinementParams refinement;
   std::size_t max_scans = 0;  ///< 0: all
   frontend::LaserSlamParams params;
 };
@@ -129,6 +143,19 @@ Arguments parseArguments(int argc, char** argv) {
     } else if (a == "--max-range") {
       p.local.scan.max_range_m = number(0.1, 1e3);
       p.local.submap.max_insertion_range_m = static_cast<float>(p.local.scan.max_range_m);
+    } else if (a == "--correlative-window") {
+      p.local.correlative.linear_window_m = number(0.0, 10.0);
+      p.local.use_correlative_search = p.local.correlative.linear_window_m > 0.0;
+    } else if (a == "--correlative-translation-cost") {
+      p.local.correlative.translation_delta_cost_weight = number(0.0, 1e6);
+    } else if (a == "--correlative-rotation-cost") {
+      p.local.correlative.rotation_delta_cost_weight = number(0.0, 1e6);
+    } else if (a == "--translation-weight") {
+      p.local.least_squares.translation_weight = number(0.0, 1e6);
+    } else if (a == "--rotation-weight") {
+      p.local.least_squares.rotation_weight = number(0.0, 1e6);
+    } else if (a == "--refine-resolution") {
+      args.refinement.resolution_m = number(0.0, 10.0);
     } else if (a == "--alpha") {
       p.rrr.rrr.alpha = number(1e-6, 1.0 - 1e-9);
     } else if (a == "--max-scans") {
@@ -154,6 +181,23 @@ void writeTrajectory(const std::string& path, const std::vector<double>& stamps,
           << std::cos(0.5 * x.z()) << '\n';
     }
   });
+}
+
+// The optimized pose of each of the first n scans, refined against the final map (see
+// trajectory_refinement.h) unless refinement is off.
+std::vector<core::Pose2> refinedTrajectory(const frontend::LaserSlam& slam,
+                                           const frontend::CarmenLog& log, std::size_t n,
+                                           const frontend::TrajectoryRefinementParams& params) {
+  std::vector<core::Pose2> poses = slam.scanMapPoses();
+  if (params.resolution_m <= 0.0) return poses;
+  const auto map = frontend::MatchGrid::fromOccupancyGrid(slam.renderMap(params.resolution_m),
+                                                          slam.params().local.submap.unknown_value);
+  std::vector<frontend::PointCloud> points(n);
+  for (std::size_t k = 0; k < n; ++k) {
+    points[k] = frontend::matchingPoints(frontend::RangeScan::fromCarmen(log.scans[k]),
+                                         slam.params().local.scan);
+  }
+  return frontend::refineTrajectory(map, points, poses, params);
 }
 
 std::vector<frontend::LoopLine> loopLines(const frontend::LaserSlam& slam) {
@@ -221,7 +265,8 @@ int main(int argc, char** argv) {
       std::printf("decisions      %s\n", args.decisions.c_str());
     }
     if (!args.trajectory.empty()) {
-      writeTrajectory(args.trajectory, slam.scanTimestamps(), slam.scanMapPoses());
+      writeTrajectory(args.trajectory, slam.scanTimestamps(),
+                      refinedTrajectory(slam, log, n, args.refinement));
       std::printf("trajectory     %s\n", args.trajectory.c_str());
     }
     if (!args.map.empty()) {

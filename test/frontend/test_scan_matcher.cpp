@@ -9,6 +9,7 @@
 #include "rrr_graphslam/frontend/loop_search.h"
 #include "rrr_graphslam/frontend/scan_matcher.h"
 #include "rrr_graphslam/frontend/submap.h"
+#include "rrr_graphslam/frontend/trajectory_refinement.h"
 #include "synthetic_room.h"
 
 namespace rrr_graphslam::frontend {
@@ -84,6 +85,40 @@ TEST(ScanMatcher, LoopSearchFindsTheScanMetresAway) {
   ASSERT_TRUE(relocalized.has_value());
   const core::Pose2 again = core::compose(submap.anchorPose(), relocalized->measurement);
   EXPECT_LT((again.head<2>() - truth.head<2>()).norm(), 0.03) << again.transpose();
+}
+
+TEST(TrajectoryRefinement, PullsPerturbedPosesBackOntoTheMap) {
+  const RangeScanParams scan_params;
+  const Submap submap = buildSubmap(SubmapParams{}, scan_params);
+  std::vector<core::Pose2> truth, perturbed;
+  std::vector<PointCloud> points;
+  for (int k = 0; k < 40; ++k) {
+    truth.emplace_back(2.5 + 0.12 * k, 1.5 + 0.05 * k, -0.5 + 0.03 * k);
+    points.push_back(matchingPoints(castScan(room(), truth.back()), scan_params));
+    // Deterministic errors of up to 3 cm and 1 degree, in every direction.
+    perturbed.push_back(truth.back() + core::Pose2(0.03 * std::cos(1.7 * k),
+                                                   0.03 * std::sin(2.3 * k),
+                                                   0.017 * std::sin(0.9 * k)));
+  }
+  // One scan too sparse to match keeps its pose.
+  points[5].resize(3);
+  const auto refined = refineTrajectory(submap.matchGrid(), points, perturbed, {});
+  ASSERT_EQ(refined.size(), truth.size());
+  EXPECT_EQ(refined[5], perturbed[5]);
+  // The rotation prior (weight 10) holds the angle more firmly than the translation.
+  double before = 0.0, after = 0.0, before_rad = 0.0, after_rad = 0.0;
+  for (std::size_t k = 0; k < truth.size(); ++k) {
+    if (k == 5) continue;
+    before += (perturbed[k].head<2>() - truth[k].head<2>()).norm();
+    after += (refined[k].head<2>() - truth[k].head<2>()).norm();
+    before_rad += std::abs(core::normalizeAngle(perturbed[k].z() - truth[k].z()));
+    after_rad += std::abs(core::normalizeAngle(refined[k].z() - truth[k].z()));
+    EXPECT_LT((refined[k].head<2>() - truth[k].head<2>()).norm(), 0.03) << "scan " << k;
+    EXPECT_NEAR(core::normalizeAngle(refined[k].z() - truth[k].z()), 0.0, 0.012) << "scan " << k;
+  }
+  EXPECT_LT(after, 0.5 * before);
+  EXPECT_LT(after_rad, 0.7 * before_rad);
+  EXPECT_THROW(refineTrajectory(submap.matchGrid(), points, {truth[0]}, {}), std::invalid_argument);
 }
 
 TEST(LocalSlam, TracksARobotDrivingThroughTheRoomDespiteBiasedOdometry) {

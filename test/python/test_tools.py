@@ -131,6 +131,26 @@ def test_slam_offline_builds_graph_trajectory_and_map_from_a_log(tmp_path):
 
 
 @needs_slam
+def test_slam_offline_refines_the_trajectory_against_the_final_map(tmp_path):
+    from rrr_graphslam.relations import read_tum
+    trajectories = {}
+    for resolution in (0, 0.04):
+        path = tmp_path / f"t{resolution}.txt"
+        result = run(SLAM_OFFLINE, ACES_HEAD, "--trajectory", path, "--scans-per-submap", 10,
+                     "--min-node-separation", 15, "--refine-resolution", resolution, "--quiet")
+        assert result.returncode == 0, result.stderr
+        trajectories[resolution] = read_tum(str(path))
+    (stamps0, raw), (stamps1, refined) = trajectories[0], trajectories[0.04]
+    assert stamps0 == stamps1
+    moves = [((a[0] - b[0]) ** 2 + (a[1] - b[1]) ** 2) ** 0.5 for a, b in zip(raw, refined)]
+    # Refinement corrects matching error (millimetres to centimetres), never relocates a scan.
+    assert max(moves) < 0.05
+    assert sum(m > 1e-4 for m in moves) > len(moves) // 2
+    result = run(SLAM_OFFLINE, ACES_HEAD, "--refine-resolution", -1, "--quiet")
+    assert result.returncode == 2 and "--refine-resolution" in result.stderr
+
+
+@needs_slam
 def test_slam_offline_rejects_a_malformed_log_with_file_and_line(tmp_path):
     bad = tmp_path / "bad.clf"
     bad.write_text("FLASER 3 1.0 2.0 3.0 0 0 0 0 0 0 1.5 host 1.5\nFLASER 3 1.0 x 3.0 0 0 0 0 0 0 2 host 2\n")
