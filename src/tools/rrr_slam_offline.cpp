@@ -265,9 +265,17 @@ int main(int argc, char** argv) {
       std::printf("decisions      %s\n", args.decisions.c_str());
     }
     if (!args.trajectory.empty()) {
+      const auto refine_start = std::chrono::steady_clock::now();
       writeTrajectory(args.trajectory, slam.scanTimestamps(),
                       refinedTrajectory(slam, log, n, args.refinement));
-      std::printf("trajectory     %s\n", args.trajectory.c_str());
+      if (args.refinement.resolution_m > 0.0) {
+        std::printf(
+            "trajectory     %s (refined against the final map in %.2f s)\n",
+            args.trajectory.c_str(),
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - refine_start).count());
+      } else {
+        std::printf("trajectory     %s\n", args.trajectory.c_str());
+      }
     }
     if (!args.map.empty()) {
       const auto grid = slam.renderMap(args.map_resolution);
