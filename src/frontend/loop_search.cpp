@@ -1,5 +1,7 @@
 #include "rrr_graphslam/frontend/loop_search.h"
 
+#include "rrr_graphslam/frontend/voxel_filter.h"
+
 namespace rrr_graphslam::frontend {
 namespace {
 
@@ -21,13 +23,20 @@ LoopMatch toLoop(const Submap& submap, int node, const PointCloud& points, const
   return loop;
 }
 
+PointCloud searchPoints(const PointCloud& points, const LoopSearchParams& params) {
+  return params.search_min_points > 0
+             ? adaptiveVoxelFilter(points, params.search_voxel_max_m, params.search_min_points)
+             : points;
+}
+
 }  // namespace
 
 std::optional<LoopMatch> matchNodeToSubmap(const Submap& submap, int node, const PointCloud& points,
                                            const core::Pose2& initial,
                                            const LoopSearchParams& params) {
   if (submap.matcher() == nullptr) return std::nullopt;
-  const auto match = submap.matcher()->match(initial, points, params.window, params.min_score);
+  const auto match = submap.matcher()->match(initial, searchPoints(points, params), params.window,
+                                             params.min_score);
   if (!match) return std::nullopt;
   return toLoop(submap, node, points, *match, params);
 }
@@ -36,7 +45,8 @@ std::optional<LoopMatch> matchNodeToWholeSubmap(const Submap& submap, int node,
                                                 const PointCloud& points,
                                                 const LoopSearchParams& params) {
   if (submap.matcher() == nullptr) return std::nullopt;
-  const auto match = submap.matcher()->matchFullSubmap(points, params.min_score);
+  const auto match =
+      submap.matcher()->matchFullSubmap(searchPoints(points, params), params.min_score);
   if (!match) return std::nullopt;
   return toLoop(submap, node, points, *match, params);
 }

@@ -1,9 +1,10 @@
 #include "rrr_graphslam/frontend/range_scan.h"
 
 #include <cmath>
-#include <unordered_set>
 
 #include <mrpt/poses/CPose3D.h>
+
+#include "rrr_graphslam/frontend/voxel_filter.h"
 
 namespace rrr_graphslam::frontend {
 
@@ -21,19 +22,15 @@ RangeScan RangeScan::fromCarmen(const LaserRecord& record) {
 PointCloud matchingPoints(const RangeScan& scan, const RangeScanParams& params) {
   PointCloud points;
   points.reserve(scan.ranges.size());
-  std::unordered_set<std::int64_t> voxels;
   const Eigen::Matrix2d R = core::rotation(scan.laser_in_robot.z());
   for (std::size_t i = 0; i < scan.ranges.size(); ++i) {
     const double r = scan.ranges[i];
     if (scan.isMiss(i) || r < params.min_range_m || r > params.max_range_m) continue;
     const double a = scan.angle_min + static_cast<double>(i) * scan.angle_increment;
-    const Eigen::Vector2d p =
-        scan.laser_in_robot.head<2>() + R * Eigen::Vector2d(r * std::cos(a), r * std::sin(a));
-    const auto vx = static_cast<std::int64_t>(std::floor(p.x() / params.voxel_size_m));
-    const auto vy = static_cast<std::int64_t>(std::floor(p.y() / params.voxel_size_m));
-    if (voxels.insert(vx * 2000003 + vy).second) points.push_back(p);
+    points.push_back(scan.laser_in_robot.head<2>() +
+                     R * Eigen::Vector2d(r * std::cos(a), r * std::sin(a)));
   }
-  return points;
+  return voxelFilter(points, params.voxel_size_m);
 }
 
 mrpt::obs::CObservation2DRangeScan toObservation(const RangeScan& scan,

@@ -110,6 +110,10 @@ NodeParams loadParams(const ros::NodeHandle& private_nh) {
       "pause_after_match_nodes", slam.loops.pause_after_match_nodes,
       [](const int& n) { return n >= 0; }, "non-negative");
   r.positive("loop_search_threads", slam.loops.threads);
+  r.read<int>(
+      "loop_search_min_points", slam.loops.search_min_points, [](const int& n) { return n >= 0; },
+      "non-negative");
+  r.positive("loop_search_max_voxel", slam.loops.search_voxel_max_m);
   r.vector3("scan_odometry_stddev", slam.odometry_stddev);
   r.positive("map_resolution", p.map_resolution);
   r.positive("map_publish_period", p.map_publish_period);

@@ -41,6 +41,7 @@ const char* const kUsage =
     "                        [--min-travel M] [--min-rotation DEG] [--correlative-window M]\n"
     "                        [--correlative-translation-cost W] [--correlative-rotation-cost W]\n"
     "                        [--translation-weight W] [--rotation-weight W]\n"
+    "                        [--search-min-points N] [--search-voxel M]\n"
     "                        [--refine-resolution M] [--alpha A] [--max-scans N]\n"
     "                        [--quiet]\n"
     "  LOG               CARMEN log (FLASER or ROBOTLASER1 lines; the scans carry the odometry)\n"
@@ -68,6 +69,9 @@ const char* const kUsage =
     "                    exp(-(WT |dt|^2 + WR dtheta^2)) (defaults 0.1, 0.1)\n"
     "  --translation-weight W, --rotation-weight W  least-squares pull toward the odometry\n"
     "                    prediction (defaults 2, 10)\n"
+    "  --search-min-points N, --search-voxel M  branch and bound scores each scan thinned by\n"
+    "                    the coarsest voxel up to M m that leaves N points (defaults 150, 0.9;\n"
+    "                    N = 0: every point)\n"
     "  --refine-resolution M  before --trajectory is written, every scan is matched once more\n"
     "                    against the final map rendered at M m per cell (default 0.04; 0 = off:\n"
     "                    scans follow their nodes rigidly)\n"
@@ -154,6 +158,10 @@ Arguments parseArguments(int argc, char** argv) {
       p.local.least_squares.translation_weight = number(0.0, 1e6);
     } else if (a == "--rotation-weight") {
       p.local.least_squares.rotation_weight = number(0.0, 1e6);
+    } else if (a == "--search-min-points") {
+      p.loops.search_min_points = static_cast<int>(number(0, 1e6));
+    } else if (a == "--search-voxel") {
+      p.loops.search_voxel_max_m = number(0.001, 100.0);
     } else if (a == "--refine-resolution") {
       args.refinement.resolution_m = number(0.0, 10.0);
     } else if (a == "--alpha") {

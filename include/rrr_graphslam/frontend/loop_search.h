@@ -27,6 +27,12 @@ struct LoopSearchParams {
   int search_every_n_nodes = 2;
   /// After a match, a submap rests for this many nodes (they would tell RRR the same thing).
   int pause_after_match_nodes = 10;
+  /// Branch and bound scores a thinned scan: the coarsest voxel up to search_voxel_max_m that
+  /// leaves search_min_points points (Cartographer's adaptive voxel filter; it uses 0.9 m / 100;
+  /// 150 here thins 180-beam scans a little and 360-beam ones by about half); the
+  /// least-squares refinement uses every point. search_min_points 0 turns the thinning off.
+  double search_voxel_max_m = 0.9;
+  int search_min_points = 150;
   /// Threads matching one node against its submaps (OpenMP).
   int threads = 2;
   /// Least-squares refinement of a match (weak pull toward the branch-and-bound pose).
