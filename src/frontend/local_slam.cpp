@@ -20,11 +20,16 @@ LocalSlamResult LocalSlam::addScan(const RangeScan& scan, const core::Pose2& odo
         params_.use_correlative_search
             ? realTimeCorrelativeMatch(grid, prediction, result.points, params_.correlative)
             : prediction;
-    // Cartographer's choice: translation pulled toward the prediction, rotation toward the
-    // correlative result.
-    const core::Pose2 prior(prediction.x(), prediction.y(), initial.z());
-    result.local_pose =
-        refineLeastSquares(grid, prior, initial, result.points, params_.least_squares).pose;
+    if (params_.refinement == LocalSlamParams::Refinement::kIcp && submap->grid() != nullptr) {
+      const auto icp = refineIcp(*submap->grid(), initial, result.points, params_.icp);
+      result.local_pose = icp.value_or(initial);
+    } else {
+      // Cartographer's choice: translation pulled toward the prediction, rotation toward the
+      // correlative result.
+      const core::Pose2 prior(prediction.x(), prediction.y(), initial.z());
+      result.local_pose =
+          refineLeastSquares(grid, prior, initial, result.points, params_.least_squares).pose;
+    }
     result.matched = true;
   }
   last_local_ = result.local_pose;

@@ -92,6 +92,14 @@ NodeParams loadParams(const ros::NodeHandle& private_nh) {
   r.positive("submap_resolution", slam.local.submap.resolution_m);
   r.positive("scan_max_range", slam.local.scan.max_range_m);
   slam.local.submap.max_insertion_range_m = static_cast<float>(slam.local.scan.max_range_m);
+  std::string refinement = "least_squares";
+  r.read<std::string>(
+      "scan_refinement", refinement,
+      [](const std::string& m) { return m == "least_squares" || m == "icp"; },
+      "least_squares or icp");
+  slam.local.refinement = refinement == "icp"
+                              ? frontend::LocalSlamParams::Refinement::kIcp
+                              : frontend::LocalSlamParams::Refinement::kLeastSquares;
   r.positive("scan_min_travel_m", slam.local.motion_filter.min_travel_m);
   r.positive("scan_min_rotation_rad", slam.local.motion_filter.min_rotation_rad);
   r.read<double>(

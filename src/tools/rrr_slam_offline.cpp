@@ -40,6 +40,7 @@ const char* const kUsage =
     "                        [--odometry-stddev M] [--pause-after-match N] [--threads N]\n"
     "                        [--min-travel M] [--min-rotation DEG] [--correlative-window M]\n"
     "                        [--correlative-translation-cost W] [--correlative-rotation-cost W]\n"
+    "                        [--local-refinement least-squares|icp]\n"
     "                        [--translation-weight W] [--rotation-weight W]\n"
     "                        [--search-min-points N] [--search-voxel M]\n"
     "                        [--refine-resolution M] [--alpha A] [--max-scans N]\n"
@@ -67,6 +68,8 @@ const char* const kUsage =
     "                    default 0.15)\n"
     "  --correlative-translation-cost WT, --correlative-rotation-cost WR  its score discount\n"
     "                    exp(-(WT |dt|^2 + WR dtheta^2)) (defaults 0.1, 0.1)\n"
+    "  --local-refinement  what refines local SLAM's correlative match: least-squares\n"
+    "                    (default) or icp (MRPT's CICP against the submap's occupied cells)\n"
     "  --translation-weight W, --rotation-weight W  least-squares pull toward the odometry\n"
     "                    prediction (defaults 2, 10)\n"
     "  --search-min-points N, --search-voxel M  branch and bound scores each scan thinned by\n"
@@ -154,6 +157,15 @@ Arguments parseArguments(int argc, char** argv) {
       p.local.correlative.translation_delta_cost_weight = number(0.0, 1e6);
     } else if (a == "--correlative-rotation-cost") {
       p.local.correlative.rotation_delta_cost_weight = number(0.0, 1e6);
+    } else if (a == "--local-refinement") {
+      const std::string v = cli.value(i, a);
+      if (v == "least-squares") {
+        p.local.refinement = frontend::LocalSlamParams::Refinement::kLeastSquares;
+      } else if (v == "icp") {
+        p.local.refinement = frontend::LocalSlamParams::Refinement::kIcp;
+      } else {
+        cli.fail("--local-refinement must be least-squares or icp, not '" + v + "'");
+      }
     } else if (a == "--translation-weight") {
       p.local.least_squares.translation_weight = number(0.0, 1e6);
     } else if (a == "--rotation-weight") {

@@ -205,7 +205,9 @@ INSTANTIATE_TEST_SUITE_P(
                  "EDGE_SE2 0 1 1 0 0 1 0 0 1 0 1\nEDGE_SE2 2 3 1 0 0 1 0 0 1 0 1\n",
                  0, "2 components: {0..1} (2 nodes), {2..3} (2 nodes)"},
         BadInput{"empty", "# nothing but a comment\n", 0, "no vertices or edges"}),
-    [](const ::testing::TestParamInfo<BadInput>& info) { return std::string(info.param.name); });
+    [](const ::testing::TestParamInfo<BadInput>& param_info) {
+      return std::string(param_info.param.name);
+    });
 
 TEST(GraphIo, MissingFileAndTruncatedGzip) {
   EXPECT_THROW(readPoseGraph("/nonexistent/graph.g2o"), InputError);

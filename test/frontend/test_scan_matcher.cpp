@@ -5,6 +5,7 @@
 
 #include <Eigen/LU>
 
+#include "rrr_graphslam/frontend/icp_refinement.h"
 #include "rrr_graphslam/frontend/local_slam.h"
 #include "rrr_graphslam/frontend/loop_search.h"
 #include "rrr_graphslam/frontend/scan_matcher.h"
@@ -49,6 +50,24 @@ TEST(ScanMatcher, LocalMatchRecoversAKnownOffset) {
   EXPECT_GT(refined.mean_probability, 0.6);
   EXPECT_TRUE(refined.information.allFinite());
   EXPECT_GT(refined.information.determinant(), 0.0);
+}
+
+TEST(ScanMatcher, IcpRefinementRecoversAKnownOffset) {
+  const RangeScanParams scan_params;
+  const Submap submap = buildSubmap(SubmapParams{}, scan_params);
+  ASSERT_NE(submap.grid(), nullptr);
+  const core::Pose2 truth(5.0, 4.0, 0.3);
+  const PointCloud points = matchingPoints(castScan(room(), truth), scan_params);
+  const core::Pose2 initial = truth + core::Pose2(0.08, -0.06, 0.03);
+  const auto icp = refineIcp(*submap.grid(), initial, points, IcpRefinementParams{});
+  ASSERT_TRUE(icp.has_value());
+  // Point-to-point ICP against cell centres: within a cell (5 cm) of the truth, from 10 cm off.
+  EXPECT_LT((icp->head<2>() - truth.head<2>()).norm(), 0.035) << icp->transpose();
+  EXPECT_NEAR(core::normalizeAngle(icp->z() - truth.z()), 0.0, 0.005);
+  // Nothing to align with: no pose.
+  EXPECT_FALSE(
+      refineIcp(*submap.grid(), truth + core::Pose2(40.0, 40.0, 0.0), points, IcpRefinementParams{})
+          .has_value());
 }
 
 TEST(ScanMatcher, LoopSearchFindsTheScanMetresAway) {
@@ -121,8 +140,11 @@ TEST(TrajectoryRefinement, PullsPerturbedPosesBackOntoTheMap) {
   EXPECT_THROW(refineTrajectory(submap.matchGrid(), points, {truth[0]}, {}), std::invalid_argument);
 }
 
-TEST(LocalSlam, TracksARobotDrivingThroughTheRoomDespiteBiasedOdometry) {
+class LocalSlamTest : public ::testing::TestWithParam<LocalSlamParams::Refinement> {};
+
+TEST_P(LocalSlamTest, TracksARobotDrivingThroughTheRoomDespiteBiasedOdometry) {
   LocalSlamParams params;
+  params.refinement = GetParam();
   params.submap.scans_per_submap = 10;
   LocalSlam slam(params);
   core::Pose2 odom = core::Pose2::Zero();
@@ -142,12 +164,23 @@ TEST(LocalSlam, TracksARobotDrivingThroughTheRoomDespiteBiasedOdometry) {
     // local pose = truth expressed from the first scan's frame, placed at the first odometry pose
     const core::Pose2 expected =
         core::compose(first_local, core::between(core::Pose2(2.0, 2.0, 0.0), truth));
-    EXPECT_LT((r.local_pose.head<2>() - expected.head<2>()).norm(), 0.05) << "scan " << k;
+    // ICP matches cell centres, so it is allowed half a cell more.
+    const double tolerance = GetParam() == LocalSlamParams::Refinement::kIcp ? 0.075 : 0.05;
+    EXPECT_LT((r.local_pose.head<2>() - expected.head<2>()).norm(), tolerance) << "scan " << k;
     EXPECT_NEAR(core::normalizeAngle(r.local_pose.z() - expected.z()), 0.0, 0.01) << "scan " << k;
   }
   EXPECT_GT(slam.numNodes(), 10);
   EXPECT_GE(slam.submaps().numSubmaps(), 3);
 }
+
+INSTANTIATE_TEST_SUITE_P(Refinements, LocalSlamTest,
+                         ::testing::Values(LocalSlamParams::Refinement::kLeastSquares,
+                                           LocalSlamParams::Refinement::kIcp),
+                         [](const auto& param_info) {
+                           return param_info.param == LocalSlamParams::Refinement::kIcp
+                                      ? std::string("Icp")
+                                      : std::string("LeastSquares");
+                         });
 
 TEST(ActiveSubmaps, TwoActiveHalfOverlappingSubmapsOfFixedSize) {
   SubmapParams params;

@@ -1,6 +1,7 @@
 #pragma once
 // Local SLAM (Cartographer's LocalTrajectoryBuilder2D): every scan is matched against the active
-// submap, starting from the odometry prediction (correlative search, then least squares); scans
+// submap, starting from the odometry prediction (correlative search, then least squares or MRPT's
+// ICP); scans
 // that moved far enough since the last inserted one (the motion filter) become nodes and are
 // inserted into both active submaps.
 
@@ -8,6 +9,7 @@
 #include <optional>
 
 #include "rrr_graphslam/core/keyframe_selector.h"
+#include "rrr_graphslam/frontend/icp_refinement.h"
 #include "rrr_graphslam/frontend/range_scan.h"
 #include "rrr_graphslam/frontend/scan_matcher.h"
 #include "rrr_graphslam/frontend/submap.h"
@@ -19,7 +21,12 @@ struct LocalSlamParams {
   SubmapParams submap;
   bool use_correlative_search = true;
   CorrelativeParams correlative;
+  /// What refines the correlative pose: Gauss-Newton on the interpolated probabilities (default)
+  /// or MRPT's ICP against the submap's occupied cells.
+  enum class Refinement { kLeastSquares, kIcp };
+  Refinement refinement = Refinement::kLeastSquares;
   LeastSquaresParams least_squares;
+  IcpRefinementParams icp;
   /// Motion filter: a scan becomes a node after this much travel or rotation.
   core::KeyframeParams motion_filter{0.1, 2.0 * M_PI / 180};
   /// Scans with fewer matching points are not matched (the prediction is kept).

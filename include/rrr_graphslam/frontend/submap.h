@@ -53,6 +53,8 @@ class Submap {
 
   /// The grid as matching reads it (rebuilt lazily after insertions while active).
   const MatchGrid& matchGrid() const;
+  /// The MRPT grid while the submap is active (nullptr once finished: it is released).
+  const mrpt::maps::COccupancyGridMap2D* grid() const { return grid_.get(); }
   /// Branch-and-bound matcher; only for finished submaps (nullptr before).
   const FastCorrelativeScanMatcher* matcher() const { return matcher_.get(); }
 
