@@ -3,7 +3,11 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
+
+#include <Eigen/Cholesky>
+#include <Eigen/SparseCore>
 
 #include "rrr_graphslam/core/union_find.h"
 
@@ -124,6 +128,20 @@ void Optimizer::rebuildPattern() {
     const int b = variable_of_node_[static_cast<std::size_t>(constraints_[k].to)];
     if (a >= 0 && b >= 0) pairs.emplace_back(a, b);
   }
+  // Variables are numbered in a fill-reducing order of the nodes, so that H is assembled
+  // already permuted and CHOLMOD factors it as it is.
+  const std::vector<int> order = blockOrdering(num_variables_, pairs);
+  std::vector<int> position(order.size());
+  for (std::size_t k = 0; k < order.size(); ++k) {
+    position[static_cast<std::size_t>(order[k])] = static_cast<int>(k);
+  }
+  for (int& v : variable_of_node_) {
+    if (v >= 0) v = position[static_cast<std::size_t>(v)];
+  }
+  for (auto& [a, b] : pairs) {
+    a = position[static_cast<std::size_t>(a)];
+    b = position[static_cast<std::size_t>(b)];
+  }
   hessian_.build(num_variables_, pairs);
   for (std::size_t k = 0; k < constraints_.size(); ++k) {
     ConstraintSlots& s = slots_[k];
@@ -134,8 +152,9 @@ void Optimizer::rebuildPattern() {
           hessian_.offDiagonalSlots(std::min(s.from_var, s.to_var), std::max(s.from_var, s.to_var));
     }
   }
-  solver_.analyze(hessian_.matrix());
+  solver_.analyze(hessian_.matrix(), true);
   pattern_valid_ = true;
+  factor_valid_ = false;
 }
 
 void Optimizer::chooseAnchors() {
@@ -160,8 +179,8 @@ void Optimizer::chooseAnchors() {
   }
 }
 
-double Optimizer::assemble() {
-  hessian_.setZero();
+double Optimizer::assemble(bool with_hessian) {
+  if (with_hessian) hessian_.setZero();
   gradient_.setZero(3 * num_variables_);
   double chi2_sum = 0.0;
   for (std::size_t k = 0; k < constraints_.size(); ++k) {
@@ -175,6 +194,11 @@ double Optimizer::assemble() {
     const Eigen::Matrix3d omega = w == 1.0 ? c.information : Eigen::Matrix3d(w * c.information);
     const Eigen::Vector3d omega_e = omega * lin.error;
     chi2_sum += lin.error.dot(omega_e);
+    if (!with_hessian) {
+      if (s.from_var >= 0) gradient_.segment<3>(3 * s.from_var) += lin.J_from.transpose() * omega_e;
+      if (s.to_var >= 0) gradient_.segment<3>(3 * s.to_var) += lin.J_to.transpose() * omega_e;
+      continue;
+    }
     const Eigen::Matrix3d JfT_omega = lin.J_from.transpose() * omega;
     const Eigen::Matrix3d JtT_omega = lin.J_to.transpose() * omega;
     if (s.from_var >= 0) {
@@ -199,7 +223,7 @@ double Optimizer::assemble() {
     const int v = variable_of_node_[static_cast<std::size_t>(n)];
     Eigen::Vector3d d = poses_[static_cast<std::size_t>(n)] - anchor_poses_[a];
     d.z() = normalizeAngle(d.z());
-    hessian_.addDiagonal(v, anchor * Eigen::Matrix3d::Identity());
+    if (with_hessian) hessian_.addDiagonal(v, anchor * Eigen::Matrix3d::Identity());
     gradient_.segment<3>(3 * v) += anchor * d;
   }
   return chi2_sum;
@@ -233,15 +257,19 @@ OptimizationResult Optimizer::optimize() {
   chooseAnchors();
   result.timing.structure_sec += secondsSince(clock);
 
-  double chi2_now = assemble();
+  const bool gauss_newton = params_.method == OptimizerParams::Method::kGaussNewton;
+  const bool updated =
+      gauss_newton && params_.factor_updates && num_variables_ > 0 && updateFactor(result);
+  result.timing.factorize_sec += secondsSince(clock);
+  double chi2_now = assemble(!updated);
   result.timing.assemble_sec += secondsSince(clock);
   result.initial_chi2 = chi2_now;
   result.stop_reason = StopReason::kMaxIterations;
 
   if (num_variables_ == 0) {
     result.stop_reason = StopReason::kNoVariables;
-  } else if (params_.method == OptimizerParams::Method::kGaussNewton) {
-    gaussNewton(result, chi2_now, clock);
+  } else if (gauss_newton) {
+    gaussNewton(result, chi2_now, updated, clock);
   } else {
     levenbergMarquardt(result, chi2_now, clock);
   }
@@ -257,7 +285,64 @@ OptimizationResult Optimizer::optimize() {
   return result;
 }
 
-void Optimizer::gaussNewton(OptimizationResult& result, double& chi2_now,
+void Optimizer::rememberFactoredState() {
+  factor_valid_ = true;
+  factored_active_ = active_;
+  factored_weight_ = weight_;
+  factored_anchors_ = anchors_;
+}
+
+bool Optimizer::updateFactor(OptimizationResult& result) {
+  if (!factor_valid_ || anchors_ != factored_anchors_) return false;
+  std::vector<int> added, removed;
+  for (std::size_t k = 0; k < constraints_.size(); ++k) {
+    const bool was = k < factored_active_.size() && factored_active_[k];
+    if (was && active_[k] && weight_[k] != factored_weight_[k]) return false;
+    if (!was && active_[k]) added.push_back(static_cast<int>(k));
+    if (was && !active_[k]) removed.push_back(static_cast<int>(k));
+  }
+  if (static_cast<int>(added.size() + removed.size()) > params_.max_factor_updates) return false;
+  // Each constraint's share of H, J^T (w Omega) J, is C C^T with C = J^T chol(w Omega), linearized
+  // at the current poses (the factor's own linearization point is older: chord steps).
+  auto columns = [&](const std::vector<int>& list) {
+    std::vector<Eigen::Triplet<double>> entries;
+    entries.reserve(18 * list.size());
+    for (std::size_t i = 0; i < list.size(); ++i) {
+      const auto k = static_cast<std::size_t>(list[i]);
+      const Constraint& c = constraints_[k];
+      const EdgeLinearization lin =
+          linearizeEdge(poses_[static_cast<std::size_t>(c.from)],
+                        poses_[static_cast<std::size_t>(c.to)], c.measurement);
+      const Eigen::Matrix3d root = Eigen::Matrix3d((weight_[k] * c.information).llt().matrixL());
+      const Eigen::Matrix3d from = lin.J_from.transpose() * root;
+      const Eigen::Matrix3d to = lin.J_to.transpose() * root;
+      const int col = 3 * static_cast<int>(i);
+      for (int r = 0; r < 3; ++r) {
+        for (int q = 0; q < 3; ++q) {
+          if (slots_[k].from_var >= 0)
+            entries.emplace_back(3 * slots_[k].from_var + r, col + q, from(r, q));
+          if (slots_[k].to_var >= 0)
+            entries.emplace_back(3 * slots_[k].to_var + r, col + q, to(r, q));
+        }
+      }
+    }
+    SparseSolver::Matrix C(3 * num_variables_, 3 * static_cast<Eigen::Index>(list.size()));
+    C.setFromTriplets(entries.begin(), entries.end());
+    C.makeCompressed();
+    return C;
+  };
+  if ((!added.empty() && !solver_.update(columns(added), true)) ||
+      (!removed.empty() && !solver_.update(columns(removed), false))) {
+    factor_valid_ = false;
+    return false;
+  }
+  result.factor_updates = static_cast<int>(added.size() + removed.size());
+  factored_active_ = active_;
+  factored_weight_ = weight_;
+  return true;
+}
+
+void Optimizer::gaussNewton(OptimizationResult& result, double& chi2_now, bool start_with_factor,
                             std::chrono::steady_clock::time_point& clock) {
   auto& timing = result.timing;
   covariance_valid_ = false;
@@ -266,29 +351,41 @@ void Optimizer::gaussNewton(OptimizationResult& result, double& chi2_now,
   // The fixed point is the same (gradient = 0); a chord step that does not lower chi2 is
   // undone and followed by a fresh factorization. A full step that raises chi2 (far from the
   // minimum, e.g. with gross outliers switched on) is undone and Levenberg-Marquardt takes over.
-  bool reuse_factor = false;
-  double last_decrease = 0.0;
+  // A factor brought up to date by rank updates starts the run in the same (chord) mode.
+  bool reuse_factor = start_with_factor;
+  double last_decrease = start_with_factor ? std::numeric_limits<double>::infinity() : 0.0;
+  // H is assembled only where a factorization may follow; chord steps need the gradient alone
+  // (optimize() assembled H unless it starts from an updated factor).
+  bool hessian_current = !start_with_factor;
   while (result.iterations < params_.max_iterations) {
     if (!reuse_factor) {
+      if (!hessian_current) {
+        assemble();
+        timing.assemble_sec += secondsSince(clock);
+      }
       const bool factorized = solver_.factorize(hessian_.matrix());
       timing.factorize_sec += secondsSince(clock);
       ++result.factorizations;
       covariance_valid_ = factorized;
+      factor_valid_ = false;
       if (!factorized) {
         result.stop_reason = StopReason::kSolverFailure;
         return;
       }
+      rememberFactoredState();
     }
     const Eigen::VectorXd step = solver_.solve(Eigen::VectorXd(-gradient_));
     const std::vector<Pose2> saved = poses_;
     applyStep(step);
     timing.solve_sec += secondsSince(clock);
-    const double chi2_next = assemble();
+    hessian_current = !reuse_factor;  // in chord mode the next step likely reuses the factor
+    const double chi2_next = assemble(hessian_current);
     timing.assemble_sec += secondsSince(clock);
     const double decrease = chi2_now - chi2_next;
     if (!(decrease > 0.0) && (reuse_factor || decrease < -params_.relative_tolerance * chi2_now)) {
       poses_ = saved;
       chi2_now = assemble();
+      hessian_current = true;
       timing.assemble_sec += secondsSince(clock);
       if (reuse_factor) {
         reuse_factor = false;  // the stale factor overshot: refactorize here
@@ -315,6 +412,7 @@ void Optimizer::levenbergMarquardt(OptimizationResult& result, double& chi2_now,
                                    std::chrono::steady_clock::time_point& clock) {
   auto& timing = result.timing;
   covariance_valid_ = false;  // damped factors describe no covariance
+  factor_valid_ = false;      // nor an undamped H to update
   // Marquardt's scaling: damp each variable in proportion to its own curvature, which copes
   // with the mix of metres and radians and with far-off initial guesses (City10000, ringCity).
   Eigen::VectorXd diagonal = hessian_.diagonal();

@@ -2,6 +2,9 @@
 
 #include <omp.h>
 
+#include <algorithm>
+#include <numeric>
+
 #include <Eigen/CholmodSupport>
 
 namespace rrr_graphslam::core {
@@ -26,8 +29,13 @@ class ScopedSingleThreadedOpenMp {
 
 }  // namespace
 
+// CHOLMOD_AUTO: supernodal or simplicial. Derived to reach the factor for cholmod_updown
+// (CholmodBase keeps it protected).
 struct SparseSolver::Cholmod {
-  Eigen::CholmodDecomposition<Matrix, Eigen::Upper> llt;  // CHOLMOD_AUTO: supernodal or simplicial
+  struct Decomposition : Eigen::CholmodDecomposition<Matrix, Eigen::Upper> {
+    cholmod_factor* factor() { return this->m_cholmodFactor; }
+  };
+  Decomposition llt;
 };
 
 SparseSolver::SparseSolver() : cholmod_(std::make_unique<Cholmod>()) {}
@@ -35,16 +43,103 @@ SparseSolver::~SparseSolver() = default;
 SparseSolver::SparseSolver(SparseSolver&&) noexcept = default;
 SparseSolver& SparseSolver::operator=(SparseSolver&&) noexcept = default;
 
-void SparseSolver::analyze(const Matrix& upper) {
+std::vector<int> blockOrdering(int num_blocks, const std::vector<std::pair<int, int>>& pairs) {
+  std::vector<int> order(static_cast<std::size_t>(num_blocks));
+  if (num_blocks == 0) return order;
+  // The block pattern, upper triangle, as CHOLMOD's AMD reads it (values unused).
+  std::vector<std::vector<int>> rows(static_cast<std::size_t>(num_blocks));
+  for (auto [a, b] : pairs) {
+    if (a == b) continue;
+    rows[static_cast<std::size_t>(std::max(a, b))].push_back(std::min(a, b));
+  }
+  std::vector<int> outer(static_cast<std::size_t>(num_blocks) + 1, 0);
+  std::vector<int> inner;
+  inner.reserve(pairs.size() + static_cast<std::size_t>(num_blocks));
+  for (int c = 0; c < num_blocks; ++c) {
+    auto& r = rows[static_cast<std::size_t>(c)];
+    std::sort(r.begin(), r.end());
+    r.erase(std::unique(r.begin(), r.end()), r.end());
+    inner.insert(inner.end(), r.begin(), r.end());
+    inner.push_back(c);
+    outer[static_cast<std::size_t>(c) + 1] = static_cast<int>(inner.size());
+  }
+  cholmod_sparse A{};
+  A.nrow = A.ncol = static_cast<std::size_t>(num_blocks);
+  A.nzmax = inner.size();
+  A.p = outer.data();
+  A.i = inner.data();
+  A.stype = 1;
+  A.itype = CHOLMOD_INT;
+  A.xtype = CHOLMOD_PATTERN;
+  A.dtype = CHOLMOD_DOUBLE;
+  A.sorted = 1;
+  A.packed = 1;
+  cholmod_common common;
+  cholmod_start(&common);
+  const bool ok = cholmod_amd(&A, nullptr, 0, order.data(), &common) == 1;
+  cholmod_finish(&common);
+  if (!ok) std::iota(order.begin(), order.end(), 0);
+  return order;
+}
+
+void SparseSolver::analyze(const Matrix& upper, bool preordered) {
   const ScopedSingleThreadedOpenMp single;
+  cholmod_common& common = cholmod_->llt.cholmod();
+  if (preordered) {
+    common.nmethods = 1;
+    common.method[0].ordering = CHOLMOD_NATURAL;
+    common.postorder = 0;  // keep the identity: no permuted copy of H per factorization
+  } else {
+    common.nmethods = 0;  // CHOLMOD's default strategy (AMD, METIS if that fills in badly)
+    common.postorder = 1;
+  }
   cholmod_->llt.analyzePattern(upper);
   ++analysis_count_;
+  updated_ = reanalyze_ = factor_usable_ = false;
 }
 
 bool SparseSolver::factorize(const Matrix& upper) {
   const ScopedSingleThreadedOpenMp single;
+  if (updated_) {
+    if (reanalyze_) {
+      cholmod_->llt.analyzePattern(upper);
+      ++analysis_count_;
+    } else {
+      // Back to the symbolic simplicial factor (updates may have grown its pattern).
+      cholmod_factor* L = cholmod_->llt.factor();
+      cholmod_change_factor(CHOLMOD_PATTERN, 0, 0, 1, 1, L, &cholmod_->llt.cholmod());
+    }
+    updated_ = reanalyze_ = false;
+  }
   cholmod_->llt.factorize(upper);
-  return cholmod_->llt.info() == Eigen::Success;
+  factor_usable_ = cholmod_->llt.info() == Eigen::Success;
+  return factor_usable_;
+}
+
+bool SparseSolver::update(const Matrix& C, bool add) {
+  cholmod_factor* L = cholmod_->llt.factor();
+  if (!factor_usable_ || L == nullptr || static_cast<Eigen::Index>(L->n) != C.rows()) return false;
+  const ScopedSingleThreadedOpenMp single;
+  cholmod_common& common = cholmod_->llt.cholmod();
+  if (L->is_super) reanalyze_ = true;
+  updated_ = true;
+  factor_usable_ = false;
+  // cholmod_updown works on the permuted system: rows of C go through the factor's ordering.
+  cholmod_sparse c = Eigen::viewAsCholmod(const_cast<Matrix&>(C));
+  cholmod_sparse* permuted = cholmod_submatrix(&c, static_cast<int*>(L->Perm),
+                                               static_cast<long>(L->n), nullptr, -1, 1, 1, &common);
+  if (permuted == nullptr) return false;
+  const int ok = cholmod_updown(add ? 1 : 0, permuted, L, &common);
+  cholmod_free_sparse(&permuted, &common);
+  factor_usable_ = ok == 1 && common.status == CHOLMOD_OK && L->minor == L->n;
+  if (factor_usable_ && !add) {
+    // cholmod_updown does not report a downdate that loses positive definiteness: D of the
+    // LDL' factor (each column's first entry) must stay positive.
+    const auto* p = static_cast<const int*>(L->p);
+    const auto* x = static_cast<const double*>(L->x);
+    for (std::size_t j = 0; j < L->n && factor_usable_; ++j) factor_usable_ = x[p[j]] > 0.0;
+  }
+  return factor_usable_;
 }
 
 Eigen::VectorXd SparseSolver::solve(const Eigen::VectorXd& rhs) const {

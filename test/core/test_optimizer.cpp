@@ -131,6 +131,42 @@ TEST(Optimizer, SwitchingEdgesOffKeepsTheOrderingAndWarmStartMatchesColdStart) {
   EXPECT_NEAR(warm.final_chi2, cold_result.final_chi2, 1e-6 * cold_result.final_chi2);
 }
 
+TEST(Optimizer, RankUpdatedFactorReachesTheColdStartChi2WithoutFactorizing) {
+  PoseGraph graph = readPoseGraph(kData + "/intel.g2o.gz");
+  OptimizerParams params;
+  params.factor_updates = true;
+  Optimizer opt = makeOptimizer(graph, params);
+  std::vector<int> loops;
+  for (int c = 0; c < opt.numConstraints(); ++c) {
+    if (graph.edge(static_cast<std::size_t>(c)).kind == EdgeKind::kLoopCandidate)
+      loops.push_back(c);
+  }
+  opt.optimize();
+  ASSERT_TRUE(opt.covarianceAvailable());
+  for (std::size_t k = 0; k < 10; ++k) opt.setActive(loops[3 * k], false);
+  const OptimizationResult off = opt.optimize();
+  EXPECT_EQ(off.factor_updates, 10);
+  EXPECT_EQ(off.stop_reason, StopReason::kConverged);
+  for (std::size_t k = 0; k < 10; ++k) opt.setActive(loops[3 * k], true);
+  const OptimizationResult on = opt.optimize();
+  EXPECT_EQ(on.factor_updates, 10);
+  EXPECT_EQ(on.factorizations, 0) << "a converged graph plus ten true loops: chord steps suffice";
+  EXPECT_FALSE(opt.covarianceAvailable()) << "no factorization of the final active set";
+
+  for (const bool all_on : {false, true}) {
+    Optimizer cold = makeOptimizer(graph);
+    for (std::size_t k = 0; k < 10 && !all_on; ++k) cold.setActive(loops[3 * k], false);
+    const double reference = cold.optimize().final_chi2;
+    EXPECT_NEAR((all_on ? on : off).final_chi2, reference, 1e-5 * reference);
+  }
+  // Too many changes for updates: a plain factorization.
+  opt.params().max_factor_updates = 5;
+  for (std::size_t k = 0; k < 10; ++k) opt.setActive(loops[3 * k], false);
+  const OptimizationResult many = opt.optimize();
+  EXPECT_EQ(many.factor_updates, 0);
+  EXPECT_GE(many.factorizations, 1);
+}
+
 TEST(Optimizer, UnanchoredComponentsAreHeldByWeakPriors) {
   // Two sessions: two odometry chains with no link between them.
   Optimizer opt;

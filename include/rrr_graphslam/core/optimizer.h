@@ -44,6 +44,13 @@ struct OptimizerParams {
   double anchor_information = 1e-6;
   /// GN: reuse the last factorization near the minimum (see optimize()); default true.
   bool reuse_factorization = true;
+  /// GN: start from the last factorization, brought up to date by CHOLMOD rank updates for the
+  /// constraints switched on or off since (at most max_factor_updates of them), instead of a
+  /// fresh factorization; the steps are then chord steps, as near the minimum (see optimize()).
+  /// A run that never refactorizes leaves covarianceAvailable() false. Default false (RRR
+  /// relies on the covariance after every optimization).
+  bool factor_updates = false;
+  int max_factor_updates = 64;  ///< constraints switched since the factorization; default 64
   /// Fill OptimizationResult::constraint_chi2 for every constraint; default false.
   bool compute_constraint_chi2 = false;
 };
@@ -60,6 +67,7 @@ std::string toString(StopReason reason);
 struct OptimizationResult {
   int iterations = 0;      ///< accepted steps
   int factorizations = 0;  ///< numeric Cholesky factorizations (GN reuses them near the end)
+  int factor_updates = 0;  ///< constraints folded into the last factorization by rank updates
   double initial_chi2 = 0.0;
   double final_chi2 = 0.0;
   double time_sec = 0.0;
@@ -155,8 +163,11 @@ class Optimizer {
   void prepareStructure();
   void rebuildPattern();
   void chooseAnchors();
-  double assemble();  // H and gradient at the current poses; returns the weighted chi2
-  void gaussNewton(OptimizationResult& result, double& chi2_now,
+  // Gradient (and H unless !with_hessian) at the current poses; returns the weighted chi2.
+  double assemble(bool with_hessian = true);
+  bool updateFactor(OptimizationResult& result);
+  void rememberFactoredState();
+  void gaussNewton(OptimizationResult& result, double& chi2_now, bool start_with_factor,
                    std::chrono::steady_clock::time_point& clock);
   void levenbergMarquardt(OptimizationResult& result, double& chi2_now,
                           std::chrono::steady_clock::time_point& clock);
@@ -181,6 +192,11 @@ class Optimizer {
   SparseSolver solver_;
 
   bool covariance_valid_ = false;
+  // The active set, weights and anchors the factorization in solver_ stands for (GN, undamped).
+  bool factor_valid_ = false;
+  std::vector<char> factored_active_;
+  std::vector<double> factored_weight_;
+  std::vector<int> factored_anchors_;
   std::vector<int> anchors_;  // nodes held by a weak prior, with their anchor poses
   std::vector<Pose2> anchor_poses_;
   Eigen::VectorXd gradient_;

@@ -1,19 +1,30 @@
 #pragma once
 // Sparse symmetric positive-definite solves through CHOLMOD (via Eigen's CholmodSupport).
-// The fill-reducing ordering (symbolic analysis) is computed by analyze() once per sparsity
-// pattern; factorize() only redoes the numeric factorization, so Gauss-Newton iterations and
-// re-optimizations that keep the pattern pay for the ordering once.
+// The symbolic analysis is done by analyze() once per sparsity pattern; factorize() only redoes
+// the numeric factorization, so Gauss-Newton iterations and re-optimizations that keep the
+// pattern pay for it once. The optimizer orders the 3x3 blocks itself (blockOrdering(), AMD on
+// the block graph) and assembles H already permuted, so CHOLMOD neither orders the 9x larger
+// scalar pattern nor copies and transposes H into its ordering at every factorization (M3500
+// 55 -> 41 ms, Intel 5.5 -> 4.8 ms in scripts/bench_optimizer). update() folds a few
+// constraints switched on or off into the factor by rank updates (cholmod_updown).
 //
 // CHOLMOD picks supernodal or simplicial Cholesky per pattern (its flops/nnz(L) rule): City10000
 // factors supernodally, while M3500 and Intel are 25-45% faster simplicial than forced
 // supernodal (measured with scripts/bench_optimizer).
 
 #include <memory>
+#include <utility>
+#include <vector>
 
 #include <Eigen/Core>
 #include <Eigen/SparseCore>
 
 namespace rrr_graphslam::core {
+
+/// A fill-reducing order (AMD, through CHOLMOD) of `num_blocks` blocks coupled by `pairs`:
+/// order[k] is the block to place k-th. Ordering the 3x3 blocks instead of the scalars is the
+/// same ordering problem on a graph 9 times smaller.
+std::vector<int> blockOrdering(int num_blocks, const std::vector<std::pair<int, int>>& pairs);
 
 class SparseSolver {
  public:
@@ -25,10 +36,19 @@ class SparseSolver {
   SparseSolver(SparseSolver&&) noexcept;
   SparseSolver& operator=(SparseSolver&&) noexcept;
 
-  /// Symbolic analysis (fill-reducing ordering) of the pattern of `upper`.
-  void analyze(const Matrix& upper);
+  /// Symbolic analysis of the pattern of `upper`: CHOLMOD's fill-reducing ordering, or with
+  /// `preordered` none (the caller assembled the matrix in a fill-reducing order, see
+  /// blockOrdering(); CHOLMOD then factors it without permuting and transposing it each time).
+  void analyze(const Matrix& upper, bool preordered = false);
   /// Numeric factorization with the last analysis; false if the matrix is not positive definite.
   bool factorize(const Matrix& upper);
+  /// Rank update (add) or downdate (!add) of the current factorization, which then factors
+  /// A + C C' (or A - C C') for the A it factored (CHOLMOD's cholmod_updown; a supernodal factor
+  /// is converted to simplicial LDL' for it). C has A's rows in their natural order. Returns
+  /// false when there is no factorization or CHOLMOD fails (a downdate that loses positive
+  /// definiteness); factorize() must then run before the next solve. The next factorize() after
+  /// an update starts from the symbolic analysis again (redone if it was supernodal).
+  bool update(const Matrix& C, bool add);
   /// Solves A x = rhs with the last successful factorization.
   Eigen::VectorXd solve(const Eigen::VectorXd& rhs) const;
   Eigen::MatrixXd solve(const Eigen::MatrixXd& rhs) const;
@@ -40,6 +60,9 @@ class SparseSolver {
   struct Cholmod;
   std::unique_ptr<Cholmod> cholmod_;
   int analysis_count_ = 0;
+  bool updated_ = false;        // the factor was modified by update()
+  bool reanalyze_ = false;      // ... and was supernodal before: analyze again to restore it
+  bool factor_usable_ = false;  // a successful factorization (or update) is in place
 };
 
 }  // namespace rrr_graphslam::core
