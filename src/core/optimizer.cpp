@@ -45,7 +45,12 @@ int Optimizer::addConstraint(int from, int to, const Pose2& measurement,
   active_.push_back(active ? 1 : 0);
   weight_.push_back(1.0);
   in_pattern_.push_back(0);
-  slots_.emplace_back();
+  ConstraintSlots slots;
+  if (variables_valid_) {  // its variables, for gradients and rank updates before a new pattern
+    slots.from_var = variable_of_node_[static_cast<std::size_t>(from)];
+    slots.to_var = variable_of_node_[static_cast<std::size_t>(to)];
+  }
+  slots_.push_back(slots);
   return numConstraints() - 1;
 }
 
@@ -97,6 +102,7 @@ void Optimizer::prepareStructure() {
     }
     variables_valid_ = true;
     pattern_valid_ = false;
+    factor_valid_ = false;
   }
   if (pattern_valid_) {
     // Keep the pattern while it covers every active constraint and is not mostly dead weight.
@@ -113,7 +119,8 @@ void Optimizer::prepareStructure() {
     // pattern more than 10% dead is rebuilt (the ordering costs less than one bloated factor).
     if (pattern_size_ - active_count > std::max(16, active_count / 10)) pattern_valid_ = false;
   }
-  if (!pattern_valid_) rebuildPattern();
+  // A stale pattern is rebuilt by the next assembly of H (a run starting from a rank-updated
+  // factor may need none).
 }
 
 void Optimizer::rebuildPattern() {
@@ -155,6 +162,7 @@ void Optimizer::rebuildPattern() {
   solver_.analyze(hessian_.matrix(), true);
   pattern_valid_ = true;
   factor_valid_ = false;
+  covariance_valid_ = false;
 }
 
 void Optimizer::chooseAnchors() {
@@ -180,7 +188,10 @@ void Optimizer::chooseAnchors() {
 }
 
 double Optimizer::assemble(bool with_hessian) {
-  if (with_hessian) hessian_.setZero();
+  if (with_hessian) {
+    if (!pattern_valid_) rebuildPattern();  // renumbers the variables: gradient_ follows below
+    hessian_.setZero();
+  }
   gradient_.setZero(3 * num_variables_);
   double chi2_sum = 0.0;
   for (std::size_t k = 0; k < constraints_.size(); ++k) {
@@ -290,6 +301,7 @@ void Optimizer::rememberFactoredState() {
   factored_active_ = active_;
   factored_weight_ = weight_;
   factored_anchors_ = anchors_;
+  updates_since_factorization_ = 0;
 }
 
 bool Optimizer::updateFactor(OptimizationResult& result) {
@@ -301,7 +313,8 @@ bool Optimizer::updateFactor(OptimizationResult& result) {
     if (!was && active_[k]) added.push_back(static_cast<int>(k));
     if (was && !active_[k]) removed.push_back(static_cast<int>(k));
   }
-  if (static_cast<int>(added.size() + removed.size()) > params_.max_factor_updates) return false;
+  const int switched = static_cast<int>(added.size() + removed.size());
+  if (updates_since_factorization_ + switched > params_.max_factor_updates) return false;
   // Each constraint's share of H, J^T (w Omega) J, is C C^T with C = J^T chol(w Omega), linearized
   // at the current poses (the factor's own linearization point is older: chord steps).
   auto columns = [&](const std::vector<int>& list) {
@@ -336,7 +349,8 @@ bool Optimizer::updateFactor(OptimizationResult& result) {
     factor_valid_ = false;
     return false;
   }
-  result.factor_updates = static_cast<int>(added.size() + removed.size());
+  result.factor_updates = switched;
+  updates_since_factorization_ += switched;
   factored_active_ = active_;
   factored_weight_ = weight_;
   return true;
@@ -345,7 +359,8 @@ bool Optimizer::updateFactor(OptimizationResult& result) {
 void Optimizer::gaussNewton(OptimizationResult& result, double& chi2_now, bool start_with_factor,
                             std::chrono::steady_clock::time_point& clock) {
   auto& timing = result.timing;
-  covariance_valid_ = false;
+  // An updated factor serves covariance() too, linearized partly at earlier poses.
+  covariance_valid_ = start_with_factor;
   // Near the minimum H hardly changes between steps, so the last factorization is reused
   // (chord steps: new gradient, old factor) while that still shrinks the chi2 decrease fast.
   // The fixed point is the same (gradient = 0); a chord step that does not lower chi2 is

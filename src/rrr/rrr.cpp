@@ -272,6 +272,17 @@ bool Rrr::leaveOneOutCheck() {
 
 void Rrr::decideIncrementally() {
   syncWithGraph();
+  bool& factor_updates = graph_.optimizer().params().factor_updates;
+  struct Restore {
+    bool& flag;
+    bool saved;
+    ~Restore() { flag = saved; }
+  } restore{factor_updates, factor_updates};
+  factor_updates = params_.incremental_factor_updates;
+  decideAgainstMap();
+}
+
+void Rrr::decideAgainstMap() {
   std::vector<int> joint;
   auto sort_out = [&](int c, Status if_not) {
     switch (checkAgainstMap(c)) {

@@ -5,6 +5,7 @@
 
 #include <Eigen/Dense>
 #include <random>
+#include <tuple>
 
 #include "rrr_graphslam/core/sparse_solver.h"
 
@@ -52,10 +53,12 @@ Matrix randomColumns(int n, int k, unsigned seed) {
   return S;
 }
 
-class RankUpdates : public ::testing::TestWithParam<int> {};
+// Size (30: simplicial, 600: supernodal) and whether CHOLMOD orders the matrix (false) or takes
+// it as ordered (true, as the optimizer calls it).
+class RankUpdates : public ::testing::TestWithParam<std::tuple<int, bool>> {};
 
 TEST_P(RankUpdates, UpdateAndDowndateMatchDenseSolves) {
-  const int n = GetParam();
+  const auto [n, preordered] = GetParam();
   // Wide bands and many couplings make CHOLMOD choose a supernodal factor for the larger size.
   const Eigen::MatrixXd A = randomSpd(n, n > 100 ? 40 : 3, n, 5);
   const Matrix C = randomColumns(n, 9, 6);
@@ -64,13 +67,16 @@ TEST_P(RankUpdates, UpdateAndDowndateMatchDenseSolves) {
 
   SparseSolver solver;
   EXPECT_FALSE(solver.update(C, true)) << "no factorization to update yet";
-  solver.analyze(upper(A));
+  solver.analyze(upper(A), preordered);
   ASSERT_TRUE(solver.factorize(upper(A)));
   EXPECT_LT((solver.solve(b) - A.llt().solve(b)).norm(), 1e-9 * b.norm());
 
   ASSERT_TRUE(solver.update(C, true));
   const Eigen::MatrixXd A_plus = A + Cd * Cd.transpose();
   EXPECT_LT((solver.solve(b) - A_plus.llt().solve(b)).norm(), 1e-9 * b.norm());
+  // Several right-hand sides at once (marginal covariances).
+  const Eigen::MatrixXd B = Eigen::MatrixXd::Identity(n, 4);
+  EXPECT_LT((solver.solve(B) - A_plus.llt().solve(B)).norm(), 1e-9);
 
   ASSERT_TRUE(solver.update(C, false));
   EXPECT_LT((solver.solve(b) - A.llt().solve(b)).norm(), 1e-9 * b.norm());
@@ -87,7 +93,8 @@ TEST_P(RankUpdates, UpdateAndDowndateMatchDenseSolves) {
   EXPECT_LT((solver.solve(b) - A.llt().solve(b)).norm(), 1e-9 * b.norm());
 }
 
-INSTANTIATE_TEST_SUITE_P(SimplicialAndSupernodal, RankUpdates, ::testing::Values(30, 600));
+INSTANTIATE_TEST_SUITE_P(SimplicialAndSupernodal, RankUpdates,
+                         ::testing::Combine(::testing::Values(30, 600), ::testing::Bool()));
 
 }  // namespace
 }  // namespace rrr_graphslam::core

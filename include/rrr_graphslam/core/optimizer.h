@@ -45,10 +45,12 @@ struct OptimizerParams {
   /// GN: reuse the last factorization near the minimum (see optimize()); default true.
   bool reuse_factorization = true;
   /// GN: start from the last factorization, brought up to date by CHOLMOD rank updates for the
-  /// constraints switched on or off since (at most max_factor_updates of them), instead of a
-  /// fresh factorization; the steps are then chord steps, as near the minimum (see optimize()).
-  /// A run that never refactorizes leaves covarianceAvailable() false. Default false (RRR
-  /// relies on the covariance after every optimization).
+  /// constraints switched on or off since (at most max_factor_updates of them since the last
+  /// fresh factorization), instead of a fresh factorization; the steps are then chord steps, as
+  /// near the minimum (see optimize()). Constraints new to the sparsity pattern are folded in
+  /// too (the pattern is rebuilt at the next fresh factorization). covariance() then reads the
+  /// updated factor: H with each constraint linearized where it was folded in. Default false
+  /// (batch RRR wants each covariance fresh; incremental RRR turns it on).
   bool factor_updates = false;
   int max_factor_updates = 64;  ///< constraints switched since the factorization; default 64
   /// Fill OptimizationResult::constraint_chi2 for every constraint; default false.
@@ -194,6 +196,7 @@ class Optimizer {
   bool covariance_valid_ = false;
   // The active set, weights and anchors the factorization in solver_ stands for (GN, undamped).
   bool factor_valid_ = false;
+  int updates_since_factorization_ = 0;
   std::vector<char> factored_active_;
   std::vector<double> factored_weight_;
   std::vector<int> factored_anchors_;

@@ -33,6 +33,10 @@ struct RrrParams {
   /// Incremental: re-optimize the good set after this many clusters were accepted without it;
   /// default 32.
   int incremental_map_update_every = 32;
+  /// Incremental: joint tests start from the good set's last factorization, brought up to date
+  /// by rank updates for the clusters switched on or off (OptimizerParams::factor_updates),
+  /// instead of a fresh factorization each; default true.
+  bool incremental_factor_updates = true;
   /// Inter-cluster: also remove clusters whose consistency index is at least this fraction of the
   /// worst; default 0.5. 1.0 removes one cluster per optimization, as in the paper.
   double batch_removal_fraction = 0.5;
@@ -123,6 +127,8 @@ class Rrr {
   struct ClusterLinearization;
   ClusterLinearization linearizeCluster(int cluster) const;
   OnlineVerdict checkAgainstMap(int cluster) const;
+  /// decideIncrementally() after syncing with the graph.
+  void decideAgainstMap();
   /// Leave-one-out check of the good set: a good cluster whose removal would lower the chi2 by
   /// more than chi2(alpha, dof) (linearized: r^T (Sigma_C - J Sigma_map J^T)^-1 r, with the
   /// map's covariance including the cluster) conflicts with the rest even though the map bent
