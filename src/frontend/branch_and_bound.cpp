@@ -48,10 +48,19 @@ FastCorrelativeScanMatcher::Discretization FastCorrelativeScanMatcher::discretiz
   return d;
 }
 
-int FastCorrelativeScanMatcher::score(const DiscreteScan& scan, int level, int x, int y) const {
+int FastCorrelativeScanMatcher::score(const DiscreteScan& scan, int level, int x, int y,
+                                      int floor) const {
+  constexpr std::size_t kChunk = 16;  // cells summed between two checks against the floor
   const PrecomputationGrid& grid = grids_.level(level);
+  const std::size_t n = scan.cells.size();
   int sum = 0;
-  for (const auto& c : scan.cells) sum += grid.at(c.x() + x, c.y() + y);
+  for (std::size_t i = 0; i < n;) {
+    for (const std::size_t end = std::min(n, i + kChunk); i < end; ++i) {
+      sum += grid.at(scan.cells[i].x() + x, scan.cells[i].y() + y);
+    }
+    const int bound = sum + 255 * static_cast<int>(n - i);
+    if (bound <= floor) return bound;
+  }
   return sum;
 }
 
@@ -75,7 +84,7 @@ std::optional<FastCorrelativeScanMatcher::Candidate> FastCorrelativeScanMatcher:
         if (c.y + dy > d.window_cells) break;
         const DiscreteScan& scan = d.scans[static_cast<std::size_t>(c.scan)];
         children.push_back(
-            {c.scan, c.x + dx, c.y + dy, score(scan, level - 1, c.x + dx, c.y + dy)});
+            {c.scan, c.x + dx, c.y + dy, score(scan, level - 1, c.x + dx, c.y + dy, min_score)});
         ++last_scored_;
       }
     }
@@ -105,16 +114,19 @@ std::optional<ScanMatch> FastCorrelativeScanMatcher::match(const core::Pose2& in
   // The coarsest level's candidates tile the window; each stands for 2^h x 2^h translations.
   const int top = grids_.depth() - 1;
   const int step = 1 << top;
+  const int floor = minimumSum(min_score, points.size());
   std::vector<Candidate> candidates;
   for (int s = 0; s < static_cast<int>(d.scans.size()); ++s) {
     for (int x = -d.window_cells; x <= d.window_cells; x += step) {
       for (int y = -d.window_cells; y <= d.window_cells; y += step) {
-        candidates.push_back({s, x, y, score(d.scans[static_cast<std::size_t>(s)], top, x, y)});
+        const int sc = score(d.scans[static_cast<std::size_t>(s)], top, x, y, floor);
+        if (sc > floor) candidates.push_back({s, x, y, sc});
       }
     }
   }
-  last_scored_ = static_cast<long long>(candidates.size());
-  const auto best = search(d, candidates, top, minimumSum(min_score, points.size()));
+  last_scored_ = static_cast<long long>(d.scans.size()) * ((2 * d.window_cells) / step + 1) *
+                 ((2 * d.window_cells) / step + 1);
+  const auto best = search(d, candidates, top, floor);
   if (!best) return std::nullopt;
   return toMatch(initial, d, *best, points.size());
 }
@@ -136,7 +148,7 @@ std::optional<ScanMatch> FastCorrelativeScanMatcher::matchExhaustive(const core:
   for (int s = 0; s < static_cast<int>(d.scans.size()); ++s) {
     for (int x = -d.window_cells; x <= d.window_cells; ++x) {
       for (int y = -d.window_cells; y <= d.window_cells; ++y) {
-        const int sc = score(d.scans[static_cast<std::size_t>(s)], 0, x, y);
+        const int sc = score(d.scans[static_cast<std::size_t>(s)], 0, x, y, best_score);
         if (sc > best_score) {
           best_score = sc;
           best = Candidate{s, x, y, sc};

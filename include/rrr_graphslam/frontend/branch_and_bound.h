@@ -66,7 +66,10 @@ class FastCorrelativeScanMatcher {
 
   Discretization discretize(const core::Pose2& initial, const PointCloud& points,
                             const SearchWindow& window) const;
-  int score(const DiscreteScan& scan, int level, int x, int y) const;
+  /// Sum of level `level` over the scan's cells shifted by (x, y). Stops as soon as the sum can
+  /// no longer exceed `floor` (each cell left adds at most 255) and returns that bound, which is
+  /// then <= floor: a candidate below the best so far is discarded without reading every cell.
+  int score(const DiscreteScan& scan, int level, int x, int y, int floor) const;
   std::optional<Candidate> search(const Discretization& d, std::vector<Candidate>& candidates,
                                   int level, int min_score) const;
   ScanMatch toMatch(const core::Pose2& initial, const Discretization& d, const Candidate& c,
