@@ -109,4 +109,10 @@ std::vector<Pose2> lagoInitialization(const Optimizer& optimizer) {
   return poses;
 }
 
+bool farFromMinimum(const Optimizer& optimizer, double chi2_per_constraint) {
+  int active = 0;
+  for (int k = 0; k < optimizer.numConstraints(); ++k) active += optimizer.isActive(k) ? 1 : 0;
+  return active > 0 && optimizer.chi2() > chi2_per_constraint * active;
+}
+
 }  // namespace rrr_graphslam::core

@@ -19,18 +19,22 @@ namespace tools = rrr_graphslam::tools;
 using rrr_graphslam::core::OptimizerParams;
 
 const char* const kUsage =
-    "usage: rrr_optimize INPUT --output OUTPUT.g2o [--method gn|lm] [--max-iterations N] [--lago]\n"
+    "usage: rrr_optimize INPUT --output OUTPUT.g2o [--method gn|lm] [--max-iterations N]\n"
+    "                    [--init auto|file|lago] [--lago]\n"
     "  INPUT            g2o (VERTEX_SE2/EDGE_SE2) or TORO (VERTEX2/EDGE2) file, .gz allowed\n"
     "  --output FILE    optimized graph; TORO if it ends in .graph or .toro, g2o otherwise\n"
     "  --method gn|lm   Gauss-Newton (default) or Levenberg-Marquardt\n"
     "  --max-iterations N   default 50\n"
-    "  --lago           start from the linear (LAGO) initialization instead of the file's poses\n";
+    "  --init auto|file|lago  start from the file's poses or from the linear (LAGO) estimate;\n"
+    "                   auto (default): LAGO when the file's poses are far from a minimum (chi2\n"
+    "                   above 100 per constraint)\n"
+    "  --lago           same as --init lago\n";
 
 struct Arguments {
   std::string input;
   std::string output;
   OptimizerParams params;
-  bool lago = false;
+  enum class Init { kAuto, kFile, kLago } init = Init::kAuto;
 };
 
 Arguments parseArguments(int argc, char** argv) {
@@ -50,7 +54,18 @@ Arguments parseArguments(int argc, char** argv) {
         cli.fail("--method must be gn or lm, not '" + m + "'");
       }
     } else if (a == "--lago") {
-      args.lago = true;
+      args.init = Arguments::Init::kLago;
+    } else if (a == "--init") {
+      const std::string m = cli.value(i, a);
+      if (m == "auto") {
+        args.init = Arguments::Init::kAuto;
+      } else if (m == "file") {
+        args.init = Arguments::Init::kFile;
+      } else if (m == "lago") {
+        args.init = Arguments::Init::kLago;
+      } else {
+        cli.fail("--init must be auto, file or lago, not '" + m + "'");
+      }
     } else if (a == "--max-iterations") {
       const double n = cli.number(a, cli.value(i, a), 0.0, 1e9);
       if (n != static_cast<int>(n)) cli.fail("--max-iterations must be an integer");
@@ -78,7 +93,13 @@ int main(int argc, char** argv) {
                 graph.numNodes(), graph.numEdges(), load_sec);
 
     core::Optimizer optimizer = core::makeOptimizer(graph, args.params);
-    if (args.lago) optimizer.setPoses(core::lagoInitialization(optimizer));
+    const auto init_start = std::chrono::steady_clock::now();
+    const bool lago = args.init == Arguments::Init::kLago ||
+                      (args.init == Arguments::Init::kAuto && core::farFromMinimum(optimizer));
+    if (lago) optimizer.setPoses(core::lagoInitialization(optimizer));
+    const double init_sec =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - init_start).count();
+    std::printf("initialization %s\n", lago ? "lago" : "file");
     const core::OptimizationResult result = optimizer.optimize();
     std::printf("method         %s\n", args.params.method == OptimizerParams::Method::kGaussNewton
                                            ? "gauss-newton"
@@ -86,7 +107,8 @@ int main(int argc, char** argv) {
     std::printf("initial chi2   %.6f\n", result.initial_chi2);
     std::printf("final chi2     %.6f\n", result.final_chi2);
     std::printf("iterations     %d\n", result.iterations);
-    std::printf("time           %.4f s\n", result.time_sec);
+    std::printf("time           %.4f s (initialization %.4f s, optimization %.4f s)\n",
+                init_sec + result.time_sec, init_sec, result.time_sec);
     std::printf("stop reason    %s\n", core::toString(result.stop_reason).c_str());
 
     core::copyPosesToGraph(optimizer, graph);

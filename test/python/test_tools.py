@@ -87,6 +87,21 @@ def test_optimize_reaches_the_reference_chi2(tmp_path):
         assert final == pytest.approx(546.461, rel=1e-3)
 
 
+def test_optimize_starts_far_off_graphs_from_lago(tmp_path):
+    m3500 = os.path.join(DATA, "manhattanOlson3500_olson.g2o.gz")
+    for init, expected in (("auto", "lago"), ("file", "file"), ("lago", "lago")):
+        result = run(OPTIMIZE, m3500, "--output", tmp_path / "o.g2o", "--init", init)
+        assert result.returncode == 0, result.stderr
+        lines = result.stdout.splitlines()
+        assert next(l for l in lines if l.startswith("initialization")).split()[1] == expected
+        final = float(next(l for l in lines if l.startswith("final chi2")).split()[2])
+        assert final == pytest.approx(146.077, rel=1e-3)
+    intel = run(OPTIMIZE, os.path.join(DATA, "intel.g2o.gz"), "--output", tmp_path / "o.g2o")
+    assert "initialization file" in intel.stdout, "a graph near its minimum keeps its poses"
+    bad = run(OPTIMIZE, m3500, "--output", tmp_path / "o.g2o", "--init", "guess")
+    assert bad.returncode != 0 and "--init" in bad.stderr
+
+
 SLAM_OFFLINE = os.environ.get("RRR_SLAM_OFFLINE")
 needs_slam = pytest.mark.skipif(not SLAM_OFFLINE, reason="rrr_slam_offline not given")
 ACES_HEAD = os.path.join(DATA, "carmen", "aces_head.clf.gz")

@@ -18,4 +18,10 @@ namespace rrr_graphslam::core {
 /// optimizer's gauge) keeps its pose. Both linear solves go through CHOLMOD.
 std::vector<Pose2> lagoInitialization(const Optimizer& optimizer);
 
+/// True when the optimizer's poses are far from a minimum: chi2 per active constraint above
+/// `chi2_per_constraint` (near a minimum it is about 3, the dimension of a constraint). Started
+/// there, Gauss-Newton spends several factorizations on what LAGO's two linear solves give
+/// (M3500 from its file's estimate: 458 per constraint, 6 iterations; from LAGO: 3).
+bool farFromMinimum(const Optimizer& optimizer, double chi2_per_constraint = 100.0);
+
 }  // namespace rrr_graphslam::core
