@@ -5,12 +5,30 @@
 namespace rrr_graphslam::frontend {
 namespace {
 
+// Mean probability of the submap's full-resolution grid under the points placed at `pose`.
+double fineScore(const MatchGrid& grid, const core::Pose2& pose, const PointCloud& points) {
+  const Eigen::Matrix2d R = core::rotation(pose.z());
+  double sum = 0.0;
+  for (const auto& p : points) {
+    const Eigen::Array2i c = grid.cellOf(pose.head<2>() + R * p);
+    sum += grid.at(c.x(), c.y());
+  }
+  return points.empty() ? 0.0 : sum / static_cast<double>(points.size());
+}
+
 // The refined match as a constraint anchor -> node: the information of the node's pose in the
-// submap frame, rotated into the anchor's frame.
-LoopMatch toLoop(const Submap& submap, int node, const PointCloud& points, const ScanMatch& match,
-                 const LoopSearchParams& params) {
+// submap frame, rotated into the anchor's frame. When branch and bound searched a coarser grid
+// than the submap's, its score flatters the match: the refined pose must score above min_score
+// on the full-resolution grid too (nullopt otherwise).
+std::optional<LoopMatch> toLoop(const Submap& submap, int node, const PointCloud& points,
+                                const PointCloud& search_points, const ScanMatch& match,
+                                const LoopSearchParams& params) {
   const RefinedMatch refined =
       refineLeastSquares(submap.matchGrid(), match.pose, match.pose, points, params.refinement);
+  const bool coarse = submap.matcher()->resolution() > submap.matchGrid().resolution() * 1.5;
+  if (coarse && fineScore(submap.matchGrid(), refined.pose, search_points) <= params.min_score) {
+    return std::nullopt;
+  }
   LoopMatch loop;
   loop.submap = submap.index();
   loop.from = submap.anchorNode();
@@ -35,20 +53,21 @@ std::optional<LoopMatch> matchNodeToSubmap(const Submap& submap, int node, const
                                            const core::Pose2& initial,
                                            const LoopSearchParams& params) {
   if (submap.matcher() == nullptr) return std::nullopt;
-  const auto match = submap.matcher()->match(initial, searchPoints(points, params), params.window,
-                                             params.min_score);
+  const PointCloud search_points = searchPoints(points, params);
+  const auto match =
+      submap.matcher()->match(initial, search_points, params.window, params.min_score);
   if (!match) return std::nullopt;
-  return toLoop(submap, node, points, *match, params);
+  return toLoop(submap, node, points, search_points, *match, params);
 }
 
 std::optional<LoopMatch> matchNodeToWholeSubmap(const Submap& submap, int node,
                                                 const PointCloud& points,
                                                 const LoopSearchParams& params) {
   if (submap.matcher() == nullptr) return std::nullopt;
-  const auto match =
-      submap.matcher()->matchFullSubmap(searchPoints(points, params), params.min_score);
+  const PointCloud search_points = searchPoints(points, params);
+  const auto match = submap.matcher()->matchFullSubmap(search_points, params.min_score);
   if (!match) return std::nullopt;
-  return toLoop(submap, node, points, *match, params);
+  return toLoop(submap, node, points, search_points, *match, params);
 }
 
 }  // namespace rrr_graphslam::frontend

@@ -1,5 +1,6 @@
 #include "rrr_graphslam/frontend/match_grid.h"
 
+#include <algorithm>
 #include <stdexcept>
 
 #include <mrpt/maps/COccupancyGridMap2D.h>
@@ -17,6 +18,22 @@ MatchGrid::MatchGrid(const Eigen::Vector2d& origin, double resolution, int width
   if (!(resolution > 0.0) || width < 0 || height < 0) {
     throw std::invalid_argument("MatchGrid: resolution must be positive and sizes non-negative");
   }
+}
+
+MatchGrid MatchGrid::maxPooled(int factor) const {
+  if (factor <= 1) return *this;
+  MatchGrid pooled(origin_, factor * resolution_, (width_ + factor - 1) / factor,
+                   (height_ + factor - 1) / factor, unknown_);
+  for (int y = 0; y < pooled.height(); ++y) {
+    for (int x = 0; x < pooled.width(); ++x) {
+      float best = -1.0F;
+      for (int j = 0; j < factor; ++j) {
+        for (int i = 0; i < factor; ++i) best = std::max(best, at(factor * x + i, factor * y + j));
+      }
+      pooled.set(x, y, best);
+    }
+  }
+  return pooled;
 }
 
 MatchGrid MatchGrid::fromOccupancyGrid(const mrpt::maps::COccupancyGridMap2D& grid, float unknown) {

@@ -51,8 +51,8 @@ const MatchGrid& Submap::matchGrid() const {
 void Submap::finish() {
   if (finished()) return;
   matchGrid();
-  matcher_ =
-      std::make_unique<FastCorrelativeScanMatcher>(match_grid_, params_.branch_and_bound_depth);
+  matcher_ = std::make_unique<FastCorrelativeScanMatcher>(
+      match_grid_.maxPooled(params_.search_grid_factor), params_.branch_and_bound_depth);
   grid_.reset();
 }
 

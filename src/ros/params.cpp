@@ -111,6 +111,9 @@ NodeParams loadParams(const ros::NodeHandle& private_nh) {
   r.read<int>(
       "branch_and_bound_depth", slam.local.submap.branch_and_bound_depth,
       [](const int& d) { return d >= 1 && d <= 12; }, "in [1, 12]");
+  r.read<int>(
+      "search_grid_factor", slam.local.submap.search_grid_factor,
+      [](const int& f) { return f >= 1 && f <= 16; }, "in [1, 16]");
   r.positive("min_node_separation", slam.loops.min_node_separation);
   r.positive("loop_search_max_range", slam.loops.max_point_range_m);
   r.positive("search_every_n_nodes", slam.loops.search_every_n_nodes);

@@ -42,7 +42,7 @@ const char* const kUsage =
     "                        [--correlative-translation-cost W] [--correlative-rotation-cost W]\n"
     "                        [--local-refinement least-squares|icp]\n"
     "                        [--translation-weight W] [--rotation-weight W]\n"
-    "                        [--search-min-points N] [--search-voxel M]\n"
+    "                        [--search-min-points N] [--search-voxel M] [--search-grid-factor F]\n"
     "                        [--refine-resolution M] [--alpha A] [--max-scans N]\n"
     "                        [--quiet]\n"
     "  LOG               CARMEN log (FLASER or ROBOTLASER1 lines; the scans carry the odometry)\n"
@@ -75,6 +75,9 @@ const char* const kUsage =
     "  --search-min-points N, --search-voxel M  branch and bound scores each scan thinned by\n"
     "                    the coarsest voxel up to M m that leaves N points (defaults 150, 0.9;\n"
     "                    N = 0: every point)\n"
+    "  --search-grid-factor F  branch and bound searches F x coarser cells than the submap\n"
+    "                    (max-pooled; default 2); matches are refined and checked at full "
+    "resolution\n"
     "  --refine-resolution M  before --trajectory is written, every scan is matched once more\n"
     "                    against the final map rendered at M m per cell (default 0.04; 0 = off:\n"
     "                    scans follow their nodes rigidly)\n"
@@ -124,6 +127,8 @@ Arguments parseArguments(int argc, char** argv) {
       p.loops.window.linear_m = number(0.0, 1e3);
     } else if (a == "--angular-window") {
       p.loops.window.angular_rad = number(0.0, 180.0) * M_PI / 180.0;
+    } else if (a == "--search-grid-factor") {
+      p.local.submap.search_grid_factor = static_cast<int>(number(1, 16));
     } else if (a == "--depth") {
       p.local.submap.branch_and_bound_depth = static_cast<int>(number(1, 12));
     } else if (a == "--min-node-separation") {

@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <random>
 
 #include "rrr_graphslam/frontend/branch_and_bound.h"
@@ -17,6 +18,30 @@ MatchGrid randomGrid(std::mt19937& rng, int width, int height) {
   for (int y = 0; y < height; ++y)
     for (int x = 0; x < width; ++x) grid.set(x, y, value(rng));
   return grid;
+}
+
+TEST(MatchGrid, MaxPooledCellsAreTheMaximaOfTheirBlocks) {
+  std::mt19937 rng(11);
+  const MatchGrid grid = randomGrid(rng, 23, 17);
+  for (const int factor : {1, 2, 3}) {
+    const MatchGrid pooled = grid.maxPooled(factor);
+    EXPECT_EQ(pooled.width(), (23 + factor - 1) / factor);
+    EXPECT_EQ(pooled.height(), (17 + factor - 1) / factor);
+    EXPECT_DOUBLE_EQ(pooled.resolution(), factor * grid.resolution());
+    EXPECT_EQ(pooled.origin(), grid.origin());
+    for (int y = 0; y < pooled.height(); ++y) {
+      for (int x = 0; x < pooled.width(); ++x) {
+        float best = -1.0F;  // cells past the far edges read unknown
+        for (int j = 0; j < factor; ++j) {
+          for (int i = 0; i < factor; ++i) {
+            const int gx = factor * x + i, gy = factor * y + j;
+            best = std::max(best, grid.contains(gx, gy) ? grid.at(gx, gy) : grid.unknown());
+          }
+        }
+        ASSERT_EQ(pooled.at(x, y), best) << "factor " << factor << " cell " << x << ", " << y;
+      }
+    }
+  }
 }
 
 TEST(PrecomputationGrid, EqualsBruteForceMaxima) {

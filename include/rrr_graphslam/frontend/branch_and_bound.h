@@ -45,6 +45,8 @@ class FastCorrelativeScanMatcher {
                                            const SearchWindow& window, double min_score) const;
 
   const PrecomputationGridStack& grids() const { return grids_; }
+  /// Cell size of the grid it searches.
+  double resolution() const { return grids_.resolution(); }
   /// Number of candidates scored by the last match() (all levels) or matchExhaustive().
   long long lastScored() const { return last_scored_; }
 

@@ -23,6 +23,9 @@ class MatchGrid {
   /// Occupancy probabilities of an MRPT grid (which stores the probability of being free); cells
   /// at exactly 0.5 (never updated) read `unknown`.
   static MatchGrid fromOccupancyGrid(const mrpt::maps::COccupancyGridMap2D& grid, float unknown);
+  /// The grid at `factor` times the cell size, each cell the largest of the factor x factor cells
+  /// it covers (same origin; a partial block at the far edges is padded with `unknown`).
+  MatchGrid maxPooled(int factor) const;
 
   const Eigen::Vector2d& origin() const { return origin_; }
   double resolution() const { return resolution_; }

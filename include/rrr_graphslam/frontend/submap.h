@@ -26,6 +26,11 @@ struct SubmapParams {
   float miss_probability = 0.49F;  ///< MRPT's maxFreenessUpdateCertainty is 1 - this
   float unknown_value = 0.1F;      ///< what never-observed cells score in matching
   int branch_and_bound_depth = 7;  ///< levels of max-grids built when the submap is finished
+  /// Branch and bound searches a grid this many times coarser than resolution_m (max-pooled, so
+  /// its bounds stay bounds); the least-squares refinement of a match and a final min_score
+  /// check read the full-resolution grid. Default 2 (10 cm): half the angles and a quarter of the
+  /// translations of a 5 cm search (FR079 16 -> 7 ms per pair, ACES 0.0350 -> 0.0348 m).
+  int search_grid_factor = 2;
 };
 
 /// MRPT insertion options of a grid built like a submap (hit/miss updates, insertion range); the
