@@ -93,6 +93,8 @@ GraphSlamRos::GraphSlamRos(ros::NodeHandle nh, ros::NodeHandle private_nh)
   if (slam_) {
     scan_sub_ = std::make_unique<message_filters::Subscriber<sensor_msgs::LaserScan>>(
         nh_, kScanTopic, q, hints);
+    // Registered before the filter connects, so it sees every scan before the filter does.
+    scan_sub_->registerCallback(&GraphSlamRos::scanArrived, this);
     scan_filter_ = std::make_unique<tf2_ros::MessageFilter<sensor_msgs::LaserScan>>(
         *scan_sub_, *tf_buffer_, params_.odom_frame, q, nh_);
     scan_filter_->registerCallback(&GraphSlamRos::scanCallback, this);
@@ -173,13 +175,31 @@ void GraphSlamRos::scanCallback(const sensor_msgs::LaserScanConstPtr& msg) {
                                                   msg->header.stamp, timeout);
     const auto laser = tf_buffer_->lookupTransform(params_.base_frame, msg->header.frame_id,
                                                    msg->header.stamp, timeout);
-    enqueue(ScanInput{msg, toPose2(odom.transform), toPose2(laser.transform)}, kScanTopic);
+    scanSettled(msg.get(), ScanInput{msg, toPose2(odom.transform), toPose2(laser.transform)});
   } catch (const std::exception& e) {  // tf2::TransformException, or a bad transform
     dropScan(*msg, e.what());
   }
 }
 
+void GraphSlamRos::scanArrived(const sensor_msgs::LaserScanConstPtr& msg) {
+  std::lock_guard<std::mutex> lock(scan_order_mutex_);
+  scans_in_filter_.push_back(msg.get());
+}
+
+void GraphSlamRos::scanSettled(const sensor_msgs::LaserScan* msg, std::optional<ScanInput> input) {
+  std::lock_guard<std::mutex> lock(scan_order_mutex_);
+  scans_settled_[msg] = std::move(input);
+  while (!scans_in_filter_.empty()) {
+    const auto it = scans_settled_.find(scans_in_filter_.front());
+    if (it == scans_settled_.end()) break;  // an earlier scan still waits for its transforms
+    if (it->second) enqueue(std::move(*it->second), kScanTopic);
+    scans_settled_.erase(it);
+    scans_in_filter_.pop_front();
+  }
+}
+
 void GraphSlamRos::dropScan(const sensor_msgs::LaserScan& msg, const std::string& why) {
+  scanSettled(&msg, std::nullopt);
   ++received_;
   ++malformed_;
   ++processed_;

@@ -18,6 +18,7 @@
 #include <cstdint>
 #include <deque>
 #include <functional>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -72,6 +73,11 @@ class GraphSlamRos {
   void enqueue(Input input, const char* topic);
   void scanCallback(const sensor_msgs::LaserScanConstPtr& msg);
   void dropScan(const sensor_msgs::LaserScan& msg, const std::string& why);
+  /// The tf filter releases scans when their transforms arrive, which can reorder them; scans go
+  /// on to the worker in the order they arrived (a released or dropped scan waits for the ones
+  /// that arrived before it).
+  void scanArrived(const sensor_msgs::LaserScanConstPtr& msg);
+  void scanSettled(const sensor_msgs::LaserScan* msg, std::optional<ScanInput> input);
   /// Runs `job` in the worker and waits for it; false (with the reason) if it threw.
   bool runInWorker(const std::function<std::string()>& job, std::string& message);
 
@@ -143,6 +149,9 @@ class GraphSlamRos {
   // Scans wait in the filter until odom_frame -> their frame is known at their stamp.
   std::unique_ptr<message_filters::Subscriber<sensor_msgs::LaserScan>> scan_sub_;
   std::unique_ptr<tf2_ros::MessageFilter<sensor_msgs::LaserScan>> scan_filter_;
+  std::mutex scan_order_mutex_;
+  std::deque<const sensor_msgs::LaserScan*> scans_in_filter_;  // arrival order
+  std::map<const sensor_msgs::LaserScan*, std::optional<ScanInput>> scans_settled_;
   std::vector<ros::Subscriber> subscribers_;
   ros::CallbackQueue service_queue_;
   std::vector<ros::ServiceServer> services_;
