@@ -97,13 +97,15 @@ void LaserSlam::searchLoops(int node, const PointCloud& scan_points) {
                         {},
                         0.0});
   }
+  if (searches.empty()) return;
   const auto start = std::chrono::steady_clock::now();
+  const LoopSearchScan scan = loopSearchScan(std::move(points), p);  // thinned once per node
   const int n = static_cast<int>(searches.size());
 #pragma omp parallel for schedule(dynamic) num_threads(p.threads) if (p.threads > 1 && n > 1)
   for (int k = 0; k < n; ++k) {
     Search& s = searches[static_cast<std::size_t>(k)];
     const auto match_start = std::chrono::steady_clock::now();
-    s.loop = matchNodeToSubmap(*s.submap, node, points, s.initial, p);
+    s.loop = matchNodeToSubmap(*s.submap, node, scan, s.initial, p);
     s.seconds = secondsSince(match_start);
   }
   stats_.loop_search_seconds += secondsSince(start);

@@ -1,5 +1,7 @@
 #include "rrr_graphslam/frontend/loop_search.h"
 
+#include <utility>
+
 #include "rrr_graphslam/frontend/voxel_filter.h"
 
 namespace rrr_graphslam::frontend {
@@ -20,13 +22,13 @@ double fineScore(const MatchGrid& grid, const core::Pose2& pose, const PointClou
 // submap frame, rotated into the anchor's frame. When branch and bound searched a coarser grid
 // than the submap's, its score flatters the match: the refined pose must score above min_score
 // on the full-resolution grid too (nullopt otherwise).
-std::optional<LoopMatch> toLoop(const Submap& submap, int node, const PointCloud& points,
-                                const PointCloud& search_points, const ScanMatch& match,
-                                const LoopSearchParams& params) {
-  const RefinedMatch refined =
-      refineLeastSquares(submap.matchGrid(), match.pose, match.pose, points, params.refinement);
+std::optional<LoopMatch> toLoop(const Submap& submap, int node, const LoopSearchScan& scan,
+                                const ScanMatch& match, const LoopSearchParams& params) {
+  const RefinedMatch refined = refineLeastSquares(submap.matchGrid(), match.pose, match.pose,
+                                                  scan.points, params.refinement);
   const bool coarse = submap.matcher()->resolution() > submap.matchGrid().resolution() * 1.5;
-  if (coarse && fineScore(submap.matchGrid(), refined.pose, search_points) <= params.min_score) {
+  if (coarse &&
+      fineScore(submap.matchGrid(), refined.pose, scan.search_points) <= params.min_score) {
     return std::nullopt;
   }
   LoopMatch loop;
@@ -41,33 +43,33 @@ std::optional<LoopMatch> toLoop(const Submap& submap, int node, const PointCloud
   return loop;
 }
 
-PointCloud searchPoints(const PointCloud& points, const LoopSearchParams& params) {
-  return params.search_min_points > 0
-             ? adaptiveVoxelFilter(points, params.search_voxel_max_m, params.search_min_points)
-             : points;
-}
-
 }  // namespace
 
-std::optional<LoopMatch> matchNodeToSubmap(const Submap& submap, int node, const PointCloud& points,
-                                           const core::Pose2& initial,
+LoopSearchScan loopSearchScan(PointCloud points, const LoopSearchParams& params) {
+  PointCloud search_points =
+      params.search_min_points > 0
+          ? adaptiveVoxelFilter(points, params.search_voxel_max_m, params.search_min_points)
+          : points;
+  return {std::move(points), std::move(search_points)};
+}
+
+std::optional<LoopMatch> matchNodeToSubmap(const Submap& submap, int node,
+                                           const LoopSearchScan& scan, const core::Pose2& initial,
                                            const LoopSearchParams& params) {
   if (submap.matcher() == nullptr) return std::nullopt;
-  const PointCloud search_points = searchPoints(points, params);
   const auto match =
-      submap.matcher()->match(initial, search_points, params.window, params.min_score);
+      submap.matcher()->match(initial, scan.search_points, params.window, params.min_score);
   if (!match) return std::nullopt;
-  return toLoop(submap, node, points, search_points, *match, params);
+  return toLoop(submap, node, scan, *match, params);
 }
 
 std::optional<LoopMatch> matchNodeToWholeSubmap(const Submap& submap, int node,
-                                                const PointCloud& points,
+                                                const LoopSearchScan& scan,
                                                 const LoopSearchParams& params) {
   if (submap.matcher() == nullptr) return std::nullopt;
-  const PointCloud search_points = searchPoints(points, params);
-  const auto match = submap.matcher()->matchFullSubmap(search_points, params.min_score);
+  const auto match = submap.matcher()->matchFullSubmap(scan.search_points, params.min_score);
   if (!match) return std::nullopt;
-  return toLoop(submap, node, points, search_points, *match, params);
+  return toLoop(submap, node, scan, *match, params);
 }
 
 }  // namespace rrr_graphslam::frontend

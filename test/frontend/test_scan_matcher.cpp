@@ -79,7 +79,7 @@ TEST(ScanMatcher, LoopSearchFindsTheScanMetresAway) {
   const PointCloud points = matchingPoints(castScan(room(), truth), scan_params);
   LoopSearchParams params;
   const core::Pose2 guess = truth + core::Pose2(-2.5, 1.5, 0.3);
-  const auto loop = matchNodeToSubmap(submap, 7, points, guess, params);
+  const auto loop = matchNodeToSubmap(submap, 7, loopSearchScan(points, params), guess, params);
   ASSERT_TRUE(loop.has_value());
   EXPECT_EQ(loop->from, 0);
   EXPECT_EQ(loop->to, 7);
@@ -100,7 +100,8 @@ TEST(ScanMatcher, LoopSearchFindsTheScanMetresAway) {
   EXPECT_LT(fast_scored * 20, submap.matcher()->lastScored());
 
   // Relocalization: no guess at all.
-  const auto relocalized = matchNodeToWholeSubmap(submap, 7, points, params);
+  const auto relocalized =
+      matchNodeToWholeSubmap(submap, 7, loopSearchScan(points, params), params);
   ASSERT_TRUE(relocalized.has_value());
   const core::Pose2 again = core::compose(submap.anchorPose(), relocalized->measurement);
   EXPECT_LT((again.head<2>() - truth.head<2>()).norm(), 0.03) << again.transpose();

@@ -48,15 +48,24 @@ struct LoopMatch {
   double score;                 ///< branch-and-bound score in [0, 1]
 };
 
+/// A node's scan as the loop search reads it: every point (least-squares refinement) and the
+/// points branch and bound scores (thinned by the adaptive voxel filter). Built once per node and
+/// shared by the searches of all its submaps.
+struct LoopSearchScan {
+  PointCloud points;
+  PointCloud search_points;
+};
+LoopSearchScan loopSearchScan(PointCloud points, const LoopSearchParams& params);
+
 /// `initial` is the node's guessed pose in the submap frame; nullopt if nothing scores above
 /// min_score in the window (or the submap is not finished).
-std::optional<LoopMatch> matchNodeToSubmap(const Submap& submap, int node, const PointCloud& points,
-                                           const core::Pose2& initial,
+std::optional<LoopMatch> matchNodeToSubmap(const Submap& submap, int node,
+                                           const LoopSearchScan& scan, const core::Pose2& initial,
                                            const LoopSearchParams& params);
 
 /// Relocalization: the whole submap, every rotation.
 std::optional<LoopMatch> matchNodeToWholeSubmap(const Submap& submap, int node,
-                                                const PointCloud& points,
+                                                const LoopSearchScan& scan,
                                                 const LoopSearchParams& params);
 
 }  // namespace rrr_graphslam::frontend
