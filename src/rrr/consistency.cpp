@@ -159,7 +159,8 @@ namespace rrr_graphslam::rrr {
 
 std::vector<core::Pose2> robustMap(VerificationGraph& graph, const std::vector<int>& links,
                                    const std::vector<core::Pose2>& start, double phi,
-                                   int& optimizations) {
+                                   int& optimizations, const std::vector<double>& prior_weights) {
+  auto prior = [&](std::size_t i) { return prior_weights.empty() ? 1.0 : prior_weights[i]; };
   constexpr int kMaxRounds = 40;
   constexpr double kAnnealing = 4.0;  // phi shrinks by this factor per round
   core::Optimizer& opt = graph.optimizer();
@@ -175,10 +176,10 @@ std::vector<core::Pose2> robustMap(VerificationGraph& graph, const std::vector<i
   double current_phi = std::max(phi, largest);
   double previous_chi2 = -1.0;
   for (int round = 0; round < kMaxRounds; ++round) {
-    for (int k : links) {
-      const int c = graph.candidate(k).constraint;
+    for (std::size_t i = 0; i < links.size(); ++i) {
+      const int c = graph.candidate(links[i]).constraint;
       const double s = std::min(1.0, 2.0 * current_phi / (current_phi + opt.constraintChi2(c)));
-      opt.setWeight(c, s * s);
+      opt.setWeight(c, prior(i) * s * s);
     }
     const core::OptimizationResult r = opt.optimize();
     ++optimizations;

@@ -3,12 +3,15 @@
 #include <algorithm>
 #include <chrono>
 #include <limits>
+#include <map>
 
 #include <Eigen/Dense>
 
 #include "rrr_graphslam/core/chi2.h"
+#include "rrr_graphslam/core/lago.h"
 #include "rrr_graphslam/rrr/clustering.h"
 #include "rrr_graphslam/rrr/consistency.h"
+#include "rrr_graphslam/rrr/pairwise_consistency.h"
 
 namespace rrr_graphslam::rrr {
 
@@ -28,7 +31,17 @@ Rrr::Rrr(VerificationGraph& graph, const RrrParams& params)
     : graph_(graph),
       params_(params),
       cluster_of_(static_cast<std::size_t>(graph.numCandidates()), -1),
-      base_(graph.initialPoses()) {}
+      base_(graph.initialPoses()) {
+  if (params_.reduced_intra_graph) {
+    residuals_ = [this](const std::vector<int>& links) {
+      return reducedGraphResiduals(graph_, links, params_.optimizer);
+    };
+  } else {
+    residuals_ = [this](const std::vector<int>& links) {
+      return fullGraphResiduals(graph_, links);
+    };
+  }
+}
 
 void Rrr::extendByOdometry(std::vector<core::Pose2>& poses) const {
   const OdometryChain& chain = graph_.chain();
@@ -60,25 +73,43 @@ bool Rrr::passedIntraTest(int candidate) const {
 
 int Rrr::addCluster(const std::vector<int>& members) {
   syncWithGraph();
+  ++time_clusters_;
+  if (!params_.split_mixed_clusters || members.size() < 2) {
+    addTestedCluster(members, nullptr);
+    return 1;
+  }
+  const LinkResiduals whole = residuals_(members);
+  ++optimizations_;
+  if (whole.total_chi2 < core::chi2Quantile(params_.alpha, 3 * static_cast<int>(members.size()))) {
+    addTestedCluster(members, &whole);
+    return 1;
+  }
+  const std::vector<std::vector<int>> groups =
+      splitByPairwiseConsistency(graph_, members, params_.alpha);
+  for (const std::vector<int>& group : groups) addTestedCluster(group, nullptr);
+  return static_cast<int>(groups.size());
+}
+
+void Rrr::addTestedCluster(const std::vector<int>& members, const LinkResiduals* whole) {
   const int id = numClusters();
   Cluster cluster;
+  cluster.time_cluster = time_clusters_ - 1;
   cluster.members = members;
   for (int k : members) cluster_of_[static_cast<std::size_t>(k)] = id;
-  ResidualFunction residuals;
-  if (params_.reduced_intra_graph) {
-    residuals = [this](const std::vector<int>& links) {
-      return reducedGraphResiduals(graph_, links, params_.optimizer);
-    };
-  } else {
-    residuals = [this](const std::vector<int>& links) { return fullGraphResiduals(graph_, links); };
-  }
+  // The whole cluster's joint test, when addCluster ran it already, is not run twice.
+  const ResidualFunction residuals = [&](const std::vector<int>& links) {
+    if (whole != nullptr && links == members) {
+      --optimizations_;  // counted when it ran
+      return *whole;
+    }
+    return residuals_(links);
+  };
   const IntraClusterResult intra = intraClusterConsistency(members, params_.alpha, residuals);
   optimizations_ += intra.optimizations;
   cluster.kept = intra.kept;
   cluster.status = cluster.kept.empty() ? Status::kInconsistent : Status::kPending;
   clusters_.push_back(cluster);
   kept_links_.push_back(intra.kept);
-  return id;
 }
 
 std::vector<int> Rrr::clustersWith(Status status) const {
@@ -127,6 +158,33 @@ std::vector<int> Rrr::robustMapLinks(const std::vector<int>& pending) const {
   return 2 * multi.size() >= all.size() ? multi : all;
 }
 
+std::vector<core::Pose2> Rrr::robustOrderingMap(const std::vector<int>& pending,
+                                                const std::vector<core::Pose2>& initial) {
+  const std::vector<int> links = robustMapLinks(pending);
+  std::map<int, int> links_per_time_cluster;
+  auto time_cluster = [&](int k) {
+    return clusters_[static_cast<std::size_t>(clusterOf(k))].time_cluster;
+  };
+  for (int k : links) ++links_per_time_cluster[time_cluster(k)];
+  std::vector<core::Pose2> full_weight =
+      robustMap(graph_, links, initial, params_.dcs_phi, optimizations_);
+  if (links_per_time_cluster.size() == links.size()) return full_weight;  // one link each
+
+  std::vector<double> one_vote;
+  one_vote.reserve(links.size());
+  for (int k : links) one_vote.push_back(1.0 / links_per_time_cluster[time_cluster(k)]);
+  std::vector<core::Pose2> voted =
+      robustMap(graph_, links, initial, params_.dcs_phi, optimizations_, one_vote);
+  auto support = [&](const std::vector<core::Pose2>& map) {
+    std::size_t agreeing = 0;
+    for (int c : pending) {
+      if (indexAt(c, map) < 1.0) agreeing += kept_links_[static_cast<std::size_t>(c)].size();
+    }
+    return agreeing;
+  };
+  return support(voted) > support(full_weight) ? voted : full_weight;
+}
+
 void Rrr::realizeReverseRecover(const std::vector<core::Pose2>& initial, bool robust_ordering) {
   // Realize (and reverse): good + pending clusters, tested jointly.
   previous_good_ = clustersWith(Status::kGood);
@@ -136,7 +194,7 @@ void Rrr::realizeReverseRecover(const std::vector<core::Pose2>& initial, bool ro
   if (robust_ordering && pending.size() > 1) {
     // Many clusters at once: test first those that agree with a map outliers cannot bend; the
     // others are tested in the recover step, against the good set's map.
-    start = robustMap(graph_, robustMapLinks(pending), initial, params_.dcs_phi, optimizations_);
+    start = robustOrderingMap(pending, initial);
     std::vector<int> agreeing, set_aside;
     for (int c : pending) {
       (indexAt(c, start) < 1.0 ? agreeing : set_aside).push_back(c);
@@ -158,6 +216,7 @@ void Rrr::realizeReverseRecover(const std::vector<core::Pose2>& initial, bool ro
   // With robust ordering the clusters set aside count as not yet tried: the good set "grew".
   bool grew = apply(tested, inter.consistent) || (robust_ordering && pending.size() > 1);
   if (progress_) progress_("inter", 1, 1);
+  if (robust_ordering) settleGoodMap();
 
   // Recover: while the good set grows, rejected clusters that agree with its map are retried.
   for (int round = 0; grew && round < params_.max_rounds; ++round) {
@@ -179,6 +238,20 @@ void Rrr::realizeReverseRecover(const std::vector<core::Pose2>& initial, bool ro
   // Leave the optimizer holding the good set's solution.
   graph_.activateOnly(acceptedCandidates());
   graph_.optimizer().setPoses(base_);
+}
+
+void Rrr::settleGoodMap() {
+  core::Optimizer& opt = graph_.optimizer();
+  graph_.activateOnly(acceptedCandidates());
+  opt.setPoses(base_);
+  const double current = opt.chi2();
+  opt.setPoses(core::lagoInitialization(opt));
+  const core::OptimizationResult r = opt.optimize();
+  ++optimizations_;
+  // Lower by more than one link's test threshold: a better minimum, not the same one reached to
+  // another tolerance (which could move a session only its weak prior holds).
+  if (r.final_chi2 < current - core::chi2Quantile(params_.alpha, 3)) base_ = opt.poses();
+  opt.setPoses(base_);
 }
 
 // A cluster's kept links linearized at base_, with the map's covariance of the nodes they touch

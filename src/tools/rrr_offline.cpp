@@ -28,6 +28,7 @@ const char* const kUsage =
     "usage: rrr_offline INPUT [--decisions DECISIONS.tsv] [--output OPTIMIZED.g2o]\n"
     "                   [--mode batch|incremental] [--alpha 0.95] [--cluster-gap N]\n"
     "                   [--batch-removal-fraction F] [--recover-gate G] [--full-intra]\n"
+    "                   [--keep-mixed-clusters]\n"
     "                   [--fresh-factorizations] [--quiet]\n"
     "  INPUT            g2o or TORO pose graph (.gz allowed); edges with |from-to| != 1 are\n"
     "                   loop candidates, the others trusted odometry\n"
@@ -40,6 +41,8 @@ const char* const kUsage =
     "  --recover-gate   consistency index below which rejected clusters are retried (default 10)\n"
     "  --full-intra     intra-cluster tests on the whole graph (slow reference) instead of the\n"
     "                   reduced graph\n"
+    "  --keep-mixed-clusters  a cluster failing its intra test loses its worst links until the\n"
+    "                   rest passes, instead of being split into pairwise consistent sets\n"
     "  --fresh-factorizations  incremental joint tests factorize afresh instead of updating the\n"
     "                   good set's factor by rank updates (slower reference)\n"
     "  --quiet          no progress line\n";
@@ -76,6 +79,8 @@ Arguments parseArguments(int argc, char** argv) {
       args.params.recover_gate = cli.number(a, cli.value(i, a), 0.0, 1e12);
     } else if (a == "--full-intra") {
       args.params.reduced_intra_graph = false;
+    } else if (a == "--keep-mixed-clusters") {
+      args.params.split_mixed_clusters = false;
     } else if (a == "--fresh-factorizations") {
       args.params.incremental_factor_updates = false;
     } else if (a == "--quiet") {

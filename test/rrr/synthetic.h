@@ -17,8 +17,10 @@ struct LabelledGraph {
 };
 
 /// Adds `count` false loops (in groups of `group` consistent links) to `path`'s graph, like
-/// scripts/add_outliers: ends anywhere, measurement x, y ~ N(0, 0.3 m), theta ~ N(0, 10 deg).
-inline LabelledGraph withOutliers(const std::string& path, int count, int group, unsigned seed) {
+/// scripts/add_outliers: ends anywhere, or with `local_window` > 0 the second end 2 to
+/// local_window nodes after the first; measurement x, y ~ N(0, 0.3 m), theta ~ N(0, 10 deg).
+inline LabelledGraph withOutliers(const std::string& path, int count, int group, unsigned seed,
+                                  int local_window = 0) {
   LabelledGraph out{core::readPoseGraph(path), {}};
   core::PoseGraph& g = out.graph;
   Eigen::Matrix3d info = Eigen::Matrix3d::Identity();
@@ -38,6 +40,8 @@ inline LabelledGraph withOutliers(const std::string& path, int count, int group,
   int added = 0;
   while (added < count) {
     std::size_t a = pick(rng), b = pick(rng);
+    if (local_window > 0) b = a + 2 + b % static_cast<std::size_t>(local_window - 1);
+    if (b + static_cast<std::size_t>(group) >= ids.size()) continue;
     if (a > b) std::swap(a, b);
     if (b - a < 2 || used.count({ids[a], ids[b]})) continue;
     const core::Pose2 z(metres(rng), metres(rng), radians(rng));

@@ -56,6 +56,27 @@ INSTANTIATE_TEST_SUITE_P(Intel, RrrOnOutliers,
                          ::testing::Values(std::make_pair(100, 1), std::make_pair(500, 1),
                                            std::make_pair(200, 10)));
 
+// Local outliers in groups next to true revisits make time clusters that mix a consistent false
+// group with true links, often more false than true. Splitting such clusters by pairwise
+// consistency keeps the true links; trimming the whole cluster loses many of them.
+TEST(Rrr, MixedClustersKeepTheirTrueLinks) {
+  const testing::LabelledGraph input =
+      testing::withOutliers(kData + "/manhattanOlson3500_olson.g2o.gz", 1000, 10, 1, 20);
+  Counts counts[2];
+  for (const bool split : {false, true}) {
+    VerificationGraph graph(input.graph, {});
+    RrrParams params;
+    params.split_mixed_clusters = split;
+    std::vector<Verdict> verdicts;
+    std::vector<int> cluster_of;
+    runBatchRrr(graph, params, verdicts, cluster_of);
+    counts[split] = score(verdicts, input.candidate_is_true);
+  }
+  EXPECT_GE(counts[true].recall(), 0.98);
+  EXPECT_GE(counts[true].precision(), 0.99);
+  EXPECT_GT(counts[true].recall(), counts[false].recall() + 0.01);
+}
+
 TEST(Rrr, IncrementalReachesTheBatchDecisions) {
   for (const auto& [count, group] : {std::make_pair(200, 1), std::make_pair(100, 10)}) {
     const testing::LabelledGraph input =

@@ -75,9 +75,11 @@ namespace rrr_graphslam::rrr {
 /// information scaled by min(1, 2 phi / (phi + x))^2. phi starts above every residual and
 /// shrinks to `phi` (graduated non-convexity), so a drifted start (ringCity) still closes its
 /// loops. RRR uses the map only to choose which clusters to test jointly first; every decision
-/// is still a chi-square test. Weights are reset on return.
+/// is still a chi-square test. `prior_weights` (one per link, or empty for all 1) multiply the
+/// DCS weights. Weights are reset on return.
 std::vector<core::Pose2> robustMap(VerificationGraph& graph, const std::vector<int>& links,
                                    const std::vector<core::Pose2>& start, double phi,
-                                   int& optimizations);
+                                   int& optimizations,
+                                   const std::vector<double>& prior_weights = {});
 
 }  // namespace rrr_graphslam::rrr

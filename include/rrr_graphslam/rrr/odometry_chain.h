@@ -60,6 +60,12 @@ class OdometryChain {
   core::Pose2 relativePose(int a, int b) const;
   /// Covariance of relativePose(a, b), a != b, same session.
   Eigen::Matrix3d relativeCovariance(int a, int b) const;
+  /// S_node, the prefix sum above: the odometry noise between two nodes a < b of a session, moved
+  /// to the session's frame, has covariance S_b - S_a, and two such ranges are correlated through
+  /// the steps they share (pairwise_consistency.h uses that).
+  const Eigen::Matrix3d& prefixCovariance(int node) const {
+    return world_covariance_[static_cast<std::size_t>(node)];
+  }
 
  private:
   /// Appends node numNodes(), continuing the previous session with `step` or starting one.
