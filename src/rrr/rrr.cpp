@@ -169,20 +169,27 @@ std::vector<core::Pose2> Rrr::robustOrderingMap(const std::vector<int>& pending,
   std::vector<core::Pose2> full_weight =
       robustMap(graph_, links, initial, params_.dcs_phi, optimizations_);
   if (links_per_time_cluster.size() == links.size()) return full_weight;  // one link each
+  auto support = [&](const std::vector<core::Pose2>& map, const std::vector<int>& clusters) {
+    std::size_t agreeing = 0;
+    for (int c : clusters) {
+      if (indexAt(c, map) < 1.0) agreeing += kept_links_[static_cast<std::size_t>(c)].size();
+    }
+    return agreeing;
+  };
+  // Nothing was outvoted when the map agrees with (nearly) every link that made it.
+  std::vector<int> voters;
+  for (int k : links) voters.push_back(clusterOf(k));
+  std::sort(voters.begin(), voters.end());
+  voters.erase(std::unique(voters.begin(), voters.end()), voters.end());
+  const std::size_t full_support = support(full_weight, pending);
+  if (support(full_weight, voters) >= links.size() - links.size() / 100) return full_weight;
 
   std::vector<double> one_vote;
   one_vote.reserve(links.size());
   for (int k : links) one_vote.push_back(1.0 / links_per_time_cluster[time_cluster(k)]);
   std::vector<core::Pose2> voted =
       robustMap(graph_, links, initial, params_.dcs_phi, optimizations_, one_vote);
-  auto support = [&](const std::vector<core::Pose2>& map) {
-    std::size_t agreeing = 0;
-    for (int c : pending) {
-      if (indexAt(c, map) < 1.0) agreeing += kept_links_[static_cast<std::size_t>(c)].size();
-    }
-    return agreeing;
-  };
-  return support(voted) > support(full_weight) ? voted : full_weight;
+  return support(voted, pending) > full_support ? voted : full_weight;
 }
 
 void Rrr::realizeReverseRecover(const std::vector<core::Pose2>& initial, bool robust_ordering) {
