@@ -225,13 +225,21 @@ void Rrr::realizeReverseRecover(const std::vector<core::Pose2>& initial, bool ro
   if (progress_) progress_("inter", 1, 1);
   if (robust_ordering) settleGoodMap();
 
-  // Recover: while the good set grows, rejected clusters that agree with its map are retried.
-  for (int round = 0; grew && round < params_.max_rounds; ++round) {
+  // Recover: while the good set grows, rejected clusters that agree with its map are retried;
+  // when none does, large clusters far from the map get a direct test each.
+  std::vector<char> far_tried(clusters_.size(), 0);
+  for (int round = 0; round < params_.max_rounds; ++round) {
     std::vector<int> promising;
-    for (int c : clustersWith(Status::kRejected)) {
-      if (indexAt(c, base_) < params_.recover_gate) promising.push_back(c);
+    if (grew) {
+      for (int c : clustersWith(Status::kRejected)) {
+        if (indexAt(c, base_) < params_.recover_gate) promising.push_back(c);
+      }
     }
-    if (promising.empty()) break;
+    if (promising.empty()) {
+      if (!recoverFar(far_tried)) break;
+      grew = true;
+      continue;
+    }
     previous_good_ = clustersWith(Status::kGood);
     tested = previous_good_;
     tested.insert(tested.end(), promising.begin(), promising.end());
@@ -245,6 +253,48 @@ void Rrr::realizeReverseRecover(const std::vector<core::Pose2>& initial, bool ro
   // Leave the optimizer holding the good set's solution.
   graph_.activateOnly(acceptedCandidates());
   graph_.optimizer().setPoses(base_);
+}
+
+bool Rrr::recoverFar(std::vector<char>& tried) {
+  if (params_.far_retry_min_links <= 0) return false;
+  std::vector<int> far;
+  for (int c : clustersWith(Status::kRejected)) {
+    const auto links = kept_links_[static_cast<std::size_t>(c)].size();
+    if (!tried[static_cast<std::size_t>(c)] &&
+        links >= static_cast<std::size_t>(params_.far_retry_min_links)) {
+      far.push_back(c);
+    }
+  }
+  std::stable_sort(far.begin(), far.end(), [&](int a, int b) {
+    return kept_links_[static_cast<std::size_t>(a)].size() >
+           kept_links_[static_cast<std::size_t>(b)].size();
+  });
+  core::Optimizer& opt = graph_.optimizer();
+  for (int c : far) {
+    tried[static_cast<std::size_t>(c)] = 1;
+    std::vector<int> tested = clustersWith(Status::kGood);
+    tested.push_back(c);
+    std::vector<int> links = acceptedCandidates();
+    const auto& own = kept_links_[static_cast<std::size_t>(c)];
+    links.insert(links.end(), own.begin(), own.end());
+    graph_.activateOnly(links);
+    opt.setPoses(base_);
+    opt.optimize();
+    ++optimizations_;
+    const std::vector<core::Pose2>& poses = opt.poses();
+    // Accepted only as is: the joint test passes and no cluster, good or new, had to go.
+    bool consistent =
+        opt.chi2() < core::chi2Quantile(params_.alpha, 3 * static_cast<int>(links.size()));
+    for (std::size_t i = 0; consistent && i < tested.size(); ++i) {
+      consistent = indexAt(tested[i], poses) < 1.0;
+    }
+    if (consistent) {
+      clusters_[static_cast<std::size_t>(c)].status = Status::kGood;
+      base_ = poses;
+      return true;
+    }
+  }
+  return false;
 }
 
 void Rrr::settleGoodMap() {

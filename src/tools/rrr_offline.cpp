@@ -28,7 +28,7 @@ const char* const kUsage =
     "usage: rrr_offline INPUT [--decisions DECISIONS.tsv] [--output OPTIMIZED.g2o]\n"
     "                   [--mode batch|incremental] [--alpha 0.95] [--cluster-gap N]\n"
     "                   [--batch-removal-fraction F] [--recover-gate G] [--full-intra]\n"
-    "                   [--keep-mixed-clusters]\n"
+    "                   [--keep-mixed-clusters] [--far-retry-min-links N]\n"
     "                   [--fresh-factorizations] [--quiet]\n"
     "  INPUT            g2o or TORO pose graph (.gz allowed); edges with |from-to| != 1 are\n"
     "                   loop candidates, the others trusted odometry\n"
@@ -43,6 +43,8 @@ const char* const kUsage =
     "                   reduced graph\n"
     "  --keep-mixed-clusters  a cluster failing its intra test loses its worst links until the\n"
     "                   rest passes, instead of being split into pairwise consistent sets\n"
+    "  --far-retry-min-links N  rejected clusters of at least N links far from the good map are\n"
+    "                   tested once more with the good set (default 20; 0: never)\n"
     "  --fresh-factorizations  incremental joint tests factorize afresh instead of updating the\n"
     "                   good set's factor by rank updates (slower reference)\n"
     "  --quiet          no progress line\n";
@@ -79,6 +81,8 @@ Arguments parseArguments(int argc, char** argv) {
       args.params.recover_gate = cli.number(a, cli.value(i, a), 0.0, 1e12);
     } else if (a == "--full-intra") {
       args.params.reduced_intra_graph = false;
+    } else if (a == "--far-retry-min-links") {
+      args.params.far_retry_min_links = static_cast<int>(cli.number(a, cli.value(i, a), 0, 1e9));
     } else if (a == "--keep-mixed-clusters") {
       args.params.split_mixed_clusters = false;
     } else if (a == "--fresh-factorizations") {

@@ -44,6 +44,12 @@ struct RrrParams {
   /// Recover: retry a rejected cluster jointly when its consistency index against the good set's
   /// map, without moving any pose, is below this; default 10.
   double recover_gate = 10.0;
+  /// Recover, far: a rejected cluster of at least this many links whose index against the good
+  /// set's map is above recover_gate is still tested once per decision with the good set, from
+  /// the good map, and accepted if all stay consistent without removing any; default 20 (0: never).
+  /// A drifted ring's closure (ringCity) disagrees with the open ring's map by far more than
+  /// recover_gate, yet is many links strong.
+  int far_retry_min_links = 20;
   /// Leave-one-out check: examine good clusters whose own consistency index is at least this;
   /// default 0.1 (0 examines all, a value above 1 none).
   double loo_min_index = 0.1;
@@ -128,6 +134,10 @@ class Rrr {
   void syncWithGraph();
   /// One cluster of `members`, intra-tested; `whole` is their joint test's result if known.
   void addTestedCluster(const std::vector<int>& members, const LinkResiduals* whole);
+  /// Recover, far (RrrParams::far_retry_min_links): the first large rejected cluster, largest
+  /// first, not yet in `tried`, that the good set accepts as is becomes good; returns whether one
+  /// did.
+  bool recoverFar(std::vector<char>& tried);
   /// The joint test that realizes a batch decision starts from the robust map, where a region the
   /// good set constrains loosely can stay in a local minimum (City10000 + 1000 random-grouped:
   /// chi2 744 against 504, and 160 true links that do not fit it). The good set is optimized
