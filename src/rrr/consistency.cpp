@@ -6,6 +6,7 @@
 #include <map>
 
 #include "rrr_graphslam/core/chi2.h"
+#include "rrr_graphslam/core/lago.h"
 
 namespace rrr_graphslam::rrr {
 namespace {
@@ -167,6 +168,11 @@ std::vector<core::Pose2> robustMap(VerificationGraph& graph, const std::vector<i
   core::Optimizer& opt = graph.optimizer();
   graph.activateOnly(links);
   opt.setPoses(start);
+  // The first round is plain least squares over every link; far from its minimum (a drifted
+  // start), LAGO's linear estimate of it is where Gauss-Newton would have to go, without the
+  // local minima on the way (ringCity + 100 random-grouped: recall 0.94 -> 1.00; City10000 +
+  // 1000 random-grouped: 40 -> 25 s).
+  if (core::farFromMinimum(opt)) opt.setPoses(core::lagoInitialization(opt));
   const int saved_iterations = opt.params().max_iterations;
   opt.params().max_iterations = 3;  // a few steps per reweighting, so the map keeps up with phi
   // Graduated non-convexity: begin with phi above every residual (all weights ~1, plain least

@@ -74,9 +74,10 @@ namespace rrr_graphslam::rrr {
 /// optimization using dynamic covariance scaling", ICRA 2013): a link with chi2 x gets its
 /// information scaled by min(1, 2 phi / (phi + x))^2. phi starts above every residual and
 /// shrinks to `phi` (graduated non-convexity), so a drifted start (ringCity) still closes its
-/// loops. RRR uses the map only to choose which clusters to test jointly first; every decision
-/// is still a chi-square test. `prior_weights` (one per link, or empty for all 1) multiply the
-/// DCS weights; links whose weight falls below 1e-4 are switched off until it rises again.
+/// loops; a start far from the first round's minimum (core::farFromMinimum) is replaced by LAGO's
+/// estimate of it. RRR uses the map only to choose which clusters to test jointly first; every
+/// decision is still a chi-square test. `prior_weights` (one per link, or empty for all 1) multiply
+/// the DCS weights; links whose weight falls below 1e-4 are switched off until it rises again.
 /// Weights are reset and exactly `links` are switched on on return.
 std::vector<core::Pose2> robustMap(VerificationGraph& graph, const std::vector<int>& links,
                                    const std::vector<core::Pose2>& start, double phi,
