@@ -97,15 +97,16 @@ void Rrr::addTestedCluster(const std::vector<int>& members, const LinkResiduals*
   cluster.members = members;
   for (int k : members) cluster_of_[static_cast<std::size_t>(k)] = id;
   // The whole cluster's joint test, when addCluster ran it already, is not run twice.
+  bool reused = false;
   const ResidualFunction residuals = [&](const std::vector<int>& links) {
     if (whole != nullptr && links == members) {
-      --optimizations_;  // counted when it ran
+      reused = true;
       return *whole;
     }
     return residuals_(links);
   };
   const IntraClusterResult intra = intraClusterConsistency(members, params_.alpha, residuals);
-  optimizations_ += intra.optimizations;
+  optimizations_ += intra.optimizations - (reused ? 1 : 0);  // addCluster counted that one
   cluster.kept = intra.kept;
   cluster.status = cluster.kept.empty() ? Status::kInconsistent : Status::kPending;
   clusters_.push_back(cluster);

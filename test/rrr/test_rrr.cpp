@@ -31,6 +31,14 @@ Counts score(const std::vector<Verdict>& verdicts, const std::vector<bool>& trut
   return c;
 }
 
+Counts batchCounts(const testing::LabelledGraph& input, const RrrParams& params) {
+  VerificationGraph graph(input.graph, {});
+  std::vector<Verdict> verdicts;
+  std::vector<int> cluster_of;
+  runBatchRrr(graph, params, verdicts, cluster_of);
+  return score(verdicts, input.candidate_is_true);
+}
+
 class RrrOnOutliers : public ::testing::TestWithParam<std::pair<int, int>> {};
 
 TEST_P(RrrOnOutliers, RejectsEveryOutlierAndKeepsTrueLoops) {
@@ -64,13 +72,9 @@ TEST(Rrr, MixedClustersKeepTheirTrueLinks) {
       testing::withOutliers(kData + "/manhattanOlson3500_olson.g2o.gz", 1000, 10, 1, 20);
   Counts counts[2];
   for (const bool split : {false, true}) {
-    VerificationGraph graph(input.graph, {});
     RrrParams params;
     params.split_mixed_clusters = split;
-    std::vector<Verdict> verdicts;
-    std::vector<int> cluster_of;
-    runBatchRrr(graph, params, verdicts, cluster_of);
-    counts[split] = score(verdicts, input.candidate_is_true);
+    counts[split] = batchCounts(input, params);
   }
   EXPECT_GE(counts[true].recall(), 0.98);
   EXPECT_GE(counts[true].precision(), 0.99);
@@ -85,13 +89,9 @@ TEST(Rrr, LargeClustersFarFromTheMapAreRetried) {
       testing::withOutliers(kData + "/ringCity.g2o.gz", 500, 10, 1);
   Counts counts[2];
   for (const int far_retry : {0, 20}) {
-    VerificationGraph graph(input.graph, {});
     RrrParams params;
     params.far_retry_min_links = far_retry;
-    std::vector<Verdict> verdicts;
-    std::vector<int> cluster_of;
-    runBatchRrr(graph, params, verdicts, cluster_of);
-    counts[far_retry > 0] = score(verdicts, input.candidate_is_true);
+    counts[far_retry > 0] = batchCounts(input, params);
   }
   EXPECT_GE(counts[true].precision(), 0.99);
   EXPECT_GE(counts[true].recall(), 0.95);
