@@ -7,6 +7,7 @@
 #include <stdexcept>
 
 #include <Eigen/Cholesky>
+#include <Eigen/LU>
 #include <Eigen/SparseCore>
 
 #include "rrr_graphslam/core/union_find.h"
@@ -30,7 +31,6 @@ std::string toString(StopReason reason) {
 int Optimizer::addNode(const Pose2& initial_pose) {
   poses_.push_back(initial_pose);
   fixed_.push_back(0);
-  covariance_valid_ = false;
   variables_valid_ = false;
   pattern_valid_ = false;
   return numNodes() - 1;
@@ -301,6 +301,8 @@ void Optimizer::rememberFactoredState() {
   factored_active_ = active_;
   factored_weight_ = weight_;
   factored_anchors_ = anchors_;
+  factored_nodes_ = numNodes();
+  factored_constraints_ = numConstraints();
   updates_since_factorization_ = 0;
 }
 
@@ -351,6 +353,7 @@ bool Optimizer::updateFactor(OptimizationResult& result) {
   }
   result.factor_updates = switched;
   updates_since_factorization_ += switched;
+  factored_constraints_ = numConstraints();
   factored_active_ = active_;
   factored_weight_ = weight_;
   return true;
@@ -488,10 +491,21 @@ void Optimizer::levenbergMarquardt(OptimizationResult& result, double& chi2_now,
   }
 }
 
-Eigen::MatrixXd Optimizer::covariance(const std::vector<int>& nodes) const {
+bool Optimizer::nodesAddedAsTree(std::vector<int>& parent) const {
+  parent.assign(static_cast<std::size_t>(numNodes() - factored_nodes_), -1);
+  for (int k = factored_constraints_; k < numConstraints(); ++k) {
+    if (!active_[static_cast<std::size_t>(k)]) continue;
+    const int newer = std::max(from(k), to(k)) - factored_nodes_;
+    if (newer < 0 || parent[static_cast<std::size_t>(newer)] >= 0) return false;
+    parent[static_cast<std::size_t>(newer)] = k;
+  }
+  // A node without one starts a new session, held only by its weak anchor.
+  return std::find(parent.begin(), parent.end(), -1) == parent.end();
+}
+
+Eigen::MatrixXd Optimizer::factorCovariance(const std::vector<int>& nodes) const {
   const auto m = static_cast<Eigen::Index>(nodes.size());
   Eigen::MatrixXd out = Eigen::MatrixXd::Zero(3 * m, 3 * m);
-  if (!covariance_valid_) return out;
   Eigen::MatrixXd unit = Eigen::MatrixXd::Zero(3 * num_variables_, 3 * m);
   for (Eigen::Index a = 0; a < m; ++a) {
     const int v = variable_of_node_[static_cast<std::size_t>(nodes[static_cast<std::size_t>(a)])];
@@ -503,6 +517,92 @@ Eigen::MatrixXd Optimizer::covariance(const std::vector<int>& nodes) const {
     if (v >= 0) out.middleRows(3 * a, 3) = columns.middleRows(3 * v, 3);
   }
   return 0.5 * (out + out.transpose());
+}
+
+Eigen::MatrixXd Optimizer::covariance(const std::vector<int>& nodes) const {
+  const auto m = static_cast<Eigen::Index>(nodes.size());
+  std::vector<int> parent;
+  if (!covariance_valid_ || !nodesAddedAsTree(parent)) return Eigen::MatrixXd::Zero(3 * m, 3 * m);
+  auto other_end = [&](int constraint, int node) {
+    return from(constraint) == node ? to(constraint) : from(constraint);
+  };
+  // The tree nodes needed: the requested ones and their ancestors, down to factored nodes.
+  const auto added = parent.size();
+  std::vector<char> needed(added, 0), requested(added, 0);
+  std::vector<int> pending_children(added, 0);
+  std::vector<int> kept;  // nodes whose joint covariance `sigma` holds, in its order
+  for (int n : nodes) {
+    if (n >= factored_nodes_) {
+      needed[static_cast<std::size_t>(n - factored_nodes_)] = 1;
+      requested[static_cast<std::size_t>(n - factored_nodes_)] = 1;
+    } else {
+      kept.push_back(n);
+    }
+  }
+  for (std::size_t k = added; k-- > 0;) {
+    if (!needed[k]) continue;
+    const int p = other_end(parent[k], factored_nodes_ + static_cast<int>(k));
+    if (p >= factored_nodes_) {
+      needed[static_cast<std::size_t>(p - factored_nodes_)] = 1;
+      ++pending_children[static_cast<std::size_t>(p - factored_nodes_)];
+    } else {
+      kept.push_back(p);
+    }
+  }
+  std::sort(kept.begin(), kept.end());
+  kept.erase(std::unique(kept.begin(), kept.end()), kept.end());
+  Eigen::MatrixXd sigma = factorCovariance(kept);
+
+  auto position = [&](int node) {
+    return 3 * static_cast<Eigen::Index>(std::find(kept.begin(), kept.end(), node) - kept.begin());
+  };
+  // Down the tree: a node hanging from p by e(x_p, x_n) = J_p dx_p + J_n dx_n + noise has
+  // dx_n = A dx_p + w, A = -J_n^-1 J_p, cov(w) = J_n^-1 (w Omega)^-1 J_n^-T.
+  for (std::size_t k = 0; k < added; ++k) {
+    if (!needed[k]) continue;
+    const int node = factored_nodes_ + static_cast<int>(k);
+    const auto c = static_cast<std::size_t>(parent[k]);
+    const int p = other_end(parent[k], node);
+    const Constraint& con = constraints_[c];
+    const EdgeLinearization lin =
+        linearizeEdge(poses_[static_cast<std::size_t>(con.from)],
+                      poses_[static_cast<std::size_t>(con.to)], con.measurement);
+    const bool node_is_to = con.to == node;
+    const Eigen::Matrix3d J_node_inverse = (node_is_to ? lin.J_to : lin.J_from).inverse();
+    const Eigen::Matrix3d A = -J_node_inverse * (node_is_to ? lin.J_from : lin.J_to);
+    const Eigen::Matrix3d Q =
+        J_node_inverse * (weight_[c] * con.information).inverse() * J_node_inverse.transpose();
+    const Eigen::Index at = position(p), size = sigma.rows();
+    const Eigen::MatrixXd cross = A * sigma.middleRows(at, 3);  // 3 x size
+    const Eigen::Matrix3d own = A * sigma.block<3, 3>(at, at) * A.transpose() + Q;
+    sigma.conservativeResize(size + 3, size + 3);
+    sigma.bottomLeftCorner(3, size) = cross;
+    sigma.topRightCorner(size, 3) = cross.transpose();
+    sigma.bottomRightCorner<3, 3>() = 0.5 * (own + own.transpose());
+    kept.push_back(node);
+    // A parent no longer needed leaves sigma, which stays as small as the request.
+    if (p >= factored_nodes_) {
+      const auto q = static_cast<std::size_t>(p - factored_nodes_);
+      if (--pending_children[q] == 0 && !requested[q]) {
+        std::vector<Eigen::Index> rows;
+        for (Eigen::Index r = 0; r < sigma.rows(); ++r) {
+          if (r / 3 != at / 3) rows.push_back(r);
+        }
+        sigma = Eigen::MatrixXd(sigma(rows, rows));
+        kept.erase(kept.begin() + at / 3);
+      }
+    }
+  }
+
+  Eigen::MatrixXd out(3 * m, 3 * m);
+  for (Eigen::Index a = 0; a < m; ++a) {
+    for (Eigen::Index b = 0; b < m; ++b) {
+      out.block<3, 3>(3 * a, 3 * b) =
+          sigma.block<3, 3>(position(nodes[static_cast<std::size_t>(a)]),
+                            position(nodes[static_cast<std::size_t>(b)]));
+    }
+  }
+  return out;
 }
 
 Optimizer makeOptimizer(const PoseGraph& graph, const OptimizerParams& params) {

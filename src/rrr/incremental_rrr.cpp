@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <chrono>
-#include <numeric>
 
 #include "rrr_graphslam/rrr/clustering.h"
 
@@ -80,28 +79,66 @@ RrrSummary runIncrementalRrr(VerificationGraph& graph, const RrrParams& params,
   // Offline the gap can be derived from every candidate; a robot sets cluster_gap instead.
   summary.cluster_gap = params.cluster_gap > 0 ? params.cluster_gap : deriveClusterGap(ends);
 
-  std::vector<int> order(static_cast<std::size_t>(graph.numCandidates()));
-  std::iota(order.begin(), order.end(), 0);
-  std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
-    return newestEnd(graph.candidate(a)) < newestEnd(graph.candidate(b));
-  });
+  // What arrives with each node: its odometry (the optimizer's constraints that are not
+  // candidates) and the candidates whose newest end it is, in input order.
+  const auto nodes = static_cast<std::size_t>(graph.numNodes());
+  const core::Optimizer& full = graph.optimizer();
+  std::vector<char> is_candidate(static_cast<std::size_t>(full.numConstraints()), 0);
+  std::vector<std::vector<int>> odometry_at(nodes), candidates_at(nodes);
+  for (int k = 0; k < graph.numCandidates(); ++k) {
+    is_candidate[static_cast<std::size_t>(graph.candidate(k).constraint)] = 1;
+    candidates_at[static_cast<std::size_t>(newestEnd(graph.candidate(k)))].push_back(k);
+  }
+  for (int c = 0; c < full.numConstraints(); ++c) {
+    if (is_candidate[static_cast<std::size_t>(c)]) continue;
+    odometry_at[static_cast<std::size_t>(std::max(full.from(c), full.to(c)))].push_back(c);
+  }
 
-  IncrementalRrr incremental(graph, params, summary.cluster_gap);
+  // The robot's view: the graph holds the nodes that have arrived, not the whole run, so each
+  // decision costs what it would cost on the robot at that point.
+  VerificationGraph robot(full.params());
+  IncrementalRrr incremental(robot, params, summary.cluster_gap);
+  std::vector<int> arrival;  // robot's candidate index -> graph's
+  arrival.reserve(static_cast<std::size_t>(graph.numCandidates()));
   if (latencies_sec) latencies_sec->clear();
-  for (std::size_t i = 0; i < order.size(); ++i) {
-    const auto t0 = std::chrono::steady_clock::now();
-    incremental.addCandidate(order[i]);
-    if (latencies_sec) {
-      latencies_sec->push_back(
-          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+  for (std::size_t n = 0; n < nodes; ++n) {
+    robot.addNode(graph.nodeIds()[n], graph.initialPoses()[n]);
+    for (int c : odometry_at[n]) {
+      robot.addOdometry(full.from(c), full.to(c), full.measurement(c), full.information(c));
     }
-    if (progress && (i % 256 == 0 || i + 1 == order.size())) {
-      progress("incremental", static_cast<int>(i + 1), static_cast<int>(order.size()));
+    for (int k : candidates_at[n]) {
+      const LoopCandidate& c = graph.candidate(k);
+      const auto t0 = std::chrono::steady_clock::now();
+      incremental.addCandidate(
+          robot.addCandidate(c.from, c.to, c.measurement, c.information, c.edge));
+      if (latencies_sec) {
+        latencies_sec->push_back(
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+      }
+      arrival.push_back(k);
+      const auto done = static_cast<int>(arrival.size());
+      if (progress && (done % 256 == 1 || done == graph.numCandidates())) {
+        progress("incremental", done, graph.numCandidates());
+      }
     }
   }
   incremental.finish();
 
-  collectVerdicts(incremental.rrr(), start, verdicts, cluster_of, summary);
+  std::vector<Verdict> robot_verdicts;
+  std::vector<int> robot_clusters;
+  collectVerdicts(incremental.rrr(), start, robot_verdicts, robot_clusters, summary);
+  verdicts.assign(arrival.size(), Verdict::kPending);
+  cluster_of.assign(arrival.size(), -1);
+  std::vector<int> accepted;
+  for (std::size_t i = 0; i < arrival.size(); ++i) {
+    const auto k = static_cast<std::size_t>(arrival[i]);
+    verdicts[k] = robot_verdicts[i];
+    cluster_of[k] = robot_clusters[i];
+    if (verdicts[k] == Verdict::kAccepted) accepted.push_back(arrival[i]);
+  }
+  // As after batch RRR: the graph's optimizer holds odometry + the accepted loops, optimized.
+  graph.activateOnly(accepted);
+  graph.optimizer().setPoses(robot.optimizer().poses());
   return summary;
 }
 

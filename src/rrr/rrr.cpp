@@ -403,6 +403,9 @@ bool Rrr::leaveOneOutCheck() {
 
 void Rrr::decideIncrementally() {
   syncWithGraph();
+  // Nodes added since the last joint test hang from the map by odometry; their covariance is
+  // propagated along it at the map's poses (Optimizer::covariance).
+  graph_.optimizer().setPoses(base_);
   bool& factor_updates = graph_.optimizer().params().factor_updates;
   struct Restore {
     bool& flag;

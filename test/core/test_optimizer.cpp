@@ -222,6 +222,73 @@ TEST(Optimizer, ConstraintsNewToThePatternAreFoldedInByRankUpdates) {
   EXPECT_NEAR(again.final_chi2, reference, 1e-5 * reference);
 }
 
+// A robot's graph grows by nodes hanging from the newest by odometry; the factor of the graph
+// before them still gives every marginal, the new nodes' by propagation through odometry.
+TEST(Optimizer, CovarianceCoversNodesAddedByOdometryAfterTheFactorization) {
+  PoseGraph graph = readPoseGraph(kData + "/intel.g2o.gz");
+  const std::vector<PoseGraph::NodeId> ids = graph.nodeIds();
+  std::unordered_map<PoseGraph::NodeId, int> index;
+  for (std::size_t n = 0; n < ids.size(); ++n) index.emplace(ids[n], static_cast<int>(n));
+  const int factored = 700;  // of 943
+  Optimizer grown;
+  for (int n = 0; n < factored; ++n) grown.addNode(graph.pose(ids[static_cast<std::size_t>(n)]));
+  std::vector<std::size_t> later;  // edges reaching past the factored nodes
+  for (std::size_t e = 0; e < graph.numEdges(); ++e) {
+    const int a = index.at(graph.edge(e).from), b = index.at(graph.edge(e).to);
+    if (std::max(a, b) >= factored) {
+      later.push_back(e);
+      continue;
+    }
+    grown.addConstraint(a, b, graph.measurement(e), graph.information(e));
+  }
+  grown.optimize();
+  grown.optimize();  // a factorization at the minimum
+  ASSERT_TRUE(grown.covarianceAvailable());
+
+  // New nodes on their odometry from the optimized end; the loops reaching them stay off.
+  std::vector<int> loops;
+  std::vector<Pose2> poses = grown.poses();
+  for (int n = factored; n < static_cast<int>(ids.size()); ++n) {
+    grown.addNode(Pose2::Zero());
+    for (std::size_t e : later) {
+      const int a = index.at(graph.edge(e).from), b = index.at(graph.edge(e).to);
+      if (std::max(a, b) != n) continue;
+      const bool odometry = graph.edge(e).kind == EdgeKind::kOdometry;
+      const int c = grown.addConstraint(a, b, graph.measurement(e), graph.information(e), odometry);
+      if (!odometry) loops.push_back(c);
+      if (odometry) {
+        poses.push_back(
+            b == n ? compose(poses[static_cast<std::size_t>(a)], graph.measurement(e))
+                   : compose(poses[static_cast<std::size_t>(b)], inverse(graph.measurement(e))));
+      }
+    }
+  }
+  ASSERT_EQ(poses.size(), ids.size());
+  grown.setPoses(poses);
+  ASSERT_TRUE(grown.covarianceAvailable()) << "odometry-only growth keeps the factor's marginals";
+
+  // Reference: the same active set factorized afresh at the same (optimal) poses.
+  Optimizer fresh;
+  for (const Pose2& p : poses) fresh.addNode(p);
+  for (int c = 0; c < grown.numConstraints(); ++c) {
+    fresh.addConstraint(grown.from(c), grown.to(c), grown.measurement(c), grown.information(c),
+                        grown.isActive(c));
+  }
+  fresh.optimize();
+  ASSERT_TRUE(fresh.covarianceAvailable());
+  const std::vector<int> nodes{100, 699, 700, 820, 942};
+  const Eigen::MatrixXd reference = fresh.covariance(nodes);
+  EXPECT_LT((grown.covariance(nodes) - reference).norm(), 1e-4 * reference.norm());
+  const std::vector<int> new_only{942, 800};
+  EXPECT_LT((grown.covariance(new_only) - fresh.covariance(new_only)).norm(),
+            1e-4 * reference.norm());
+
+  // A loop switched on among the new nodes changes the marginals: no longer available.
+  ASSERT_FALSE(loops.empty());
+  grown.setActive(loops.front(), true);
+  EXPECT_FALSE(grown.covarianceAvailable());
+}
+
 TEST(Lago, StartsFarOffGraphsNearTheirMinimum) {
   Optimizer m3500 = makeOptimizer(readPoseGraph(kData + "/manhattanOlson3500_olson.g2o.gz"));
   EXPECT_TRUE(farFromMinimum(m3500)) << "the file's estimate: 458 per constraint";

@@ -139,10 +139,19 @@ class Optimizer {
   OptimizationResult optimize();
 
   /// True when the last factorization was an undamped Gauss-Newton one of the current active
-  /// set, so that covariance() describes the current estimate (to first order).
-  bool covarianceAvailable() const { return covariance_valid_; }
+  /// set, so that covariance() describes the current estimate (to first order). Nodes added since
+  /// keep it available when each hangs from an earlier node by one active constraint added since,
+  /// and no other constraint added since is active (a growing graph's odometry): such a tree
+  /// leaves the factored nodes' marginals as they are.
+  bool covarianceAvailable() const {
+    std::vector<int> parent;
+    return covariance_valid_ && nodesAddedAsTree(parent);
+  }
   /// Joint marginal covariance (3m x 3m, node order as given) of `nodes` from the last
-  /// factorization; fixed nodes have zero covariance. Requires covarianceAvailable().
+  /// factorization; fixed nodes have zero covariance. A node added since gets its parent's,
+  /// propagated through the constraint it hangs from, linearized at the current poses (exact to
+  /// first order, as the tree adds no information about the rest). Zero unless
+  /// covarianceAvailable().
   Eigen::MatrixXd covariance(const std::vector<int>& nodes) const;
 
   /// Symbolic analyses done so far (one per sparsity pattern).
@@ -174,6 +183,11 @@ class Optimizer {
   void levenbergMarquardt(OptimizationResult& result, double& chi2_now,
                           std::chrono::steady_clock::time_point& clock);
   void applyStep(const Eigen::VectorXd& step);
+  // For covarianceAvailable(): the constraint each node added since the factorization hangs
+  // from (indexed from the first such node); false if they do not form such a tree.
+  bool nodesAddedAsTree(std::vector<int>& parent) const;
+  // Marginal covariance of factored nodes, read from the factor.
+  Eigen::MatrixXd factorCovariance(const std::vector<int>& nodes) const;
 
   OptimizerParams params_;
   std::vector<Pose2> poses_;
@@ -200,7 +214,9 @@ class Optimizer {
   std::vector<char> factored_active_;
   std::vector<double> factored_weight_;
   std::vector<int> factored_anchors_;
-  std::vector<int> anchors_;  // nodes held by a weak prior, with their anchor poses
+  int factored_nodes_ = 0;        // nodes and constraints when the factor was last made or
+  int factored_constraints_ = 0;  // updated
+  std::vector<int> anchors_;      // nodes held by a weak prior, with their anchor poses
   std::vector<Pose2> anchor_poses_;
   Eigen::VectorXd gradient_;
 };

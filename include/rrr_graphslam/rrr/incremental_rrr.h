@@ -51,8 +51,11 @@ class IncrementalRrr {
   std::vector<OpenCluster> open_;
 };
 
-/// Feeds every candidate of `graph` in node order (newest end, then input order) and records the
-/// time each call takes; verdicts and cluster_of as in runBatchRrr.
+/// Replays `graph` as a robot builds it: nodes arrive in order with their odometry, each
+/// candidate right after its newest end (input order among them), and IncrementalRrr works on a
+/// graph holding only what has arrived, so each decision costs what it would on the robot at
+/// that point. Records the time each candidate's call takes; verdicts, cluster_of and the
+/// graph's optimizer afterwards as in runBatchRrr.
 RrrSummary runIncrementalRrr(VerificationGraph& graph, const RrrParams& params,
                              std::vector<Verdict>& verdicts, std::vector<int>& cluster_of,
                              const ProgressFunction& progress = {},
