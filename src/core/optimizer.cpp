@@ -393,6 +393,14 @@ void Optimizer::gaussNewton(OptimizationResult& result, double& chi2_now, bool s
       rememberFactoredState();
     }
     const Eigen::VectorXd step = solver_.solve(Eigen::VectorXd(-gradient_));
+    // The decrease the quadratic model still expects (half the Newton decrement, with this
+    // factor's H). Below the tolerance the run has converged: near the minimum a stale factor's
+    // step overshoots by about as much as it could gain, and would cost a fresh factorization.
+    if (-0.5 * gradient_.dot(step) <= params_.relative_tolerance * chi2_now) {
+      timing.solve_sec += secondsSince(clock);
+      result.stop_reason = StopReason::kConverged;
+      return;
+    }
     const std::vector<Pose2> saved = poses_;
     applyStep(step);
     timing.solve_sec += secondsSince(clock);

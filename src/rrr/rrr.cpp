@@ -406,13 +406,16 @@ void Rrr::decideIncrementally() {
   // Nodes added since the last joint test hang from the map by odometry; their covariance is
   // propagated along it at the map's poses (Optimizer::covariance).
   graph_.optimizer().setPoses(base_);
-  bool& factor_updates = graph_.optimizer().params().factor_updates;
+  // Online settings of the optimizer for this call; the final decision keeps the caller's.
+  core::OptimizerParams& optimizer = graph_.optimizer().params();
   struct Restore {
-    bool& flag;
-    bool saved;
-    ~Restore() { flag = saved; }
-  } restore{factor_updates, factor_updates};
-  factor_updates = params_.incremental_factor_updates;
+    core::OptimizerParams& params;
+    core::OptimizerParams saved;
+    ~Restore() { params = saved; }
+  } restore{optimizer, optimizer};
+  optimizer.factor_updates = params_.incremental_factor_updates;
+  optimizer.relative_tolerance =
+      std::max(optimizer.relative_tolerance, params_.incremental_relative_tolerance);
   decideAgainstMap();
 }
 

@@ -38,6 +38,10 @@ struct RrrParams {
   /// by rank updates for the clusters switched on or off (OptimizerParams::factor_updates),
   /// instead of a fresh factorization each; default true.
   bool incremental_factor_updates = true;
+  /// Incremental: joint tests stop when chi2 would drop by less than this fraction (the
+  /// optimizer's relative_tolerance, 1e-6 by default, serves the final decision); default 1e-4,
+  /// a thousandth of one link's test threshold on the largest graphs here.
+  double incremental_relative_tolerance = 1e-4;
   /// Inter-cluster: also remove clusters whose consistency index is at least this fraction of the
   /// worst; default 0.5. 1.0 removes one cluster per optimization, as in the paper.
   double batch_removal_fraction = 0.5;
