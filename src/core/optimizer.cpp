@@ -404,8 +404,10 @@ void Optimizer::gaussNewton(OptimizationResult& result, double& chi2_now, bool s
     const std::vector<Pose2> saved = poses_;
     applyStep(step);
     timing.solve_sec += secondsSince(clock);
-    hessian_current = !reuse_factor;  // in chord mode the next step likely reuses the factor
-    const double chi2_next = assemble(hessian_current);
+    // The gradient alone: H is assembled only when a fresh factorization follows (most steps
+    // after a fresh one are chord steps, which would not use it).
+    hessian_current = false;
+    const double chi2_next = assemble(false);
     timing.assemble_sec += secondsSince(clock);
     const double decrease = chi2_now - chi2_next;
     if (!(decrease > 0.0) && (reuse_factor || decrease < -params_.relative_tolerance * chi2_now)) {
