@@ -232,17 +232,25 @@ TEST(Rrr, SessionsJoinOnlyThroughAcceptedLinks) {
               static_cast<core::PoseGraph::NodeId>(k), core::Pose2::Zero(), loop,
               core::EdgeKind::kLoopCandidate);
   }
-  VerificationGraph graph(g, {});
-  EXPECT_EQ(graph.chain().numSessions(), 3);
-  std::vector<Verdict> verdicts;
-  std::vector<int> clusters;
-  runBatchRrr(graph, {}, verdicts, clusters);
-  for (Verdict v : verdicts) EXPECT_EQ(v, Verdict::kAccepted);
-  const auto& poses = graph.optimizer().poses();
-  // B now sits on A; C, never linked, keeps its own frame.
-  EXPECT_LT((poses[per_session + 7] - poses[7]).head<2>().norm(), 1e-3);
-  EXPECT_LT((poses[2 * per_session + 3] - core::compose(frames[2], square(3))).head<2>().norm(),
-            1e-3);
+  // Batch, and incremental replaying the sessions node by node (a new session starts where
+  // odometry stops), leave the same map in the graph's optimizer.
+  for (const bool incremental : {false, true}) {
+    VerificationGraph graph(g, {});
+    EXPECT_EQ(graph.chain().numSessions(), 3);
+    std::vector<Verdict> verdicts;
+    std::vector<int> clusters;
+    if (incremental) {
+      runIncrementalRrr(graph, {}, verdicts, clusters);
+    } else {
+      runBatchRrr(graph, {}, verdicts, clusters);
+    }
+    for (Verdict v : verdicts) EXPECT_EQ(v, Verdict::kAccepted) << "incremental " << incremental;
+    const auto& poses = graph.optimizer().poses();
+    // B now sits on A; C, never linked, keeps its own frame.
+    EXPECT_LT((poses[per_session + 7] - poses[7]).head<2>().norm(), 1e-3);
+    EXPECT_LT((poses[2 * per_session + 3] - core::compose(frames[2], square(3))).head<2>().norm(),
+              1e-3);
+  }
 }
 
 }  // namespace
