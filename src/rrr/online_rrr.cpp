@@ -283,31 +283,35 @@ std::unique_ptr<OnlineRrr> OnlineRrr::fromPoseGraph(const core::PoseGraph& graph
   for (std::size_t i = 0; i < ids.size(); ++i) index_of.emplace(ids[i], static_cast<int>(i));
 
   // Odometry into each node, and candidates by their newest end (stable: input order within).
-  std::vector<std::vector<std::size_t>> odometry_into(ids.size()), candidates_at(ids.size());
+  std::vector<std::size_t> odometry, candidates;  // edges
+  std::vector<CandidateEnds> odometry_ends, candidate_ends;
   for (std::size_t e = 0; e < graph.numEdges(); ++e) {
     const auto& edge = graph.edge(e);
     const int a = index_of.at(edge.from), b = index_of.at(edge.to);
-    if (edge.kind == core::EdgeKind::kOdometry) {
-      if (std::abs(a - b) != 1) {
-        throw std::invalid_argument("odometry edge " + std::to_string(edge.from) + " -> " +
-                                    std::to_string(edge.to) + " does not join consecutive nodes");
-      }
-      odometry_into[static_cast<std::size_t>(std::max(a, b))].push_back(e);
-    } else {
-      candidates_at[static_cast<std::size_t>(std::max(a, b))].push_back(e);
+    if (edge.kind == core::EdgeKind::kOdometry && std::abs(a - b) != 1) {
+      throw std::invalid_argument("odometry edge " + std::to_string(edge.from) + " -> " +
+                                  std::to_string(edge.to) + " does not join consecutive nodes");
     }
+    const bool is_odometry = edge.kind == core::EdgeKind::kOdometry;
+    (is_odometry ? odometry : candidates).push_back(e);
+    (is_odometry ? odometry_ends : candidate_ends).emplace_back(a, b);
   }
+  const auto num_nodes = static_cast<int>(ids.size());
+  const auto odometry_into = byNewestEnd(num_nodes, odometry_ends);
+  const auto candidates_at = byNewestEnd(num_nodes, candidate_ends);
   for (std::size_t k = 0; k < ids.size(); ++k) {
     const int n = online->appendNode(ids[k], graph.pose(ids[k]));
-    for (std::size_t e : odometry_into[k]) {
-      const int a = index_of.at(graph.edge(e).from), b = index_of.at(graph.edge(e).to);
+    for (int i : odometry_into[k]) {
+      const std::size_t e = odometry[static_cast<std::size_t>(i)];
+      const auto [a, b] = odometry_ends[static_cast<std::size_t>(i)];
       online->graph_.addOdometry(a, b, graph.measurement(e), graph.information(e));
       online->odometry_.push_back({a, b, graph.measurement(e), graph.information(e)});
     }
     online->incremental_.advanceTo(n);
-    for (std::size_t e : candidates_at[k]) {
-      online->insertCandidate(index_of.at(graph.edge(e).from), index_of.at(graph.edge(e).to),
-                              graph.measurement(e), graph.information(e));
+    for (int i : candidates_at[k]) {
+      const std::size_t e = candidates[static_cast<std::size_t>(i)];
+      const auto [a, b] = candidate_ends[static_cast<std::size_t>(i)];
+      online->insertCandidate(a, b, graph.measurement(e), graph.information(e));
     }
   }
   online->finish();

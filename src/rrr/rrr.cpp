@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <chrono>
-#include <limits>
 #include <map>
 
 #include <Eigen/Dense>
@@ -348,11 +347,9 @@ Rrr::ClusterLinearization Rrr::linearizeCluster(int cluster) const {
   return out;
 }
 
-double Rrr::predictedIndex(int cluster) const {
+std::optional<double> Rrr::predictedIndex(int cluster) const {
   const auto& kept = clusters_[static_cast<std::size_t>(cluster)].kept;
-  if (!graph_.optimizer().covarianceAvailable() || kept.empty()) {
-    return std::numeric_limits<double>::infinity();
-  }
+  if (!graph_.optimizer().covarianceAvailable() || kept.empty()) return std::nullopt;
   const ClusterLinearization lin = linearizeCluster(cluster);
   // Adding the cluster: the innovation covariance is the links' plus the map's.
   const Eigen::MatrixXd S = lin.link_covariance + lin.map_term;
@@ -374,9 +371,8 @@ Rrr::OnlineVerdict Rrr::checkAgainstMap(int cluster) const {
   if (indexAt(cluster, base_) < 1.0) return OnlineVerdict::kFits;
   // Accepting on the linearized test alone let doubtful clusters into the map updates, whose
   // removal rounds then cost more than the joint tests saved (measured on M3500 and City10000).
-  if (graph_.optimizer().covarianceAvailable() && predictedIndex(cluster) >= 1.0) {
-    return OnlineVerdict::kDoesNotFit;
-  }
+  const std::optional<double> predicted = predictedIndex(cluster);
+  if (predicted && *predicted >= 1.0) return OnlineVerdict::kDoesNotFit;
   return OnlineVerdict::kNeedsJointTest;
 }
 

@@ -118,6 +118,12 @@ TEST(Rrr, IncrementalReachesTheBatchDecisions) {
 
 // A robot's view: nodes arrive one by one with their odometry, candidates once both ends
 // exist. Decisions are made on the way, and the final ones equal batch RRR on the whole graph.
+TEST(Rrr, ByNewestEndSaysWhatArrivesWithEachNode) {
+  const std::vector<CandidateEnds> ends{{0, 1}, {3, 1}, {2, 3}, {1, 0}, {0, 3}};
+  const std::vector<std::vector<int>> expected{{}, {0, 3}, {}, {1, 2, 4}, {}};
+  EXPECT_EQ(byNewestEnd(5, ends), expected);
+}
+
 TEST(Rrr, GrowingGraphReachesTheBatchDecisions) {
   const testing::LabelledGraph input = testing::withOutliers(kData + "/intel.g2o.gz", 100, 1, 11);
   RrrParams params;
@@ -134,26 +140,27 @@ TEST(Rrr, GrowingGraphReachesTheBatchDecisions) {
   const auto ids = input.graph.nodeIds();
   std::map<core::PoseGraph::NodeId, int> index;
   for (std::size_t n = 0; n < ids.size(); ++n) index[ids[n]] = static_cast<int>(n);
-  std::vector<std::vector<std::size_t>> odometry_at(ids.size()), candidates_at(ids.size());
-  for (std::size_t k = 0; k < input.graph.numEdges(); ++k) {
-    const auto& e = input.graph.edge(k);
-    const auto newest = static_cast<std::size_t>(std::max(index[e.from], index[e.to]));
-    (e.kind == core::EdgeKind::kOdometry ? odometry_at : candidates_at)[newest].push_back(k);
-  }
+  std::vector<CandidateEnds> ends;
+  for (std::size_t k = 0; k < input.graph.numEdges(); ++k)
+    ends.emplace_back(index[input.graph.edge(k).from], index[input.graph.edge(k).to]);
+  const auto arriving = byNewestEnd(static_cast<int>(ids.size()), ends);  // edges by node
   VerificationGraph online(params.optimizer);
   IncrementalRrr incremental(online, params, params.cluster_gap);
   int accepted_on_the_way = 0;
   for (std::size_t n = 0; n < ids.size(); ++n) {
     online.addNode(ids[n], input.graph.pose(ids[n]));
-    for (std::size_t k : odometry_at[n]) {
-      const auto& e = input.graph.edge(k);
-      online.addOdometry(index[e.from], index[e.to], input.graph.measurement(k),
-                         input.graph.information(k));
-    }
-    for (std::size_t k : candidates_at[n]) {
-      const auto& e = input.graph.edge(k);
-      incremental.addCandidate(online.addCandidate(
-          index[e.from], index[e.to], input.graph.measurement(k), input.graph.information(k), k));
+    for (const bool odometry : {true, false}) {  // odometry first, then the candidates
+      for (int i : arriving[n]) {
+        const auto k = static_cast<std::size_t>(i);
+        if ((input.graph.edge(k).kind == core::EdgeKind::kOdometry) != odometry) continue;
+        const auto [a, b] = ends[k];
+        if (odometry) {
+          online.addOdometry(a, b, input.graph.measurement(k), input.graph.information(k));
+        } else {
+          incremental.addCandidate(
+              online.addCandidate(a, b, input.graph.measurement(k), input.graph.information(k), k));
+        }
+      }
     }
     if (n == ids.size() / 2 || n + 1 == ids.size()) {
       accepted_on_the_way = 0;

@@ -16,6 +16,7 @@
 #include <chrono>
 #include <cstdint>
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -174,8 +175,9 @@ class Rrr {
   /// Chi2 decrease predicted for removing a good cluster, over chi2(alpha, dof).
   double leaveOneOutIndex(int cluster) const;
   /// Chi2 increase predicted for adding a cluster to the good set (linearized at base_, with the
-  /// optimizer's last factorization), over chi2(alpha, dof); infinity when no factor is usable.
-  double predictedIndex(int cluster) const;
+  /// optimizer's last factorization), over chi2(alpha, dof); none when no factor is usable (or
+  /// the cluster kept no link).
+  std::optional<double> predictedIndex(int cluster) const;
   /// Consistency index of a cluster's kept links at fixed poses.
   double indexAt(int cluster, const std::vector<core::Pose2>& poses) const;
   void realizeReverseRecover(const std::vector<core::Pose2>& initial, bool robust_ordering);
