@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include <Eigen/LU>
+
 namespace rrr_graphslam::core {
 
 double normalizeAngle(double angle_rad) {
@@ -45,6 +47,16 @@ Eigen::Matrix3d adjoint(const Pose2& T) {
   Ad(0, 2) = T.y();
   Ad(1, 2) = -T.x();
   return Ad;
+}
+
+Eigen::Matrix3d covarianceOfInverse(const Pose2& z, const Eigen::Matrix3d& covariance) {
+  const Eigen::Matrix3d Ad = adjoint(z);
+  return Ad * covariance * Ad.transpose();
+}
+
+Eigen::Matrix3d informationOfInverse(const Pose2& z, const Eigen::Matrix3d& information) {
+  const Eigen::Matrix3d Ad_inv = adjoint(z).inverse();
+  return Ad_inv.transpose() * information * Ad_inv;
 }
 
 Eigen::Vector3d edgeError(const Pose2& x_from, const Pose2& x_to, const Pose2& z) {

@@ -12,13 +12,11 @@ using core::Pose2;
 
 using Step = OdometryChain::Step;
 
-// Step k -> k+1 from a link in either direction. Reversing z (noise on the right) maps the
-// covariance through Ad(z): z^-1 with right noise -Ad(z) eta.
+// Step k -> k+1 from a link in either direction.
 Step forwardStep(const OdometryChain::Link& link) {
   if (link.to == link.from + 1) return {link.measurement, link.information};
-  const Eigen::Matrix3d Ad = core::adjoint(link.measurement);
-  const Eigen::Matrix3d Ad_inv = Ad.inverse();
-  return {core::inverse(link.measurement), Ad_inv.transpose() * link.information * Ad_inv};
+  return {core::inverse(link.measurement),
+          core::informationOfInverse(link.measurement, link.information)};
 }
 
 // Two measurements of the same step, fused in the tangent space at the first.

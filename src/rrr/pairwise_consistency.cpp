@@ -24,9 +24,8 @@ struct OrientedLink {
 OrientedLink oriented(const LoopCandidate& c, bool reverse) {
   const Eigen::Matrix3d covariance = c.information.inverse();
   if (!reverse) return {c.from, c.to, c.measurement, covariance};
-  // (z Exp(n))^-1 = z^-1 Exp(-Ad(z) n).
-  const Eigen::Matrix3d Ad = core::adjoint(c.measurement);
-  return {c.to, c.from, core::inverse(c.measurement), Ad * covariance * Ad.transpose()};
+  return {c.to, c.from, core::inverse(c.measurement),
+          core::covarianceOfInverse(c.measurement, covariance)};
 }
 
 // Odometry noise between nodes p and q (same session) in the session frame: q's world-frame

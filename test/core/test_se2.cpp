@@ -5,6 +5,8 @@
 #include <cmath>
 #include <random>
 
+#include <Eigen/LU>
+
 #include "rrr_graphslam/core/se2.h"
 
 namespace rrr_graphslam::core {
@@ -68,6 +70,31 @@ TEST(Se2, JacobiansMatchNumericalDifferentiation) {
     EXPECT_NEAR((lin.error - edgeError(xi, xj, z)).norm(), 0.0, 1e-12);
     EXPECT_LT((lin.J_from - numericJacobian(xi, xj, z, true)).norm(), 1e-5) << "trial " << trial;
     EXPECT_LT((lin.J_to - numericJacobian(xi, xj, z, false)).norm(), 1e-5) << "trial " << trial;
+  }
+}
+
+// Reversing a measurement with noise on the right, z * n: z^-1 gets the noise m(n) with
+// (z * n)^-1 = z^-1 * m(n); its covariance is J C J^T for J = dm/dn at 0 (central differences).
+TEST(Se2, CovarianceOfInverseMatchesNumericalPropagation) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> uniform(-3.0, 3.0);
+  for (int trial = 0; trial < 50; ++trial) {
+    const Pose2 z(uniform(rng), uniform(rng), normalizeAngle(uniform(rng)));
+    const Eigen::Matrix3d A = Eigen::Matrix3d::Random() + 2.0 * Eigen::Matrix3d::Identity();
+    const Eigen::Matrix3d C = A * A.transpose();  // a covariance with correlations
+    constexpr double kStep = 1e-6;
+    Eigen::Matrix3d J;
+    for (int k = 0; k < 3; ++k) {
+      const Pose2 n = kStep * Eigen::Vector3d::Unit(k);
+      Eigen::Vector3d d = between(inverse(z), inverse(compose(z, n))) -
+                          between(inverse(z), inverse(compose(z, -n)));
+      d.z() = normalizeAngle(d.z());
+      J.col(k) = d / (2.0 * kStep);
+    }
+    const Eigen::Matrix3d expected = J * C * J.transpose();
+    EXPECT_LT((covarianceOfInverse(z, C) - expected).norm(), 1e-6 * expected.norm());
+    EXPECT_LT((informationOfInverse(z, C.inverse()) - expected.inverse()).norm(),
+              1e-6 * expected.inverse().norm());
   }
 }
 

@@ -31,6 +31,12 @@ Pose2 between(const Pose2& a, const Pose2& b);
 /// Adjoint of SE(2) acting on (x, y, theta) tangent vectors: T * exp(xi) = exp(Ad(T) xi) * T.
 Eigen::Matrix3d adjoint(const Pose2& T);
 
+/// Covariance of z^-1 for a measurement with noise on the right, z Exp(n), cov(n) = covariance:
+/// (z Exp(n))^-1 = z^-1 Exp(-Ad(z) n), so the reversed measurement's is Ad(z) C Ad(z)^T.
+Eigen::Matrix3d covarianceOfInverse(const Pose2& z, const Eigen::Matrix3d& covariance);
+/// The same in information form: Ad(z)^-T Omega Ad(z)^-1.
+Eigen::Matrix3d informationOfInverse(const Pose2& z, const Eigen::Matrix3d& information);
+
 /// Error of a relative-pose measurement z (pose of `to` in `from`'s frame).
 Eigen::Vector3d edgeError(const Pose2& x_from, const Pose2& x_to, const Pose2& z);
 
