@@ -84,6 +84,9 @@ NodeParams loadParams(const ros::NodeHandle& private_nh) {
   r.read<double>(
       "recover_gate", rrr.recover_gate, [](const double& g) { return g >= 0.0; }, "non-negative");
   r.positive("incremental_map_update_every", rrr.incremental_map_update_every);
+  r.read<int>(
+      "incremental_rebatch_every", rrr.incremental_rebatch_every,
+      [](const int& n) { return n >= 0; }, "non-negative (0: never)");
   r.positive("max_waiting_candidates", p.rrr.max_waiting_candidates);
 
   // Front end (slam mode).

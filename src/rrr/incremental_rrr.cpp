@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <limits>
 
 #include "rrr_graphslam/rrr/clustering.h"
 
@@ -14,7 +15,11 @@ int oldestEnd(const LoopCandidate& c) { return std::min(c.from, c.to); }
 }  // namespace
 
 IncrementalRrr::IncrementalRrr(VerificationGraph& graph, const RrrParams& params, int cluster_gap)
-    : graph_(graph), rrr_(graph, params), gap_(cluster_gap) {}
+    : graph_(graph),
+      rrr_(graph, params),
+      gap_(cluster_gap),
+      next_rebatch_(params.incremental_rebatch_every > 0 ? params.incremental_rebatch_every
+                                                         : std::numeric_limits<int>::max()) {}
 
 bool IncrementalRrr::addCandidate(int candidate) {
   const LoopCandidate& c = graph_.candidate(candidate);
@@ -59,8 +64,15 @@ bool IncrementalRrr::advanceTo(int node) {
     }
   }
   open_.swap(still_open);
-  if (closed) rrr_.decideIncrementally();
-  return closed;
+  if (!closed) return false;
+  if (current_node_ >= next_rebatch_) {
+    const int every = rrr_.params().incremental_rebatch_every;
+    next_rebatch_ = (current_node_ / every + 1) * every;
+    rrr_.decideFromScratch();
+  } else {
+    rrr_.decideIncrementally();
+  }
+  return true;
 }
 
 void IncrementalRrr::finish() {

@@ -29,7 +29,7 @@ const char* const kUsage =
     "                   [--mode batch|incremental] [--alpha 0.95] [--cluster-gap N]\n"
     "                   [--batch-removal-fraction F] [--recover-gate G] [--full-intra]\n"
     "                   [--keep-mixed-clusters] [--far-retry-min-links N]\n"
-    "                   [--fresh-factorizations] [--quiet]\n"
+    "                   [--fresh-factorizations] [--rebatch-every N] [--quiet]\n"
     "  INPUT            g2o or TORO pose graph (.gz allowed); edges with |from-to| != 1 are\n"
     "                   loop candidates, the others trusted odometry\n"
     "  --decisions      TSV with header 'from to cluster verdict', one row per candidate\n"
@@ -47,6 +47,8 @@ const char* const kUsage =
     "                   tested once more with the good set (default 20; 0: never)\n"
     "  --fresh-factorizations  incremental joint tests factorize afresh instead of updating the\n"
     "                   good set's factor by rank updates (slower reference)\n"
+    "  --rebatch-every N  incremental: the closed clusters are decided from scratch each time the\n"
+    "                   replay passes a multiple of N nodes (default 1000; 0: only at the end)\n"
     "  --quiet          no progress line\n";
 
 struct Arguments {
@@ -87,6 +89,9 @@ Arguments parseArguments(int argc, char** argv) {
       args.params.split_mixed_clusters = false;
     } else if (a == "--fresh-factorizations") {
       args.params.incremental_factor_updates = false;
+    } else if (a == "--rebatch-every") {
+      args.params.incremental_rebatch_every =
+          static_cast<int>(cli.number(a, cli.value(i, a), 0, 1e9));
     } else if (a == "--quiet") {
       args.quiet = true;
     } else {

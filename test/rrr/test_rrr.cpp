@@ -118,6 +118,66 @@ TEST(Rrr, IncrementalReachesTheBatchDecisions) {
 
 // A robot's view: nodes arrive one by one with their odometry, candidates once both ends
 // exist. Decisions are made on the way, and the final ones equal batch RRR on the whole graph.
+// Passing a multiple of incremental_rebatch_every nodes, the clusters closed so far are decided
+// from scratch: the same verdicts and map as a twin that decides incrementally and is then asked
+// for the batch decision over its closed clusters at that point.
+TEST(Rrr, RebatchDecidesTheClosedClustersFromScratch) {
+  const testing::LabelledGraph input = testing::withOutliers(kData + "/intel.g2o.gz", 100, 1, 11);
+  RrrParams rebatching;
+  rebatching.cluster_gap = 3;
+  rebatching.incremental_rebatch_every = 400;
+  RrrParams never = rebatching;
+  never.incremental_rebatch_every = 0;
+  VerificationGraph a(rebatching.optimizer), b(never.optimizer);
+  IncrementalRrr ia(a, rebatching, 3), ib(b, never, 3);
+
+  const auto ids = input.graph.nodeIds();
+  std::map<core::PoseGraph::NodeId, int> index;
+  for (std::size_t n = 0; n < ids.size(); ++n) index[ids[n]] = static_cast<int>(n);
+  std::vector<CandidateEnds> ends;
+  for (std::size_t k = 0; k < input.graph.numEdges(); ++k)
+    ends.emplace_back(index[input.graph.edge(k).from], index[input.graph.edge(k).to]);
+  const auto arriving = byNewestEnd(static_cast<int>(ids.size()), ends);
+  auto distance = [&] {
+    double d = 0.0;
+    for (int n = 0; n < a.numNodes(); ++n) {
+      d = std::max(d, (a.optimizer().poses()[static_cast<std::size_t>(n)] -
+                       b.optimizer().poses()[static_cast<std::size_t>(n)])
+                          .lpNorm<Eigen::Infinity>());
+    }
+    return d;
+  };
+  bool compared = false;
+  for (std::size_t n = 0; n < ids.size() && !compared; ++n) {
+    for (VerificationGraph* g : {&a, &b}) g->addNode(ids[n], input.graph.pose(ids[n]));
+    for (const bool odometry : {true, false}) {
+      for (int i : arriving[n]) {
+        const auto k = static_cast<std::size_t>(i);
+        if ((input.graph.edge(k).kind == core::EdgeKind::kOdometry) != odometry) continue;
+        const auto [from, to] = ends[k];
+        const core::Pose2& z = input.graph.measurement(k);
+        const Eigen::Matrix3d& info = input.graph.information(k);
+        if (odometry) {
+          a.addOdometry(from, to, z, info);
+          b.addOdometry(from, to, z, info);
+          continue;
+        }
+        const bool closed = ia.addCandidate(a.addCandidate(from, to, z, info, k));
+        ASSERT_EQ(ib.addCandidate(b.addCandidate(from, to, z, info, k)), closed);
+        if (!closed || ia.currentNode() < 400 || compared) continue;
+        // The first decision past node 400: from scratch in `a`, incremental in `b`.
+        EXPECT_GT(distance(), 1e-6) << "the incremental map differs from the batch one";
+        ib.decideClosedFromScratch();
+        for (int c = 0; c < a.numCandidates(); ++c)
+          EXPECT_EQ(ia.rrr().verdict(c), ib.rrr().verdict(c)) << "candidate " << c;
+        EXPECT_LT(distance(), 1e-6);
+        compared = true;
+      }
+    }
+  }
+  EXPECT_TRUE(compared);
+}
+
 TEST(Rrr, ByNewestEndSaysWhatArrivesWithEachNode) {
   const std::vector<CandidateEnds> ends{{0, 1}, {3, 1}, {2, 3}, {1, 0}, {0, 3}};
   const std::vector<std::vector<int>> expected{{}, {0, 3}, {}, {1, 2, 4}, {}};

@@ -24,7 +24,8 @@ class IncrementalRrr {
   /// than the gap behind the robot forms a cluster of its own, closed and decided at once.
   /// Returns true if a cluster was closed (and a decision made).
   bool addCandidate(int candidate);
-  /// The robot reached `node`: closes and decides the clusters it has left behind.
+  /// The robot reached `node`: closes and decides the clusters it has left behind (from scratch
+  /// when it passed a multiple of RrrParams::incremental_rebatch_every since the last time).
   bool advanceTo(int node);
   /// After the last candidate: closes every open cluster and decides all of them from scratch.
   void finish();
@@ -48,6 +49,7 @@ class IncrementalRrr {
   Rrr rrr_;
   int gap_;
   int current_node_ = 0;
+  int next_rebatch_;  // node at which the next decision is made from scratch
   std::vector<OpenCluster> open_;
 };
 

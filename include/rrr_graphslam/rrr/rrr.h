@@ -35,6 +35,12 @@ struct RrrParams {
   /// Incremental: re-optimize the good set after this many clusters were accepted without it;
   /// default 32.
   int incremental_map_update_every = 32;
+  /// Incremental: when the robot passes a multiple of this many nodes, the clusters closed so far
+  /// are decided from scratch (batch RRR over them) instead of incrementally. A false cluster
+  /// that got into the good set online stays there, bends the map and makes every later joint
+  /// test a long Levenberg-Marquardt run; the batch decision (robust map, leave-one-out check)
+  /// takes it out. Default 1000; 0: never (until finish()).
+  int incremental_rebatch_every = 1000;
   /// Incremental: joint tests start from the good set's last factorization, brought up to date
   /// by rank updates for the clusters switched on or off (OptimizerParams::factor_updates),
   /// instead of a fresh factorization each; default true.
@@ -110,6 +116,7 @@ class Rrr {
   }
   /// Optimizations run so far (intra tests on reduced graphs included).
   int optimizations() const { return optimizations_; }
+  const RrrParams& params() const { return params_; }
   /// Links of the good clusters that survived their intra test: the accepted loops.
   std::vector<int> acceptedCandidates() const;
   /// False once the candidate's cluster was tested and its intra-cluster test dropped it (alone or
