@@ -14,6 +14,17 @@ namespace {
 
 const std::string kData = RRR_TEST_DATA_DIR;
 
+// Each edge's ends as node indices (k-th smallest id).
+std::vector<CandidateEnds> edgeEnds(const core::PoseGraph& graph) {
+  const auto ids = graph.nodeIds();
+  std::map<core::PoseGraph::NodeId, int> index;
+  for (std::size_t n = 0; n < ids.size(); ++n) index[ids[n]] = static_cast<int>(n);
+  std::vector<CandidateEnds> ends;
+  for (std::size_t k = 0; k < graph.numEdges(); ++k)
+    ends.emplace_back(index[graph.edge(k).from], index[graph.edge(k).to]);
+  return ends;
+}
+
 struct Counts {
   int tp = 0, fp = 0, fn = 0;
   double precision() const { return tp + fp ? double(tp) / (tp + fp) : 1.0; }
@@ -132,11 +143,7 @@ TEST(Rrr, RebatchDecidesTheClosedClustersFromScratch) {
   IncrementalRrr ia(a, rebatching, 3), ib(b, never, 3);
 
   const auto ids = input.graph.nodeIds();
-  std::map<core::PoseGraph::NodeId, int> index;
-  for (std::size_t n = 0; n < ids.size(); ++n) index[ids[n]] = static_cast<int>(n);
-  std::vector<CandidateEnds> ends;
-  for (std::size_t k = 0; k < input.graph.numEdges(); ++k)
-    ends.emplace_back(index[input.graph.edge(k).from], index[input.graph.edge(k).to]);
+  const std::vector<CandidateEnds> ends = edgeEnds(input.graph);
   const auto arriving = byNewestEnd(static_cast<int>(ids.size()), ends);
   auto distance = [&] {
     double d = 0.0;
@@ -198,11 +205,7 @@ TEST(Rrr, GrowingGraphReachesTheBatchDecisions) {
   }
 
   const auto ids = input.graph.nodeIds();
-  std::map<core::PoseGraph::NodeId, int> index;
-  for (std::size_t n = 0; n < ids.size(); ++n) index[ids[n]] = static_cast<int>(n);
-  std::vector<CandidateEnds> ends;
-  for (std::size_t k = 0; k < input.graph.numEdges(); ++k)
-    ends.emplace_back(index[input.graph.edge(k).from], index[input.graph.edge(k).to]);
+  const std::vector<CandidateEnds> ends = edgeEnds(input.graph);
   const auto arriving = byNewestEnd(static_cast<int>(ids.size()), ends);  // edges by node
   VerificationGraph online(params.optimizer);
   IncrementalRrr incremental(online, params, params.cluster_gap);
