@@ -82,9 +82,10 @@ std::vector<int> blockOrdering(int num_blocks, const std::vector<std::pair<int, 
   return order;
 }
 
-void SparseSolver::analyze(const Matrix& upper, bool preordered) {
+void SparseSolver::analyze(const Matrix& upper, bool preordered, Kind kind) {
   const ScopedSingleThreadedOpenMp single;
   cholmod_common& common = cholmod_->llt.cholmod();
+  common.supernodal = kind == Kind::kSimplicial ? CHOLMOD_SIMPLICIAL : CHOLMOD_AUTO;
   if (preordered) {
     common.nmethods = 1;
     common.method[0].ordering = CHOLMOD_NATURAL;

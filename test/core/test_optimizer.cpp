@@ -289,6 +289,105 @@ TEST(Optimizer, CovarianceCoversNodesAddedByOdometryAfterTheFactorization) {
   EXPECT_FALSE(grown.covarianceAvailable());
 }
 
+// With factor updates a growing graph keeps its factor: each new node takes a variable slot
+// reserved at the end of the ordering, and its odometry comes in by a rank update.
+TEST(Optimizer, NodesOnReservedSlotsJoinTheFactorByRankUpdates) {
+  PoseGraph graph = readPoseGraph(kData + "/intel.g2o.gz");
+  const std::vector<PoseGraph::NodeId> ids = graph.nodeIds();
+  std::unordered_map<PoseGraph::NodeId, int> index;
+  for (std::size_t n = 0; n < ids.size(); ++n) index.emplace(ids[n], static_cast<int>(n));
+  OptimizerParams params;
+  params.factor_updates = true;
+  params.reserved_slots = 50;
+  params.max_factor_updates = 64;
+  Optimizer grown(params);
+  std::vector<int> loops;  // constraints of loops reaching the new nodes (off)
+  int added_nodes = 0;
+  // Node n with the edges whose newest end it is: odometry on, loops off; a new node starts on
+  // its odometry from the current estimate.
+  // Nodes up to `last` with the edges whose newest end they are: odometry on, loops beyond node
+  // 700 off. Nodes up to 700 start at the file's poses, later ones on their odometry from the
+  // current estimate.
+  auto addUpTo = [&](int last) {
+    std::vector<Pose2> poses = grown.poses();
+    for (int n = grown.numNodes(); n <= last; ++n) {
+      grown.addNode(Pose2::Zero());
+      if (n < 700) poses.push_back(graph.pose(ids[static_cast<std::size_t>(n)]));
+      for (std::size_t e = 0; e < graph.numEdges(); ++e) {
+        const int a = index.at(graph.edge(e).from), b = index.at(graph.edge(e).to);
+        if (std::max(a, b) != n) continue;
+        const bool odometry = graph.edge(e).kind == EdgeKind::kOdometry;
+        const int c = grown.addConstraint(a, b, graph.measurement(e), graph.information(e),
+                                          odometry || n < 700);
+        if (!odometry && n >= 700) loops.push_back(c);
+        if (odometry && n >= 700) {
+          poses.push_back(
+              b == n ? compose(poses[static_cast<std::size_t>(a)], graph.measurement(e))
+                     : compose(poses[static_cast<std::size_t>(b)], inverse(graph.measurement(e))));
+        }
+      }
+      if (n >= 700) ++added_nodes;
+    }
+    ASSERT_EQ(poses.size(), static_cast<std::size_t>(grown.numNodes()));
+    grown.setPoses(poses);
+  };
+  addUpTo(699);
+  grown.optimize();
+  grown.optimize();  // a factorization at the minimum
+  ASSERT_TRUE(grown.covarianceAvailable());
+  const int analyses = grown.symbolicAnalyses();
+
+  // A fresh optimizer of the same active set at the same poses: the reference.
+  auto fresh = [&] {
+    Optimizer f;
+    for (const Pose2& p : grown.poses()) f.addNode(p);
+    for (int c = 0; c < grown.numConstraints(); ++c) {
+      f.addConstraint(grown.from(c), grown.to(c), grown.measurement(c), grown.information(c),
+                      grown.isActive(c));
+    }
+    return f;
+  };
+
+  // 40 nodes on odometry: already at their minimum, folded in by rank updates alone.
+  addUpTo(739);
+  ASSERT_EQ(added_nodes, 40);
+  OptimizationResult r = grown.optimize();
+  EXPECT_EQ(r.factor_updates, 40);
+  EXPECT_EQ(r.factorizations, 0);
+  EXPECT_EQ(grown.symbolicAnalyses(), analyses) << "the new nodes took reserved slots";
+  ASSERT_TRUE(grown.covarianceAvailable());
+  {
+    Optimizer reference = fresh();
+    reference.optimize();
+    const std::vector<int> nodes{100, 699, 720, 739};
+    const Eigen::MatrixXd expected = reference.covariance(nodes);
+    EXPECT_LT((grown.covariance(nodes) - expected).norm(), 1e-4 * expected.norm())
+        << "the covariance is read from the factor the slots joined";
+  }
+
+  // A loop among the new nodes: one more update, and the cold start's minimum.
+  ASSERT_FALSE(loops.empty());
+  grown.setActive(loops.front(), true);
+  r = grown.optimize();
+  EXPECT_EQ(r.factor_updates, 1);
+  EXPECT_EQ(grown.symbolicAnalyses(), analyses);
+  {
+    Optimizer reference = fresh();
+    const double chi2 = reference.optimize().final_chi2;
+    EXPECT_NEAR(r.final_chi2, chi2, 1e-4 * chi2 + 1e-9);
+  }
+
+  // Past the reserve (50 slots): a new pattern, and the same minimum as a cold start.
+  addUpTo(759);
+  r = grown.optimize();
+  EXPECT_EQ(r.factor_updates, 0);
+  EXPECT_GE(r.factorizations, 1);
+  EXPECT_EQ(grown.symbolicAnalyses(), analyses + 1);
+  Optimizer reference = fresh();
+  const double chi2 = reference.optimize().final_chi2;
+  EXPECT_NEAR(r.final_chi2, chi2, 1e-4 * chi2 + 1e-9);
+}
+
 TEST(Lago, StartsFarOffGraphsNearTheirMinimum) {
   Optimizer m3500 = makeOptimizer(readPoseGraph(kData + "/manhattanOlson3500_olson.g2o.gz"));
   EXPECT_TRUE(farFromMinimum(m3500)) << "the file's estimate: 458 per constraint";

@@ -53,12 +53,12 @@ Matrix randomColumns(int n, int k, unsigned seed) {
   return S;
 }
 
-// Size (30: simplicial, 600: supernodal) and whether CHOLMOD orders the matrix (false) or takes
-// it as ordered (true, as the optimizer calls it).
-class RankUpdates : public ::testing::TestWithParam<std::tuple<int, bool>> {};
+// Size (30: simplicial, 600: supernodal unless forced simplicial), whether CHOLMOD orders the
+// matrix (false) or takes it as ordered (true, as the optimizer calls it), and the factor kind.
+class RankUpdates : public ::testing::TestWithParam<std::tuple<int, bool, SparseSolver::Kind>> {};
 
 TEST_P(RankUpdates, UpdateAndDowndateMatchDenseSolves) {
-  const auto [n, preordered] = GetParam();
+  const auto [n, preordered, kind] = GetParam();
   // Wide bands and many couplings make CHOLMOD choose a supernodal factor for the larger size.
   const Eigen::MatrixXd A = randomSpd(n, n > 100 ? 40 : 3, n, 5);
   const Matrix C = randomColumns(n, 9, 6);
@@ -67,7 +67,7 @@ TEST_P(RankUpdates, UpdateAndDowndateMatchDenseSolves) {
 
   SparseSolver solver;
   EXPECT_FALSE(solver.update(C, true)) << "no factorization to update yet";
-  solver.analyze(upper(A), preordered);
+  solver.analyze(upper(A), preordered, kind);
   ASSERT_TRUE(solver.factorize(upper(A)));
   EXPECT_LT((solver.solve(b) - A.llt().solve(b)).norm(), 1e-9 * b.norm());
 
@@ -81,9 +81,12 @@ TEST_P(RankUpdates, UpdateAndDowndateMatchDenseSolves) {
   ASSERT_TRUE(solver.update(C, false));
   EXPECT_LT((solver.solve(b) - A.llt().solve(b)).norm(), 1e-9 * b.norm());
 
-  // A fresh factorization after updates (the supernodal one re-analyzes) solves the new matrix.
+  // A fresh factorization after updates solves the new matrix. Only the supernodal factor
+  // (converted to simplicial by the updates) needs its pattern analyzed again.
   ASSERT_TRUE(solver.factorize(upper(A_plus)));
   EXPECT_LT((solver.solve(b) - A_plus.llt().solve(b)).norm(), 1e-9 * b.norm());
+  const bool supernodal = n > 100 && kind == SparseSolver::Kind::kAuto;
+  EXPECT_EQ(solver.analysisCount(), supernodal ? 2 : 1);
 
   // A downdate that leaves no positive-definite matrix fails, and a factorization recovers.
   const Matrix big =
@@ -94,7 +97,9 @@ TEST_P(RankUpdates, UpdateAndDowndateMatchDenseSolves) {
 }
 
 INSTANTIATE_TEST_SUITE_P(SimplicialAndSupernodal, RankUpdates,
-                         ::testing::Combine(::testing::Values(30, 600), ::testing::Bool()));
+                         ::testing::Combine(::testing::Values(30, 600), ::testing::Bool(),
+                                            ::testing::Values(SparseSolver::Kind::kAuto,
+                                                              SparseSolver::Kind::kSimplicial)));
 
 }  // namespace
 }  // namespace rrr_graphslam::core

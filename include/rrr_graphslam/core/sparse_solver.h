@@ -10,7 +10,9 @@
 //
 // CHOLMOD picks supernodal or simplicial Cholesky per pattern (its flops/nnz(L) rule): City10000
 // factors supernodally, while M3500 and Intel are 25-45% faster simplicial than forced
-// supernodal (measured with scripts/bench_optimizer).
+// supernodal (measured with scripts/bench_optimizer). A factor meant for updates can be kept
+// simplicial (Kind::kSimplicial): an update converts a supernodal one first, and the next
+// factorization analyzes the pattern again.
 
 #include <memory>
 #include <utility>
@@ -36,10 +38,14 @@ class SparseSolver {
   SparseSolver(SparseSolver&&) noexcept;
   SparseSolver& operator=(SparseSolver&&) noexcept;
 
+  /// Which Cholesky factor: CHOLMOD's choice per pattern (supernodal when the factor is dense
+  /// enough), or always simplicial LDL', the form update() works on.
+  enum class Kind { kAuto, kSimplicial };
+
   /// Symbolic analysis of the pattern of `upper`: CHOLMOD's fill-reducing ordering, or with
   /// `preordered` none (the caller assembled the matrix in a fill-reducing order, see
   /// blockOrdering(); CHOLMOD then factors it without permuting and transposing it each time).
-  void analyze(const Matrix& upper, bool preordered = false);
+  void analyze(const Matrix& upper, bool preordered = false, Kind kind = Kind::kAuto);
   /// Numeric factorization with the last analysis; false if the matrix is not positive definite.
   bool factorize(const Matrix& upper);
   /// Rank update (add) or downdate (!add) of the current factorization, which then factors
