@@ -334,13 +334,13 @@ bool Optimizer::updateFactor(OptimizationResult& result) {
     if (!was && active_[k]) added.push_back(static_cast<int>(k));
     if (was && !active_[k]) removed.push_back(static_cast<int>(k));
   }
+  const int switched = static_cast<int>(added.size() + removed.size());
+  if (updates_since_factorization_ + switched > params_.max_factor_updates) return false;
   // Nodes added since sit on reserved slots (a renumbering would have dropped the factor); the
   // unchanged anchors say each hangs from the factored graph by the constraints added above.
   std::vector<int> taken;
   for (int n = factored_nodes_; n < numNodes(); ++n)
     taken.push_back(variable_of_node_[static_cast<std::size_t>(n)]);
-  const int switched = static_cast<int>(added.size() + removed.size());
-  if (updates_since_factorization_ + switched > params_.max_factor_updates) return false;
   // Each constraint's share of H, J^T (w Omega) J, is C C^T with C = J^T chol(w Omega), linearized
   // at the current poses (the factor's own linearization point is older: chord steps). A taken
   // slot's identity block is E E^T with E its unit columns, appended after the constraints.

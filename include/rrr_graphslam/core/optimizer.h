@@ -5,7 +5,8 @@
 // switched on and off instead of rebuilding the problem, every call starts from the current
 // poses (warm start), and the sparsity pattern with its fill-reducing ordering is kept as long
 // as it covers the active constraints. Switching a constraint off keeps the pattern; switching
-// on one that is not in it rebuilds it once.
+// on one that is not in it rebuilds it once. With factor updates, nodes added later take
+// variable slots reserved at the end of the ordering and join the factor by rank updates.
 //
 // Gauge: the fixed nodes (node 0 unless others are fixed) are not variables. A connected part
 // of the active graph without a fixed node (another session, or a node without active
