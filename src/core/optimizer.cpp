@@ -548,19 +548,25 @@ bool Optimizer::nodesAddedAsTree(std::vector<int>& parent) const {
 }
 
 Eigen::MatrixXd Optimizer::factorCovariance(const std::vector<int>& nodes) const {
+  // Fixed nodes have no variable and zero covariance.
+  std::vector<int> rows, at;
+  for (std::size_t a = 0; a < nodes.size(); ++a) {
+    const int v = variable_of_node_[static_cast<std::size_t>(nodes[a])];
+    if (v < 0) continue;
+    for (int r = 0; r < 3; ++r) {
+      rows.push_back(3 * v + r);
+      at.push_back(3 * static_cast<int>(a) + r);
+    }
+  }
+  const Eigen::MatrixXd inverse = solver_.inverseSubmatrix(rows);
   const auto m = static_cast<Eigen::Index>(nodes.size());
   Eigen::MatrixXd out = Eigen::MatrixXd::Zero(3 * m, 3 * m);
-  Eigen::MatrixXd unit = Eigen::MatrixXd::Zero(3 * num_variables_, 3 * m);
-  for (Eigen::Index a = 0; a < m; ++a) {
-    const int v = variable_of_node_[static_cast<std::size_t>(nodes[static_cast<std::size_t>(a)])];
-    if (v >= 0) unit.block<3, 3>(3 * v, 3 * a).setIdentity();
+  for (std::size_t a = 0; a < at.size(); ++a) {
+    for (std::size_t b = 0; b < at.size(); ++b) {
+      out(at[a], at[b]) = inverse(static_cast<Eigen::Index>(a), static_cast<Eigen::Index>(b));
+    }
   }
-  const Eigen::MatrixXd columns = solver_.solve(unit);
-  for (Eigen::Index a = 0; a < m; ++a) {
-    const int v = variable_of_node_[static_cast<std::size_t>(nodes[static_cast<std::size_t>(a)])];
-    if (v >= 0) out.middleRows(3 * a, 3) = columns.middleRows(3 * v, 3);
-  }
-  return 0.5 * (out + out.transpose());
+  return out;
 }
 
 Eigen::MatrixXd Optimizer::covariance(const std::vector<int>& nodes) const {

@@ -151,4 +151,107 @@ Eigen::MatrixXd SparseSolver::solve(const Eigen::MatrixXd& rhs) const {
   return cholmod_->llt.solve(rhs);
 }
 
+namespace {
+
+// L^-1 e_k of a factor, as (row, value) pairs along the path from k to the root of the
+// elimination tree (increasing rows); `work` is a zeroed dense vector of L's size, left zeroed.
+// Simplicial factors keep each column's diagonal entry first (D for LDL', unit L implied);
+// supernodal ones are LL', a supernode's columns a chain whose parent is its first row below.
+std::vector<std::pair<int, double>> forwardSolveUnit(const cholmod_factor& L,
+                                                     const std::vector<int>& supernode_of, int k,
+                                                     std::vector<double>& work) {
+  std::vector<std::pair<int, double>> path;
+  const auto* x = static_cast<const double*>(L.x);
+  work[static_cast<std::size_t>(k)] = 1.0;
+  int j = k;
+  const auto n = static_cast<int>(L.n);
+  while (j >= 0 && j < n) {
+    int next = -1;
+    if (!L.is_super) {
+      const auto* p = static_cast<const int*>(L.p);
+      const auto* i = static_cast<const int*>(L.i);
+      const auto* nz = static_cast<const int*>(L.nz);
+      const int start = p[j];
+      double yj = work[static_cast<std::size_t>(j)];
+      if (L.is_ll) yj /= x[start];
+      path.emplace_back(j, yj);
+      for (int q = start + 1; q < start + nz[j]; ++q) {
+        work[static_cast<std::size_t>(i[q])] -= x[q] * yj;
+        if (next < 0 || i[q] < next) next = i[q];
+      }
+    } else {
+      const auto* super = static_cast<const int*>(L.super);
+      const auto* pi = static_cast<const int*>(L.pi);
+      const auto* px = static_cast<const int*>(L.px);
+      const auto* rows = static_cast<const int*>(L.s);
+      const int s = supernode_of[static_cast<std::size_t>(j)];
+      const int first = super[s];
+      const int ncols = super[s + 1] - first;
+      const int nrows = pi[s + 1] - pi[s];
+      const double* block = x + px[s];  // nrows x ncols, column-major
+      for (int c = j - first; c < ncols; ++c) {
+        const double yc = work[static_cast<std::size_t>(first + c)] / block[c + c * nrows];
+        path.emplace_back(first + c, yc);
+        for (int r = c + 1; r < nrows; ++r) {
+          work[static_cast<std::size_t>(rows[pi[s] + r])] -= block[r + c * nrows] * yc;
+        }
+      }
+      if (nrows > ncols) next = rows[pi[s] + ncols];
+    }
+    j = next;
+  }
+  for (const auto& [row, value] : path) work[static_cast<std::size_t>(row)] = 0.0;
+  return path;
+}
+
+}  // namespace
+
+Eigen::MatrixXd SparseSolver::inverseSubmatrix(const std::vector<int>& indices) const {
+  const auto m = static_cast<Eigen::Index>(indices.size());
+  Eigen::MatrixXd out = Eigen::MatrixXd::Zero(m, m);
+  const cholmod_factor* L = cholmod_->llt.factor();
+  if (!factor_usable_ || L == nullptr || m == 0) return out;
+  const auto n = static_cast<std::size_t>(L->n);
+  std::vector<int> position(n);  // row of P A P' that each row of A becomes
+  const auto* perm = static_cast<const int*>(L->Perm);
+  for (std::size_t k = 0; k < n; ++k)
+    position[perm ? static_cast<std::size_t>(perm[k]) : k] = static_cast<int>(k);
+  std::vector<int> supernode_of;
+  if (L->is_super) {
+    supernode_of.resize(n);
+    const auto* super = static_cast<const int*>(L->super);
+    for (std::size_t s = 0; s < L->nsuper; ++s) {
+      for (int c = super[s]; c < super[s + 1]; ++c)
+        supernode_of[static_cast<std::size_t>(c)] = static_cast<int>(s);
+    }
+  }
+  std::vector<double> work(n, 0.0);
+  std::vector<std::vector<std::pair<int, double>>> columns;
+  columns.reserve(indices.size());
+  for (int index : indices) {
+    columns.push_back(
+        forwardSolveUnit(*L, supernode_of, position[static_cast<std::size_t>(index)], work));
+  }
+  // D^-1 of an LDL' factor: each simplicial column's first entry.
+  const bool ldl = !L->is_super && !L->is_ll;
+  const auto* p = static_cast<const int*>(L->p);
+  const auto* x = static_cast<const double*>(L->x);
+  for (Eigen::Index a = 0; a < m; ++a) {
+    for (const auto& [row, value] : columns[static_cast<std::size_t>(a)]) {
+      work[static_cast<std::size_t>(row)] = ldl ? value / x[p[row]] : value;
+    }
+    for (Eigen::Index b = 0; b <= a; ++b) {
+      double sum = 0.0;
+      for (const auto& [row, value] : columns[static_cast<std::size_t>(b)]) {
+        sum += work[static_cast<std::size_t>(row)] * value;
+      }
+      out(a, b) = out(b, a) = sum;
+    }
+    for (const auto& [row, value] : columns[static_cast<std::size_t>(a)]) {
+      work[static_cast<std::size_t>(row)] = 0.0;
+    }
+  }
+  return out;
+}
+
 }  // namespace rrr_graphslam::core

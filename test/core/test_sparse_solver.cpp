@@ -88,6 +88,24 @@ TEST_P(RankUpdates, UpdateAndDowndateMatchDenseSolves) {
   const bool supernodal = n > 100 && kind == SparseSolver::Kind::kAuto;
   EXPECT_EQ(solver.analysisCount(), supernodal ? 2 : 1);
 
+  // Entries of the inverse by path-restricted forward solves, against full solves, on the
+  // factorization and after a rank update (simplicial LDL' then, whatever it was before).
+  const std::vector<int> picked = {0, 1, n / 3, n / 2, n - 2, n - 1};
+  auto expected_inverse = [&](const Eigen::MatrixXd& M) {
+    const Eigen::MatrixXd inverse = M.inverse();
+    Eigen::MatrixXd out(picked.size(), picked.size());
+    for (std::size_t a = 0; a < picked.size(); ++a) {
+      for (std::size_t c = 0; c < picked.size(); ++c) out(a, c) = inverse(picked[a], picked[c]);
+    }
+    return out;
+  };
+  const Eigen::MatrixXd inverse_plus = expected_inverse(A_plus);
+  EXPECT_LT((solver.inverseSubmatrix(picked) - inverse_plus).norm(), 1e-9 * inverse_plus.norm());
+  ASSERT_TRUE(solver.factorize(upper(A)));
+  const Eigen::MatrixXd inverse_a = expected_inverse(A);
+  EXPECT_LT((solver.inverseSubmatrix(picked) - inverse_a).norm(), 1e-9 * inverse_a.norm());
+  EXPECT_EQ(solver.inverseSubmatrix({}).size(), 0);
+
   // A downdate that leaves no positive-definite matrix fails, and a factorization recovers.
   const Matrix big =
       Matrix((10.0 * Eigen::MatrixXd::Identity(n, 2) * std::sqrt(A.maxCoeff() * n)).sparseView());

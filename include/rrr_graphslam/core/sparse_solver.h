@@ -58,6 +58,13 @@ class SparseSolver {
   /// Solves A x = rhs with the last successful factorization.
   Eigen::VectorXd solve(const Eigen::VectorXd& rhs) const;
   Eigen::MatrixXd solve(const Eigen::MatrixXd& rhs) const;
+  /// The rows and columns `indices` of A^-1 (marginal covariances), from the last successful
+  /// factorization P A P' = L D L': (A^-1)_II = Y' D^-1 Y with Y = L^-1 P E_I. A forward solve of
+  /// a unit vector fills only the rows on its path to the root of the elimination tree, so each
+  /// column costs that path, not a full solve (City10000 + 1000 random, incremental: 6.3 s of
+  /// covariances per run with full solves, 0.44 s with paths).
+  /// Simplicial and supernodal factors; solve(identity columns) is the slow, obvious version.
+  Eigen::MatrixXd inverseSubmatrix(const std::vector<int>& indices) const;
 
   /// Number of symbolic analyses so far (tests check that the ordering is reused).
   int analysisCount() const { return analysis_count_; }
