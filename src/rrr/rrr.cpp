@@ -66,8 +66,8 @@ std::vector<core::Pose2> Rrr::mapEstimate() const {
 bool Rrr::passedIntraTest(int candidate) const {
   const int c = clusterOf(candidate);
   if (c < 0) return true;
-  const auto& kept = clusters_[static_cast<std::size_t>(c)].kept;
-  return std::find(kept.begin(), kept.end(), candidate) != kept.end();
+  const auto& passed = clusters_[static_cast<std::size_t>(c)].passed;
+  return std::find(passed.begin(), passed.end(), candidate) != passed.end();
 }
 
 int Rrr::addCluster(const std::vector<int>& members) {
@@ -106,7 +106,7 @@ void Rrr::addTestedCluster(const std::vector<int>& members, const LinkResiduals*
   };
   const IntraClusterResult intra = intraClusterConsistency(members, params_.alpha, residuals);
   optimizations_ += intra.optimizations - (reused ? 1 : 0);  // addCluster counted that one
-  cluster.kept = intra.kept;
+  cluster.passed = cluster.kept = intra.kept;
   cluster.status = cluster.kept.empty() ? Status::kInconsistent : Status::kPending;
   clusters_.push_back(cluster);
   kept_links_.push_back(intra.kept);
@@ -132,15 +132,17 @@ bool Rrr::apply(const std::vector<int>& tested, const std::vector<int>& consiste
   return grew;
 }
 
+double Rrr::linkChi2(int candidate, const std::vector<core::Pose2>& poses) const {
+  const LoopCandidate& c = graph_.candidate(candidate);
+  const Eigen::Vector3d e = core::edgeError(poses[static_cast<std::size_t>(c.from)],
+                                            poses[static_cast<std::size_t>(c.to)], c.measurement);
+  return e.dot(c.information * e);
+}
+
 double Rrr::indexAt(int cluster, const std::vector<core::Pose2>& poses) const {
   const auto& kept = clusters_[static_cast<std::size_t>(cluster)].kept;
   double d2 = 0.0;
-  for (int k : kept) {
-    const LoopCandidate& c = graph_.candidate(k);
-    const Eigen::Vector3d e = core::edgeError(poses[static_cast<std::size_t>(c.from)],
-                                              poses[static_cast<std::size_t>(c.to)], c.measurement);
-    d2 += e.dot(c.information * e);
-  }
+  for (int k : kept) d2 += linkChi2(k, poses);
   return d2 / core::chi2Quantile(params_.alpha, 3 * static_cast<int>(kept.size()));
 }
 
@@ -460,13 +462,61 @@ void Rrr::decideAgainstMap() {
 
 void Rrr::decideFromScratch() {
   syncWithGraph();
-  for (Cluster& c : clusters_) {
-    if (c.status != Status::kInconsistent) c.status = Status::kPending;
+  for (std::size_t c = 0; c < clusters_.size(); ++c) {
+    Cluster& cluster = clusters_[c];
+    if (cluster.status != Status::kInconsistent) cluster.status = Status::kPending;
+    cluster.kept = kept_links_[c] = cluster.passed;  // links the last joint link check dropped
   }
   base_ = graph_.initialPoses();
   unoptimized_accepts_ = 0;
   realizeReverseRecover(graph_.initialPoses(), true);
   leaveOneOutCheck();
+  if (params_.joint_link_check) jointLinkCheck();
+}
+
+bool Rrr::jointLinkCheck() {
+  const double threshold = core::chi2Quantile(params_.alpha, 3);
+  bool dropped_any = false;
+  for (int round = 0; round < params_.max_rounds; ++round) {
+    // The worst failing link of each good cluster.
+    std::vector<std::pair<double, int>> worst_of;  // (chi2, cluster)
+    std::vector<std::size_t> position;
+    for (int c : clustersWith(Status::kGood)) {
+      const auto& kept = clusters_[static_cast<std::size_t>(c)].kept;
+      double worst = threshold;
+      std::size_t at = kept.size();
+      for (std::size_t i = 0; i < kept.size(); ++i) {
+        const double d2 = linkChi2(kept[i], base_);
+        if (d2 >= worst) {
+          worst = d2;
+          at = i;
+        }
+      }
+      if (at < kept.size()) {
+        worst_of.emplace_back(worst, c);
+        position.push_back(at);
+      }
+    }
+    if (worst_of.empty()) break;
+    double worst = 0.0;
+    for (const auto& [d2, c] : worst_of) worst = std::max(worst, d2);
+    for (std::size_t k = 0; k < worst_of.size(); ++k) {
+      if (worst_of[k].first < params_.batch_removal_fraction * worst) continue;
+      const auto c = static_cast<std::size_t>(worst_of[k].second);
+      auto& kept = clusters_[c].kept;
+      kept.erase(kept.begin() + static_cast<std::ptrdiff_t>(position[k]));
+      kept_links_[c] = kept;
+      if (kept.empty()) clusters_[c].status = Status::kRejected;
+    }
+    dropped_any = true;
+    core::Optimizer& opt = graph_.optimizer();
+    graph_.activateOnly(acceptedCandidates());
+    opt.setPoses(base_);
+    opt.optimize();
+    ++optimizations_;
+    base_ = opt.poses();
+  }
+  return dropped_any;
 }
 
 Verdict Rrr::verdict(int candidate) const {

@@ -29,7 +29,8 @@ const char* const kUsage =
     "                   [--mode batch|incremental] [--alpha 0.95] [--cluster-gap N]\n"
     "                   [--batch-removal-fraction F] [--recover-gate G] [--full-intra]\n"
     "                   [--keep-mixed-clusters] [--far-retry-min-links N]\n"
-    "                   [--fresh-factorizations] [--rebatch-every N] [--quiet]\n"
+    "                   [--fresh-factorizations] [--rebatch-every N] [--no-joint-link-check]\n"
+    "                   [--quiet]\n"
     "  INPUT            g2o or TORO pose graph (.gz allowed); edges with |from-to| != 1 are\n"
     "                   loop candidates, the others trusted odometry\n"
     "  --decisions      TSV with header 'from to cluster verdict', one row per candidate\n"
@@ -49,6 +50,8 @@ const char* const kUsage =
     "                   good set's factor by rank updates (slower reference)\n"
     "  --rebatch-every N  incremental: the closed clusters are decided from scratch each time the\n"
     "                   replay passes a multiple of N nodes (default 1000; 0: only at the end)\n"
+    "  --no-joint-link-check  keep links of good clusters that fail the per-link test at the\n"
+    "                   good set's joint solution (by default they are dropped)\n"
     "  --quiet          no progress line\n";
 
 struct Arguments {
@@ -92,6 +95,8 @@ Arguments parseArguments(int argc, char** argv) {
     } else if (a == "--rebatch-every") {
       args.params.incremental_rebatch_every =
           static_cast<int>(cli.number(a, cli.value(i, a), 0, 1e9));
+    } else if (a == "--no-joint-link-check") {
+      args.params.joint_link_check = false;
     } else if (a == "--quiet") {
       args.quiet = true;
     } else {

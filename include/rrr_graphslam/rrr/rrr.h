@@ -61,6 +61,9 @@ struct RrrParams {
   /// A drifted ring's closure (ringCity) disagrees with the open ring's map by far more than
   /// recover_gate, yet is many links strong.
   int far_retry_min_links = 20;
+  /// After a batch decision, links of good clusters that fail the per-link chi-square test at
+  /// the good set's joint solution are dropped (Rrr::jointLinkCheck); default true.
+  bool joint_link_check = true;
   /// Leave-one-out check: examine good clusters whose own consistency index is at least this;
   /// default 0.1 (0 examines all, a value above 1 none).
   double loo_min_index = 0.1;
@@ -133,7 +136,8 @@ class Rrr {
   enum class OnlineVerdict : std::uint8_t { kFits, kDoesNotFit, kNeedsJointTest };
   struct Cluster {
     std::vector<int> members;
-    std::vector<int> kept;  // after the intra test
+    std::vector<int> passed;  // after the intra test
+    std::vector<int> kept;    // ... and the joint link check of the last batch decision
     Status status = Status::kPending;
     int time_cluster = 0;  // the clustering's cluster it was split from (or is)
   };
@@ -179,12 +183,21 @@ class Rrr {
   /// far enough to give it a small residual; it is rejected. Only clusters whose own index is
   /// at least loo_min_index are examined. Returns true if a cluster was rejected.
   bool leaveOneOutCheck();
+  /// The intra test's link rule (a link with D^2_l >= chi2(alpha, 3) is dropped) applied again
+  /// at the good set's joint solution (RrrParams::joint_link_check): a false link inside a true
+  /// cluster can pass the cluster's own test, where the odometry between its ends bends to meet
+  /// it, yet not the map all good clusters make. The worst link of each such cluster goes (those
+  /// at least batch_removal_fraction of the worst of all), the map is optimized again, and so on.
+  /// Returns true if a link was dropped.
+  bool jointLinkCheck();
   /// Chi2 decrease predicted for removing a good cluster, over chi2(alpha, dof).
   double leaveOneOutIndex(int cluster) const;
   /// Chi2 increase predicted for adding a cluster to the good set (linearized at base_, with the
   /// optimizer's last factorization), over chi2(alpha, dof); none when no factor is usable (or
   /// the cluster kept no link).
   std::optional<double> predictedIndex(int cluster) const;
+  /// e^T Omega e of one candidate at fixed poses.
+  double linkChi2(int candidate, const std::vector<core::Pose2>& poses) const;
   /// Consistency index of a cluster's kept links at fixed poses.
   double indexAt(int cluster, const std::vector<core::Pose2>& poses) const;
   void realizeReverseRecover(const std::vector<core::Pose2>& initial, bool robust_ordering);
