@@ -197,6 +197,10 @@ std::string OnlineRrr::reason(int k, Verdict verdict, Verdict previous) const {
       if (!incremental_.rrr().passedIntraTest(k)) {
         return "intra-cluster: the link is inconsistent with the rest of " + cluster;
       }
+      if (incremental_.rrr().droppedByJointLinkCheck(k)) {
+        return "joint link check: the link is inconsistent with the map of the accepted " +
+               std::string("clusters (") + cluster + " stays accepted)";
+      }
       return previous == Verdict::kAccepted
                  ? "reversed: " + cluster + " conflicts with the accepted clusters"
                  : "inter-cluster: " + cluster + " is inconsistent with the accepted clusters";

@@ -70,6 +70,14 @@ bool Rrr::passedIntraTest(int candidate) const {
   return std::find(passed.begin(), passed.end(), candidate) != passed.end();
 }
 
+bool Rrr::droppedByJointLinkCheck(int candidate) const {
+  const int c = clusterOf(candidate);
+  if (c < 0 || clusters_[static_cast<std::size_t>(c)].status != Status::kGood) return false;
+  const Cluster& cluster = clusters_[static_cast<std::size_t>(c)];
+  return passedIntraTest(candidate) &&
+         std::find(cluster.kept.begin(), cluster.kept.end(), candidate) == cluster.kept.end();
+}
+
 int Rrr::addCluster(const std::vector<int>& members) {
   syncWithGraph();
   ++time_clusters_;

@@ -125,6 +125,9 @@ class Rrr {
   /// False once the candidate's cluster was tested and its intra-cluster test dropped it (alone or
   /// with its whole cluster); true otherwise.
   bool passedIntraTest(int candidate) const;
+  /// True when the candidate passed its intra test, its cluster is good, and the last joint link
+  /// check dropped it.
+  bool droppedByJointLinkCheck(int candidate) const;
   /// The map: poses of the good set's last solution, continued by odometry over the nodes added
   /// since (a new session's first node at its initial pose).
   std::vector<core::Pose2> mapEstimate() const;
