@@ -198,8 +198,8 @@ std::string OnlineRrr::reason(int k, Verdict verdict, Verdict previous) const {
         return "intra-cluster: the link is inconsistent with the rest of " + cluster;
       }
       if (incremental_.rrr().droppedByJointLinkCheck(k)) {
-        return "joint link check: the link is inconsistent with the map of the accepted " +
-               std::string("clusters (") + cluster + " stays accepted)";
+        return "joint link check: the link of " + cluster +
+               " is inconsistent with the map of the accepted clusters";
       }
       return previous == Verdict::kAccepted
                  ? "reversed: " + cluster + " conflicts with the accepted clusters"

@@ -72,10 +72,9 @@ bool Rrr::passedIntraTest(int candidate) const {
 
 bool Rrr::droppedByJointLinkCheck(int candidate) const {
   const int c = clusterOf(candidate);
-  if (c < 0 || clusters_[static_cast<std::size_t>(c)].status != Status::kGood) return false;
-  const Cluster& cluster = clusters_[static_cast<std::size_t>(c)];
-  return passedIntraTest(candidate) &&
-         std::find(cluster.kept.begin(), cluster.kept.end(), candidate) == cluster.kept.end();
+  if (c < 0) return false;
+  const auto& kept = clusters_[static_cast<std::size_t>(c)].kept;
+  return passedIntraTest(candidate) && std::find(kept.begin(), kept.end(), candidate) == kept.end();
 }
 
 int Rrr::addCluster(const std::vector<int>& members) {
@@ -471,9 +470,11 @@ void Rrr::decideAgainstMap() {
 void Rrr::decideFromScratch() {
   syncWithGraph();
   for (std::size_t c = 0; c < clusters_.size(); ++c) {
+    // Every link that passed the intra test takes part again, those the last joint link check
+    // dropped included.
     Cluster& cluster = clusters_[c];
-    if (cluster.status != Status::kInconsistent) cluster.status = Status::kPending;
-    cluster.kept = kept_links_[c] = cluster.passed;  // links the last joint link check dropped
+    cluster.kept = kept_links_[c] = cluster.passed;
+    cluster.status = cluster.passed.empty() ? Status::kInconsistent : Status::kPending;
   }
   base_ = graph_.initialPoses();
   unoptimized_accepts_ = 0;
@@ -514,7 +515,8 @@ bool Rrr::jointLinkCheck() {
       auto& kept = clusters_[c].kept;
       kept.erase(kept.begin() + static_cast<std::ptrdiff_t>(position[k]));
       kept_links_[c] = kept;
-      if (kept.empty()) clusters_[c].status = Status::kRejected;
+      // No link left: out of every test until the next decision from scratch.
+      if (kept.empty()) clusters_[c].status = Status::kInconsistent;
     }
     dropped_any = true;
     core::Optimizer& opt = graph_.optimizer();

@@ -125,8 +125,8 @@ class Rrr {
   /// False once the candidate's cluster was tested and its intra-cluster test dropped it (alone or
   /// with its whole cluster); true otherwise.
   bool passedIntraTest(int candidate) const;
-  /// True when the candidate passed its intra test, its cluster is good, and the last joint link
-  /// check dropped it.
+  /// True when the candidate passed its intra test and the last joint link check dropped it
+  /// (its cluster stays good unless it lost every link).
   bool droppedByJointLinkCheck(int candidate) const;
   /// The map: poses of the good set's last solution, continued by odometry over the nodes added
   /// since (a new session's first node at its initial pose).
