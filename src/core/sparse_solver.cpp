@@ -3,6 +3,7 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <cmath>
 #include <numeric>
 
 #include <Eigen/CholmodSupport>
@@ -232,25 +233,29 @@ Eigen::MatrixXd SparseSolver::inverseSubmatrix(const std::vector<int>& indices) 
     columns.push_back(
         forwardSolveUnit(*L, supernode_of, position[static_cast<std::size_t>(index)], work));
   }
-  // D^-1 of an LDL' factor: each simplicial column's first entry.
+  // Y on the union of the paths (they merge towards the root), each row scaled by D^-1/2 of an
+  // LDL' factor (each simplicial column's first entry), then one dense product Y' Y.
   const bool ldl = !L->is_super && !L->is_ll;
   const auto* p = static_cast<const int*>(L->p);
   const auto* x = static_cast<const double*>(L->x);
-  for (Eigen::Index a = 0; a < m; ++a) {
-    for (const auto& [row, value] : columns[static_cast<std::size_t>(a)]) {
-      work[static_cast<std::size_t>(row)] = ldl ? value / x[p[row]] : value;
-    }
-    for (Eigen::Index b = 0; b <= a; ++b) {
-      double sum = 0.0;
-      for (const auto& [row, value] : columns[static_cast<std::size_t>(b)]) {
-        sum += work[static_cast<std::size_t>(row)] * value;
+  std::vector<int> slot(n, -1);
+  std::vector<int> rows;
+  for (const auto& column : columns) {
+    for (const auto& [row, value] : column) {
+      if (slot[static_cast<std::size_t>(row)] < 0) {
+        slot[static_cast<std::size_t>(row)] = static_cast<int>(rows.size());
+        rows.push_back(row);
       }
-      out(a, b) = out(b, a) = sum;
-    }
-    for (const auto& [row, value] : columns[static_cast<std::size_t>(a)]) {
-      work[static_cast<std::size_t>(row)] = 0.0;
     }
   }
+  Eigen::MatrixXd Y = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(rows.size()), m);
+  for (Eigen::Index a = 0; a < m; ++a) {
+    for (const auto& [row, value] : columns[static_cast<std::size_t>(a)]) {
+      const double scale = ldl ? 1.0 / std::sqrt(x[p[row]]) : 1.0;
+      Y(slot[static_cast<std::size_t>(row)], a) = value * scale;
+    }
+  }
+  out.noalias() = Y.transpose() * Y;
   return out;
 }
 

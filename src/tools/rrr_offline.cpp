@@ -45,7 +45,7 @@ const char* const kUsage =
     "  --keep-mixed-clusters  a cluster failing its intra test loses its worst links until the\n"
     "                   rest passes, instead of being split into pairwise consistent sets\n"
     "  --far-retry-min-links N  rejected clusters of at least N links far from the good map are\n"
-    "                   tested once more with the good set (default 20; 0: never)\n"
+    "                   tested once more with the good set (default 10; 0: never)\n"
     "  --fresh-factorizations  incremental joint tests factorize afresh instead of updating the\n"
     "                   good set's factor by rank updates (slower reference)\n"
     "  --rebatch-every N  incremental: the closed clusters are decided from scratch each time the\n"

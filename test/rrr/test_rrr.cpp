@@ -94,19 +94,23 @@ TEST(Rrr, MixedClustersKeepTheirTrueLinks) {
 
 // ringCity starts far drifted; with self-consistent false groups along its straight streets the
 // robust map can miss the ring's closures, which then disagree with the good set's open ring by far
-// more than the recover gate. Large clusters get a direct joint test all the same.
+// more than the recover gate. Large clusters get a direct joint test all the same, and stay only
+// if they raise the good set's chi2 by less than their own threshold (false groups pass the joint
+// test there, but cost far more: without that condition precision 0.95 here); a large false group
+// the robust map let in is taken out by the leave-one-out check, which examines large clusters
+// however small their own residual.
 TEST(Rrr, LargeClustersFarFromTheMapAreRetried) {
   const testing::LabelledGraph input =
       testing::withOutliers(kData + "/ringCity.g2o.gz", 500, 10, 1);
   Counts counts[2];
-  for (const int far_retry : {0, 20}) {
+  for (const int far_retry : {0, 10}) {
     RrrParams params;
     params.far_retry_min_links = far_retry;
     counts[far_retry > 0] = batchCounts(input, params);
   }
-  EXPECT_GE(counts[true].precision(), 0.99);
-  EXPECT_GE(counts[true].recall(), 0.95);
-  EXPECT_GT(counts[true].recall(), counts[false].recall() + 0.05);
+  EXPECT_GE(counts[true].precision(), 1.0) << counts[true].fp;
+  EXPECT_GE(counts[true].recall(), 1.0) << counts[true].fn;
+  EXPECT_GT(counts[true].recall(), counts[false].recall() + 0.05) << counts[false].fn;
 }
 
 // A false link beside a true revisit (City10000's 5460-5470 -> 9929-9940; the link 5469 -> 9940

@@ -57,15 +57,17 @@ struct RrrParams {
   double recover_gate = 10.0;
   /// Recover, far: a rejected cluster of at least this many links whose index against the good
   /// set's map is above recover_gate is still tested once per decision with the good set, from
-  /// the good map, and accepted if all stay consistent without removing any; default 20 (0: never).
-  /// A drifted ring's closure (ringCity) disagrees with the open ring's map by far more than
-  /// recover_gate, yet is many links strong.
-  int far_retry_min_links = 20;
+  /// the good map, if its linearized joint test there (predicted index) is below recover_gate;
+  /// it is accepted if all stay consistent without removing any and it raises the good set's
+  /// chi2 by less than chi2(alpha, its dof). A drifted ring's closure (ringCity) disagrees with
+  /// the open ring's map by far more than recover_gate, yet is many links strong. The leave-one-out
+  /// check examines good clusters this large whatever their own index. Default 10 (0: never).
+  int far_retry_min_links = 10;
   /// After a batch decision, links of good clusters that fail the per-link chi-square test at
   /// the good set's joint solution are dropped (Rrr::jointLinkCheck); default true.
   bool joint_link_check = true;
-  /// Leave-one-out check: examine good clusters whose own consistency index is at least this;
-  /// default 0.1 (0 examines all, a value above 1 none).
+  /// Leave-one-out check: examine good clusters whose own consistency index is at least this,
+  /// and those of far_retry_min_links links or more; default 0.1 (0 examines all).
   double loo_min_index = 0.1;
   /// Dynamic Covariance Scaling parameter of the robust map that orders batch decisions; default 1.
   double dcs_phi = 1.0;
@@ -154,7 +156,8 @@ class Rrr {
   /// One cluster of `members`, intra-tested; `whole` is their joint test's result if known.
   void addTestedCluster(const std::vector<int>& members, const LinkResiduals* whole);
   /// Recover, far (RrrParams::far_retry_min_links): the first large rejected cluster, largest
-  /// first, not yet in `tried`, that the good set accepts as is becomes good; returns whether one
+  /// first, not yet in `tried`, that passes the linearized joint test's screen and that the good
+  /// set accepts as is, for less than its own chi2 threshold, becomes good; returns whether one
   /// did.
   bool recoverFar(std::vector<char>& tried);
   /// The joint test that realizes a batch decision starts from the robust map, where a region the
@@ -184,7 +187,10 @@ class Rrr {
   /// more than chi2(alpha, dof) (linearized: r^T (Sigma_C - J Sigma_map J^T)^-1 r, with the
   /// map's covariance including the cluster) conflicts with the rest even though the map bent
   /// far enough to give it a small residual; it is rejected. Only clusters whose own index is
-  /// at least loo_min_index are examined. Returns true if a cluster was rejected.
+  /// at least loo_min_index are examined, and the large ones (far_retry_min_links): a large
+  /// cluster pulls the map onto itself, so its own residual says little (a self-consistent false
+  /// group on ringCity: own index 0.05, leave-one-out index 1.1). Returns true if a cluster was
+  /// rejected.
   bool leaveOneOutCheck();
   /// The intra test's link rule (a link with D^2_l >= chi2(alpha, 3) is dropped) applied again
   /// at the good set's joint solution (RrrParams::joint_link_check): a false link inside a true
