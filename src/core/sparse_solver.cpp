@@ -154,50 +154,27 @@ Eigen::MatrixXd SparseSolver::solve(const Eigen::MatrixXd& rhs) const {
 
 namespace {
 
-// L^-1 e_k of a factor, as (row, value) pairs along the path from k to the root of the
-// elimination tree (increasing rows); `work` is a zeroed dense vector of L's size, left zeroed.
-// Simplicial factors keep each column's diagonal entry first (D for LDL', unit L implied);
-// supernodal ones are LL', a supernode's columns a chain whose parent is its first row below.
-std::vector<std::pair<int, double>> forwardSolveUnit(const cholmod_factor& L,
-                                                     const std::vector<int>& supernode_of, int k,
-                                                     std::vector<double>& work) {
+// L^-1 e_k of a simplicial factor, as (row, value) pairs along the path from k to the root of
+// the elimination tree (increasing rows): each column's diagonal entry comes first (D of LDL',
+// unit L implied), and a column's parent is its smallest row below the diagonal. `work` is a
+// zeroed dense vector of L's size, left zeroed.
+std::vector<std::pair<int, double>> simplicialForwardSolveUnit(const cholmod_factor& L, int k,
+                                                               std::vector<double>& work) {
   std::vector<std::pair<int, double>> path;
+  const auto* p = static_cast<const int*>(L.p);
+  const auto* i = static_cast<const int*>(L.i);
+  const auto* nz = static_cast<const int*>(L.nz);
   const auto* x = static_cast<const double*>(L.x);
   work[static_cast<std::size_t>(k)] = 1.0;
-  int j = k;
-  const auto n = static_cast<int>(L.n);
-  while (j >= 0 && j < n) {
+  for (int j = k; j >= 0;) {
+    const int start = p[j];
+    double yj = work[static_cast<std::size_t>(j)];
+    if (L.is_ll) yj /= x[start];
+    path.emplace_back(j, yj);
     int next = -1;
-    if (!L.is_super) {
-      const auto* p = static_cast<const int*>(L.p);
-      const auto* i = static_cast<const int*>(L.i);
-      const auto* nz = static_cast<const int*>(L.nz);
-      const int start = p[j];
-      double yj = work[static_cast<std::size_t>(j)];
-      if (L.is_ll) yj /= x[start];
-      path.emplace_back(j, yj);
-      for (int q = start + 1; q < start + nz[j]; ++q) {
-        work[static_cast<std::size_t>(i[q])] -= x[q] * yj;
-        if (next < 0 || i[q] < next) next = i[q];
-      }
-    } else {
-      const auto* super = static_cast<const int*>(L.super);
-      const auto* pi = static_cast<const int*>(L.pi);
-      const auto* px = static_cast<const int*>(L.px);
-      const auto* rows = static_cast<const int*>(L.s);
-      const int s = supernode_of[static_cast<std::size_t>(j)];
-      const int first = super[s];
-      const int ncols = super[s + 1] - first;
-      const int nrows = pi[s + 1] - pi[s];
-      const double* block = x + px[s];  // nrows x ncols, column-major
-      for (int c = j - first; c < ncols; ++c) {
-        const double yc = work[static_cast<std::size_t>(first + c)] / block[c + c * nrows];
-        path.emplace_back(first + c, yc);
-        for (int r = c + 1; r < nrows; ++r) {
-          work[static_cast<std::size_t>(rows[pi[s] + r])] -= block[r + c * nrows] * yc;
-        }
-      }
-      if (nrows > ncols) next = rows[pi[s] + ncols];
+    for (int q = start + 1; q < start + nz[j]; ++q) {
+      work[static_cast<std::size_t>(i[q])] -= x[q] * yj;
+      if (next < 0 || i[q] < next) next = i[q];
     }
     j = next;
   }
@@ -205,58 +182,106 @@ std::vector<std::pair<int, double>> forwardSolveUnit(const cholmod_factor& L,
   return path;
 }
 
+// Y = L^-1 [e_k for k in starts] of a supernodal (LL') factor, on the columns of the supernodes
+// the paths from the starts to the root visit (the only rows it fills; slot[s] is where
+// supernode s's columns begin), by one blocked forward solve: per supernode a triangular solve
+// and a product for its rows below. The paths meet near the root, where the separators are
+// dense blocks, so all columns go through them together.
+Eigen::MatrixXd supernodalForwardSolve(const cholmod_factor& L, const std::vector<int>& starts) {
+  const auto* super = static_cast<const int*>(L.super);
+  const auto* pi = static_cast<const int*>(L.pi);
+  const auto* px = static_cast<const int*>(L.px);
+  const auto* rows = static_cast<const int*>(L.s);
+  const auto* x = static_cast<const double*>(L.x);
+  const auto nsuper = static_cast<int>(L.nsuper);
+  auto supernode_of = [&](int column) {
+    return static_cast<int>(std::upper_bound(super, super + nsuper + 1, column) - super) - 1;
+  };
+  auto columns_of = [&](int s) { return super[s + 1] - super[s]; };
+  auto rows_of = [&](int s) { return pi[s + 1] - pi[s]; };
+  std::vector<int> slot(static_cast<std::size_t>(nsuper), -1);
+  std::vector<int> visited;
+  for (int k : starts) {
+    for (int s = supernode_of(k); s >= 0 && slot[static_cast<std::size_t>(s)] < 0;) {
+      slot[static_cast<std::size_t>(s)] = 0;
+      visited.push_back(s);
+      s = rows_of(s) > columns_of(s) ? supernode_of(rows[pi[s] + columns_of(s)]) : -1;
+    }
+  }
+  std::sort(visited.begin(), visited.end());  // children before parents
+  int height = 0;
+  for (int s : visited) {
+    slot[static_cast<std::size_t>(s)] = height;
+    height += columns_of(s);
+  }
+  auto row_slot = [&](int column) {
+    const int s = supernode_of(column);
+    return slot[static_cast<std::size_t>(s)] + column - super[s];
+  };
+  Eigen::MatrixXd Y = Eigen::MatrixXd::Zero(height, static_cast<Eigen::Index>(starts.size()));
+  for (std::size_t a = 0; a < starts.size(); ++a)
+    Y(row_slot(starts[a]), static_cast<Eigen::Index>(a)) = 1.0;
+  Eigen::MatrixXd below;
+  for (int s : visited) {
+    const int ncols = columns_of(s);
+    const int nrows = rows_of(s);
+    const Eigen::Map<const Eigen::MatrixXd, 0, Eigen::OuterStride<>> block(
+        x + px[s], nrows, ncols, Eigen::OuterStride<>(nrows));
+    auto Ys = Y.middleRows(slot[static_cast<std::size_t>(s)], ncols);
+    block.topRows(ncols).triangularView<Eigen::Lower>().solveInPlace(Ys);
+    if (nrows == ncols) continue;
+    below.noalias() = block.bottomRows(nrows - ncols) * Ys;
+    for (int r = 0; r < nrows - ncols; ++r)
+      Y.row(row_slot(rows[pi[s] + ncols + r])) -= below.row(r);
+  }
+  return Y;
+}
+
 }  // namespace
 
 Eigen::MatrixXd SparseSolver::inverseSubmatrix(const std::vector<int>& indices) const {
   const auto m = static_cast<Eigen::Index>(indices.size());
-  Eigen::MatrixXd out = Eigen::MatrixXd::Zero(m, m);
   const cholmod_factor* L = cholmod_->llt.factor();
-  if (!factor_usable_ || L == nullptr || m == 0) return out;
+  if (!factor_usable_ || L == nullptr || m == 0) return Eigen::MatrixXd::Zero(m, m);
   const auto n = static_cast<std::size_t>(L->n);
-  std::vector<int> position(n);  // row of P A P' that each row of A becomes
+  std::vector<int> starts;  // the rows of P A P' that `indices` become
+  starts.reserve(indices.size());
   const auto* perm = static_cast<const int*>(L->Perm);
-  for (std::size_t k = 0; k < n; ++k)
-    position[perm ? static_cast<std::size_t>(perm[k]) : k] = static_cast<int>(k);
-  std::vector<int> supernode_of;
-  if (L->is_super) {
-    supernode_of.resize(n);
-    const auto* super = static_cast<const int*>(L->super);
-    for (std::size_t s = 0; s < L->nsuper; ++s) {
-      for (int c = super[s]; c < super[s + 1]; ++c)
-        supernode_of[static_cast<std::size_t>(c)] = static_cast<int>(s);
-    }
+  if (perm == nullptr) {
+    starts = indices;
+  } else {
+    std::vector<int> position(n);
+    for (std::size_t k = 0; k < n; ++k)
+      position[static_cast<std::size_t>(perm[k])] = static_cast<int>(k);
+    for (int index : indices) starts.push_back(position[static_cast<std::size_t>(index)]);
   }
+  if (L->is_super) {
+    const Eigen::MatrixXd Y = supernodalForwardSolve(*L, starts);
+    return Y.transpose() * Y;
+  }
+  // Simplicial: Y on the union of the paths, each row scaled by D^-1/2 of an LDL' factor.
   std::vector<double> work(n, 0.0);
   std::vector<std::vector<std::pair<int, double>>> columns;
-  columns.reserve(indices.size());
-  for (int index : indices) {
-    columns.push_back(
-        forwardSolveUnit(*L, supernode_of, position[static_cast<std::size_t>(index)], work));
-  }
-  // Y on the union of the paths (they merge towards the root), each row scaled by D^-1/2 of an
-  // LDL' factor (each simplicial column's first entry), then one dense product Y' Y.
-  const bool ldl = !L->is_super && !L->is_ll;
+  columns.reserve(starts.size());
+  for (int k : starts) columns.push_back(simplicialForwardSolveUnit(*L, k, work));
   const auto* p = static_cast<const int*>(L->p);
   const auto* x = static_cast<const double*>(L->x);
   std::vector<int> slot(n, -1);
-  std::vector<int> rows;
+  int height = 0;
   for (const auto& column : columns) {
-    for (const auto& [row, value] : column) {
-      if (slot[static_cast<std::size_t>(row)] < 0) {
-        slot[static_cast<std::size_t>(row)] = static_cast<int>(rows.size());
-        rows.push_back(row);
-      }
+    for (const auto& entry : column) {
+      if (slot[static_cast<std::size_t>(entry.first)] < 0)
+        slot[static_cast<std::size_t>(entry.first)] = height++;
     }
   }
-  Eigen::MatrixXd Y = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(rows.size()), m);
+  Eigen::MatrixXd Y = Eigen::MatrixXd::Zero(height, m);
   for (Eigen::Index a = 0; a < m; ++a) {
     for (const auto& [row, value] : columns[static_cast<std::size_t>(a)]) {
-      const double scale = ldl ? 1.0 / std::sqrt(x[p[row]]) : 1.0;
+      const double scale = L->is_ll ? 1.0 : 1.0 / std::sqrt(x[p[row]]);
       Y(slot[static_cast<std::size_t>(row)], a) = value * scale;
     }
   }
-  out.noalias() = Y.transpose() * Y;
-  return out;
+  return Y.transpose() * Y;
 }
 
 }  // namespace rrr_graphslam::core
