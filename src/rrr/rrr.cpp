@@ -73,7 +73,7 @@ bool Rrr::passedIntraTest(int candidate) const {
 bool Rrr::droppedByJointLinkCheck(int candidate) const {
   const int c = clusterOf(candidate);
   if (c < 0) return false;
-  const auto& kept = clusters_[static_cast<std::size_t>(c)].kept;
+  const auto& kept = kept_links_[static_cast<std::size_t>(c)];
   return passedIntraTest(candidate) && std::find(kept.begin(), kept.end(), candidate) == kept.end();
 }
 
@@ -113,8 +113,8 @@ void Rrr::addTestedCluster(const std::vector<int>& members, const LinkResiduals*
   };
   const IntraClusterResult intra = intraClusterConsistency(members, params_.alpha, residuals);
   optimizations_ += intra.optimizations - (reused ? 1 : 0);  // addCluster counted that one
-  cluster.passed = cluster.kept = intra.kept;
-  cluster.status = cluster.kept.empty() ? Status::kInconsistent : Status::kPending;
+  cluster.passed = intra.kept;
+  cluster.status = cluster.passed.empty() ? Status::kInconsistent : Status::kPending;
   clusters_.push_back(cluster);
   kept_links_.push_back(intra.kept);
 }
@@ -139,6 +139,12 @@ bool Rrr::apply(const std::vector<int>& tested, const std::vector<int>& consiste
   return grew;
 }
 
+bool Rrr::largeCluster(int cluster) const {
+  return params_.far_retry_min_links > 0 &&
+         kept_links_[static_cast<std::size_t>(cluster)].size() >=
+             static_cast<std::size_t>(params_.far_retry_min_links);
+}
+
 double Rrr::linkChi2(int candidate, const std::vector<core::Pose2>& poses) const {
   const LoopCandidate& c = graph_.candidate(candidate);
   const Eigen::Vector3d e = core::edgeError(poses[static_cast<std::size_t>(c.from)],
@@ -147,7 +153,7 @@ double Rrr::linkChi2(int candidate, const std::vector<core::Pose2>& poses) const
 }
 
 double Rrr::indexAt(int cluster, const std::vector<core::Pose2>& poses) const {
-  const auto& kept = clusters_[static_cast<std::size_t>(cluster)].kept;
+  const auto& kept = kept_links_[static_cast<std::size_t>(cluster)];
   double d2 = 0.0;
   for (int k : kept) d2 += linkChi2(k, poses);
   return d2 / core::chi2Quantile(params_.alpha, 3 * static_cast<int>(kept.size()));
@@ -268,12 +274,9 @@ bool Rrr::recoverFar(std::vector<char>& tried) {
   if (params_.far_retry_min_links <= 0) return false;
   std::vector<int> far;
   for (int c : clustersWith(Status::kRejected)) {
-    const auto links = kept_links_[static_cast<std::size_t>(c)].size();
-    if (!tried[static_cast<std::size_t>(c)] &&
-        links >= static_cast<std::size_t>(params_.far_retry_min_links)) {
-      far.push_back(c);
-    }
+    if (!tried[static_cast<std::size_t>(c)] && largeCluster(c)) far.push_back(c);
   }
+  if (far.empty()) return false;
   std::stable_sort(far.begin(), far.end(), [&](int a, int b) {
     return kept_links_[static_cast<std::size_t>(a)].size() >
            kept_links_[static_cast<std::size_t>(b)].size();
@@ -284,7 +287,7 @@ bool Rrr::recoverFar(std::vector<char>& tried) {
   // (City10000 + 1000 random-grouped: false groups at predicted index 200 and more).
   graph_.activateOnly(acceptedCandidates());
   opt.setPoses(base_);
-  if (!far.empty() && !opt.covarianceAvailable()) {
+  if (!opt.covarianceAvailable()) {
     opt.optimize();
     ++optimizations_;
     base_ = opt.poses();
@@ -349,7 +352,7 @@ struct Rrr::ClusterLinearization {
 };
 
 Rrr::ClusterLinearization Rrr::linearizeCluster(int cluster) const {
-  const auto& kept = clusters_[static_cast<std::size_t>(cluster)].kept;
+  const auto& kept = kept_links_[static_cast<std::size_t>(cluster)];
   const std::vector<int> nodes = graph_.touchedNodes(kept);
   auto column = [&](int node) {
     return 3 * static_cast<Eigen::Index>(std::lower_bound(nodes.begin(), nodes.end(), node) -
@@ -377,7 +380,7 @@ Rrr::ClusterLinearization Rrr::linearizeCluster(int cluster) const {
 }
 
 std::optional<double> Rrr::predictedIndex(int cluster) const {
-  const auto& kept = clusters_[static_cast<std::size_t>(cluster)].kept;
+  const auto& kept = kept_links_[static_cast<std::size_t>(cluster)];
   if (!graph_.optimizer().covarianceAvailable() || kept.empty()) return std::nullopt;
   const ClusterLinearization lin = linearizeCluster(cluster);
   // Adding the cluster: the innovation covariance is the links' plus the map's.
@@ -414,10 +417,7 @@ bool Rrr::leaveOneOutCheck() {
   }
   std::vector<int> conflicting;
   for (int c : clustersWith(Status::kGood)) {
-    const bool large = params_.far_retry_min_links > 0 &&
-                       kept_links_[static_cast<std::size_t>(c)].size() >=
-                           static_cast<std::size_t>(params_.far_retry_min_links);
-    if (!large && indexAt(c, base_) < params_.loo_min_index) continue;
+    if (!largeCluster(c) && indexAt(c, base_) < params_.loo_min_index) continue;
     if (leaveOneOutIndex(c) >= 1.0) conflicting.push_back(c);
   }
   if (conflicting.empty()) return false;
@@ -496,7 +496,7 @@ void Rrr::decideFromScratch() {
     // Every link that passed the intra test takes part again, those the last joint link check
     // dropped included.
     Cluster& cluster = clusters_[c];
-    cluster.kept = kept_links_[c] = cluster.passed;
+    kept_links_[c] = cluster.passed;
     cluster.status = cluster.passed.empty() ? Status::kInconsistent : Status::kPending;
   }
   base_ = graph_.initialPoses();
@@ -511,35 +511,31 @@ bool Rrr::jointLinkCheck() {
   bool dropped_any = false;
   for (int round = 0; round < params_.max_rounds; ++round) {
     // The worst failing link of each good cluster.
-    std::vector<std::pair<double, int>> worst_of;  // (chi2, cluster)
-    std::vector<std::size_t> position;
+    struct Failing {
+      double chi2;
+      std::size_t cluster;
+      std::size_t at;  // in the cluster's kept links
+    };
+    std::vector<Failing> failing;
+    double worst = 0.0;
     for (int c : clustersWith(Status::kGood)) {
-      const auto& kept = clusters_[static_cast<std::size_t>(c)].kept;
-      double worst = threshold;
-      std::size_t at = kept.size();
+      const auto& kept = kept_links_[static_cast<std::size_t>(c)];
+      Failing f{threshold, static_cast<std::size_t>(c), kept.size()};
       for (std::size_t i = 0; i < kept.size(); ++i) {
         const double d2 = linkChi2(kept[i], base_);
-        if (d2 >= worst) {
-          worst = d2;
-          at = i;
-        }
+        if (d2 >= f.chi2) f = {d2, f.cluster, i};
       }
-      if (at < kept.size()) {
-        worst_of.emplace_back(worst, c);
-        position.push_back(at);
-      }
+      if (f.at == kept.size()) continue;
+      failing.push_back(f);
+      worst = std::max(worst, f.chi2);
     }
-    if (worst_of.empty()) break;
-    double worst = 0.0;
-    for (const auto& [d2, c] : worst_of) worst = std::max(worst, d2);
-    for (std::size_t k = 0; k < worst_of.size(); ++k) {
-      if (worst_of[k].first < params_.batch_removal_fraction * worst) continue;
-      const auto c = static_cast<std::size_t>(worst_of[k].second);
-      auto& kept = clusters_[c].kept;
-      kept.erase(kept.begin() + static_cast<std::ptrdiff_t>(position[k]));
-      kept_links_[c] = kept;
+    if (failing.empty()) break;
+    for (const Failing& f : failing) {
+      if (f.chi2 < params_.batch_removal_fraction * worst) continue;
+      auto& kept = kept_links_[f.cluster];
+      kept.erase(kept.begin() + static_cast<std::ptrdiff_t>(f.at));
       // No link left: out of every test until the next decision from scratch.
-      if (kept.empty()) clusters_[c].status = Status::kInconsistent;
+      if (kept.empty()) clusters_[f.cluster].status = Status::kInconsistent;
     }
     dropped_any = true;
     core::Optimizer& opt = graph_.optimizer();
@@ -558,15 +554,16 @@ Verdict Rrr::verdict(int candidate) const {
   const Cluster& cluster = clusters_[static_cast<std::size_t>(c)];
   if (cluster.status == Status::kPending) return Verdict::kPending;
   if (cluster.status != Status::kGood) return Verdict::kRejected;
-  const bool kept =
-      std::find(cluster.kept.begin(), cluster.kept.end(), candidate) != cluster.kept.end();
-  return kept ? Verdict::kAccepted : Verdict::kRejected;
+  const auto& kept = kept_links_[static_cast<std::size_t>(c)];
+  return std::find(kept.begin(), kept.end(), candidate) != kept.end() ? Verdict::kAccepted
+                                                                      : Verdict::kRejected;
 }
 
 std::vector<int> Rrr::acceptedCandidates() const {
   std::vector<int> links;
-  for (const Cluster& c : clusters_) {
-    if (c.status == Status::kGood) links.insert(links.end(), c.kept.begin(), c.kept.end());
+  for (std::size_t c = 0; c < clusters_.size(); ++c) {
+    if (clusters_[c].status != Status::kGood) continue;
+    links.insert(links.end(), kept_links_[c].begin(), kept_links_[c].end());
   }
   std::sort(links.begin(), links.end());
   return links;

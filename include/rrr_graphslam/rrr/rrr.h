@@ -141,8 +141,7 @@ class Rrr {
   enum class OnlineVerdict : std::uint8_t { kFits, kDoesNotFit, kNeedsJointTest };
   struct Cluster {
     std::vector<int> members;
-    std::vector<int> passed;  // after the intra test
-    std::vector<int> kept;    // ... and the joint link check of the last batch decision
+    std::vector<int> passed;  // after the intra test (kept_links_: and the joint link check)
     Status status = Status::kPending;
     int time_cluster = 0;  // the clustering's cluster it was split from (or is)
   };
@@ -205,6 +204,8 @@ class Rrr {
   /// optimizer's last factorization), over chi2(alpha, dof); none when no factor is usable (or
   /// the cluster kept no link).
   std::optional<double> predictedIndex(int cluster) const;
+  /// At least far_retry_min_links kept links (the far retry and the leave-one-out check).
+  bool largeCluster(int cluster) const;
   /// e^T Omega e of one candidate at fixed poses.
   double linkChi2(int candidate, const std::vector<core::Pose2>& poses) const;
   /// Consistency index of a cluster's kept links at fixed poses.
@@ -215,7 +216,9 @@ class Rrr {
   RrrParams params_;
   ResidualFunction residuals_;  // the intra test's optimization: reduced or whole graph
   std::vector<Cluster> clusters_;
-  std::vector<std::vector<int>> kept_links_;  // per cluster, for interClusterConsistency
+  // Per cluster, the links that take part in the joint tests: those that passed the intra test,
+  // less those the last joint link check dropped.
+  std::vector<std::vector<int>> kept_links_;
   std::vector<int> cluster_of_;
   std::vector<core::Pose2> base_;   // solution of the good set
   std::vector<int> previous_good_;  // good set before the current joint test
