@@ -292,11 +292,11 @@ std::unique_ptr<OnlineRrr> OnlineRrr::fromPoseGraph(const core::PoseGraph& graph
   for (std::size_t e = 0; e < graph.numEdges(); ++e) {
     const auto& edge = graph.edge(e);
     const int a = index_of.at(edge.from), b = index_of.at(edge.to);
-    if (edge.kind == core::EdgeKind::kOdometry && std::abs(a - b) != 1) {
+    const bool is_odometry = edge.kind == core::EdgeKind::kOdometry;
+    if (is_odometry && std::abs(a - b) != 1) {
       throw std::invalid_argument("odometry edge " + std::to_string(edge.from) + " -> " +
                                   std::to_string(edge.to) + " does not join consecutive nodes");
     }
-    const bool is_odometry = edge.kind == core::EdgeKind::kOdometry;
     (is_odometry ? odometry : candidates).push_back(e);
     (is_odometry ? odometry_ends : candidate_ends).emplace_back(a, b);
   }

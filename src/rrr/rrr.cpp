@@ -285,13 +285,7 @@ bool Rrr::recoverFar(std::vector<char>& tried) {
   // Each try costs a full optimization: the linearized joint test at the good map (its factor's
   // marginal covariance) screens out clusters no motion the map allows could reconcile with it
   // (City10000 + 1000 random-grouped: false groups at predicted index 200 and more).
-  graph_.activateOnly(acceptedCandidates());
-  opt.setPoses(base_);
-  if (!opt.covarianceAvailable()) {
-    opt.optimize();
-    ++optimizations_;
-    base_ = opt.poses();
-  }
+  factorGoodMap();
   far.erase(std::remove_if(far.begin(), far.end(),
                            [&](int c) {
                              const std::optional<double> predicted = predictedIndex(c);
@@ -408,13 +402,19 @@ Rrr::OnlineVerdict Rrr::checkAgainstMap(int cluster) const {
   return OnlineVerdict::kNeedsJointTest;
 }
 
+void Rrr::factorGoodMap() {
+  core::Optimizer& opt = graph_.optimizer();
+  graph_.activateOnly(acceptedCandidates());
+  opt.setPoses(base_);
+  if (opt.covarianceAvailable()) return;
+  opt.optimize();  // one undamped factorization at the solution
+  ++optimizations_;
+  base_ = opt.poses();
+}
+
 bool Rrr::leaveOneOutCheck() {
   core::Optimizer& opt = graph_.optimizer();
-  if (!opt.covarianceAvailable()) {
-    opt.optimize();  // one undamped factorization at the solution
-    ++optimizations_;
-    base_ = opt.poses();
-  }
+  factorGoodMap();
   std::vector<int> conflicting;
   for (int c : clustersWith(Status::kGood)) {
     if (!largeCluster(c) && indexAt(c, base_) < params_.loo_min_index) continue;

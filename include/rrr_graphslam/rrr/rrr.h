@@ -182,6 +182,10 @@ class Rrr {
   OnlineVerdict checkAgainstMap(int cluster) const;
   /// decideIncrementally() after syncing with the graph.
   void decideAgainstMap();
+  /// The optimizer holds the good set at base_, factored there (one undamped optimization if
+  /// the last factorization is of something else), so covariance() and predictedIndex() describe
+  /// the good map.
+  void factorGoodMap();
   /// Leave-one-out check of the good set: a good cluster whose removal would lower the chi2 by
   /// more than chi2(alpha, dof) (linearized: r^T (Sigma_C - J Sigma_map J^T)^-1 r, with the
   /// map's covariance including the cluster) conflicts with the rest even though the map bent
