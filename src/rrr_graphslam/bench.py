@@ -1,7 +1,9 @@
 """The RRR benchmark (scripts/bench_rrr): rrr_offline on the bundled graphs with injected outliers
 of every kind and count, and on the KITTI loop-candidate sets, as a Markdown table.
 
-Outlier sets are generated once with a fixed seed into the cache folder and reused.
+Outlier sets are generated once with a fixed seed into the cache folder and reused. The
+reference for the generator's truth gate (no "outlier" that agrees with the true relative pose) is
+the clean graph optimized by rrr_optimize with all its loops, also cached.
 """
 
 import argparse
@@ -37,12 +39,21 @@ def run_offline(binary, graph, decisions, extra=()):
     }
 
 
-def synthetic_input(data, cache, name, kind, count):
-    path = os.path.join(cache, f"{name}_{kind}{count}_s1.g2o")
+def reference_poses(optimizer, source, cache, name):
+    """The clean graph optimized with all its loops: the truth the outlier generator gates on."""
+    path = os.path.join(cache, f"{name}_reference.g2o")
+    if not os.path.exists(path):
+        subprocess.run([optimizer, source, "--output", path], check=True, capture_output=True)
+    return read_graph(path).poses
+
+
+def synthetic_input(data, cache, optimizer, name, kind, count):
+    path = os.path.join(cache, f"{name}_{kind}{count}_s1_gated.g2o")
     truth = path + ".labels"
     if not (os.path.exists(path) and os.path.exists(truth)):
         source = os.path.join(data, f"{name}.toro.gz" if name == "csail" else f"{name}.g2o.gz")
-        graph, labels = add_outliers(read_graph(source), kind, count, seed=1)
+        reference = reference_poses(optimizer, source, cache, name)
+        graph, labels = add_outliers(read_graph(source), kind, count, seed=1, reference=reference)
         write_graph(graph, path)
         write_text_atomically(truth, "".join(f"{i} {j} {label}\n" for i, j, label in labels))
     return path, truth
@@ -51,6 +62,7 @@ def synthetic_input(data, cache, name, kind, count):
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--rrr-offline", required=True, help="path of the rrr_offline binary")
+    parser.add_argument("--rrr-optimize", help="path of rrr_optimize (default: beside rrr_offline)")
     parser.add_argument("--data", required=True, help="the package's test/data folder")
     parser.add_argument("--cache", required=True, help="folder for generated inputs and decisions")
     parser.add_argument("--datasets", nargs="*", default=list(SYNTHETIC))
@@ -62,6 +74,7 @@ def main(argv=None):
                         help="NAME:KIND:COUNT inputs also run in incremental mode")
     args = parser.parse_args(argv)
     os.makedirs(args.cache, exist_ok=True)
+    optimizer = args.rrr_optimize or os.path.join(os.path.dirname(args.rrr_offline), "rrr_optimize")
 
     print("| dataset | kind | outliers | mode | precision | recall | time s | optimizations |")
     print("|---|---|---|---|---|---|---|---|")
@@ -81,11 +94,11 @@ def main(argv=None):
     for name in args.datasets:
         for kind in args.kinds:
             for count in args.counts:
-                graph, truth = synthetic_input(args.data, args.cache, name, kind, count)
+                graph, truth = synthetic_input(args.data, args.cache, optimizer, name, kind, count)
                 report(name, kind, count, "batch", graph, truth)
     for spec in args.incremental:
         name, kind, count = spec.split(":")
-        graph, truth = synthetic_input(args.data, args.cache, name, kind, int(count))
+        graph, truth = synthetic_input(args.data, args.cache, optimizer, name, kind, int(count))
         report(name, kind, count, "incremental", graph, truth)
     if not args.no_kitti:
         for seq in KITTI:

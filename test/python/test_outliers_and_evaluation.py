@@ -8,7 +8,7 @@ from conftest import DATA
 from rrr_graphslam.evaluation import (Decision, absolute_trajectory_error, align_se2, read_decisions,
                                       read_truth, score)
 from rrr_graphslam.graph_io import GraphFileError, read_graph
-from rrr_graphslam.outliers import KINDS, add_outliers
+from rrr_graphslam.outliers import KINDS, add_outliers, chi2_against, chi2_cdf_3dof
 
 
 @pytest.mark.parametrize("kind", KINDS)
@@ -37,6 +37,33 @@ def test_same_seed_same_outliers():
     a = add_outliers(graph, "random", 20, seed=5)[1]
     b = add_outliers(graph, "random", 20, seed=5)[1]
     assert a == b
+
+
+def test_chi2_cdf_matches_tabulated_quantiles():
+    # chi2(p, 3) quantiles: 0.5 -> 2.366, 0.95 -> 7.815, 0.99 -> 11.345
+    assert chi2_cdf_3dof(2.3660) == pytest.approx(0.5, abs=1e-4)
+    assert chi2_cdf_3dof(7.8147) == pytest.approx(0.95, abs=1e-5)
+    assert chi2_cdf_3dof(11.3449) == pytest.approx(0.99, abs=1e-5)
+    assert chi2_cdf_3dof(0.0) == 0.0
+
+
+@pytest.mark.parametrize("kind", ["local", "local-grouped"])
+def test_outliers_that_agree_with_the_reference_are_drawn_again(kind):
+    # A robot that never moves: every relative pose is the identity, so vertigo's near-zero
+    # measurements often agree with the truth and must be drawn again.
+    graph = read_graph(os.path.join(DATA, "intel.g2o.gz"))
+    still = {i: (0.0, 0.0, 0.0) for i in graph.poses}
+    plain = add_outliers(graph, kind, 100, seed=4)[0].loops()[len(graph.loops()):]
+    gated = add_outliers(graph, kind, 100, seed=4, reference=still)[0].loops()[len(graph.loops()):]
+
+    def inside(edges):
+        return sum(chi2_cdf_3dof(chi2_against(still, e.source, e.target, e.measurement, e.information)) < 0.95
+                   for e in edges)
+
+    assert inside(plain) > 0
+    assert len(gated) == 100 and inside(gated) == 0
+    with pytest.raises(ValueError, match="reference poses lack node"):
+        add_outliers(graph, kind, 10, reference={0: (0.0, 0.0, 0.0)})
 
 
 def test_scoring_with_labels_and_pairs(tmp_path):
