@@ -2,12 +2,14 @@
 import math
 import os
 import random
+import subprocess
+import sys
 
 import pytest
 from conftest import DATA
 from rrr_graphslam.evaluation import (Decision, absolute_trajectory_error, align_se2, read_decisions,
                                       read_truth, score)
-from rrr_graphslam.graph_io import GraphFileError, read_graph
+from rrr_graphslam.graph_io import GraphFileError, PoseGraph, read_graph, write_graph
 from rrr_graphslam.outliers import KINDS, add_outliers, chi2_against, chi2_cdf_3dof
 
 
@@ -64,6 +66,45 @@ def test_outliers_that_agree_with_the_reference_are_drawn_again(kind):
     assert len(gated) == 100 and inside(gated) == 0
     with pytest.raises(ValueError, match="reference poses lack node"):
         add_outliers(graph, kind, 10, reference={0: (0.0, 0.0, 0.0)})
+
+
+ADD_OUTLIERS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "scripts",
+                            "add_outliers")
+
+
+def test_add_outliers_command_gates_on_a_reference_file(tmp_path):
+    # A reference in which the robot never moves: vertigo's near-zero measurements often agree
+    # with it, so without the gate some outliers lie inside it, with the gate none.
+    ring = os.path.join(DATA, "ring.g2o.gz")
+    graph = read_graph(ring)
+    still = tmp_path / "still.g2o"
+    write_graph(PoseGraph({i: (0.0, 0.0, 0.0) for i in graph.poses}, graph.edges), str(still))
+    out = tmp_path / "ring_local.g2o"
+
+    def run(*args):
+        return subprocess.run([sys.executable, ADD_OUTLIERS, ring, str(out), "--kind", "local",
+                               "--count", "40", *args], capture_output=True, text=True)
+
+    def inside():
+        added = read_graph(str(out)).loops()[len(graph.loops()):]
+        assert len(added) == 40
+        reference = read_graph(str(still)).poses
+        return sum(chi2_cdf_3dof(chi2_against(reference, e.source, e.target, e.measurement,
+                                              e.information)) < 0.99 for e in added)
+
+    assert run().returncode == 0 and inside() > 0
+    result = run("--reference", still, "--alpha", "0.99")
+    assert result.returncode == 0, result.stderr
+    assert inside() == 0
+    labels = (tmp_path / "ring_local.g2o.labels").read_text().splitlines()
+    assert [line.split()[2] for line in labels[-40:]] == ["0"] * 40
+
+    bad = run("--reference", ring, "--alpha", "1.5")
+    assert bad.returncode == 1 and "--alpha must be in (0, 1)" in bad.stderr
+    partial = tmp_path / "partial.g2o"
+    partial.write_text("VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0\nEDGE_SE2 0 1 1 0 0 1 0 0 1 0 1\n")
+    missing = run("--reference", str(partial))
+    assert missing.returncode == 1 and "reference poses lack node 2" in missing.stderr
 
 
 def test_scoring_with_labels_and_pairs(tmp_path):
