@@ -79,6 +79,7 @@ def main(argv=None):
     print("| dataset | kind | outliers | mode | precision | recall | time s | optimizations |")
     print("|---|---|---|---|---|---|---|---|")
     worst = {"precision": 1.0, "recall": 1.0}
+    rows = []  # (dataset, kind, count, mode, score, run) for the targets below the table
 
     def report(dataset, kind, count, mode, graph, truth, extra=()):
         decisions = graph + f".{mode}.tsv"
@@ -87,6 +88,7 @@ def main(argv=None):
         s = score(d, read_truth(truth, d))
         worst["precision"] = min(worst["precision"], s.precision)
         worst["recall"] = min(worst["recall"], s.recall)
+        rows.append((dataset, kind, str(count), mode, s, r))
         latency = f" ({r['latency']})" if r["latency"] else ""
         print(f"| {dataset} | {kind} | {count} | {mode} | {s.precision:.4f} | {s.recall:.4f} | "
               f"{r['time']:.2f}{latency} | {r['optimizations']} |", flush=True)
@@ -127,8 +129,50 @@ def main(argv=None):
                 labels = label_by_ground_truth(graph, node_times, samples)
                 write_text_atomically(truth, "".join(f"{i} {j} {label}\n" for i, j, label in labels))
             report("B25b", f"BoW {threshold}", "real", "batch", local, truth)
+    print()
+    for line in target_lines(rows):
+        print(line)
     print(f"\nworst precision {worst['precision']:.4f}, worst recall {worst['recall']:.4f}")
     return 0
+
+
+def target_lines(rows):
+    """The issue's targets, each with what this run measured (only those the run covered)."""
+    synthetic = [r for r in rows if r[0] in SYNTHETIC and r[3] == "batch"]
+    kitti = [r for r in rows if r[0].startswith("KITTI")]
+
+    def share(selection, test, what):
+        failing = [f"{d} {k} {c} ({getattr(s, what):.4f})" for d, k, c, _, s, _ in selection
+                   if not test(s)]
+        met = len(selection) - len(failing)
+        return f"{met} of {len(selection)}" + (f"; not: {', '.join(failing)}" if failing else "")
+
+    def timed(dataset, kind, count, mode):
+        return next((r for d, k, c, m, _, r in rows if (d, k, c, m) == (dataset, kind, count, mode)),
+                    None)
+
+    lines = ["targets:"]
+    if synthetic:
+        lines.append("  synthetic precision 1.000: " + share(synthetic, lambda s: s.precision >= 1.0,
+                                                               "precision"))
+        lines.append("  synthetic recall >= 0.98: " + share(synthetic, lambda s: s.recall >= 0.98,
+                                                              "recall"))
+    if kitti:
+        lines.append("  KITTI precision 1.000: " + share(kitti, lambda s: s.precision >= 1.0,
+                                                           "precision"))
+    for dataset, label, limit in (("manhattanOlson3500_olson", "M3500", 1.0),
+                                  ("city10000", "City10000", 10.0)):
+        r = timed(dataset, "random", "1000", "batch")
+        if r:
+            verdict = "met" if r["time"] < limit else "NOT met"
+            lines.append(f"  {label} + 1000 random, batch, under {limit:g} s: {r['time']:.2f} s ({verdict})")
+    r = timed("city10000", "random", "1000", "incremental")
+    if r:
+        p99 = float(re.search(r"p99 ([0-9.]+) ms", r["latency"]).group(1))
+        verdict = "met" if p99 < 50.0 else "NOT met"
+        lines.append(f"  City10000 + 1000 random, incremental, p99 under 50 ms per candidate: "
+                     f"{p99:.1f} ms ({verdict})")
+    return lines
 
 
 if __name__ == "__main__":
