@@ -165,7 +165,8 @@ def target_lines(rows):
         r = timed(dataset, "random", "1000", "batch")
         if r:
             verdict = "met" if r["time"] < limit else "NOT met"
-            lines.append(f"  {label} + 1000 random, batch, under {limit:g} s: {r['time']:.2f} s ({verdict})")
+            lines.append(f"  {label} + 1000 random, batch, under {limit:g} s: {r['time']:.2f} s "
+                         f"({verdict})")
     r = timed("city10000", "random", "1000", "incremental")
     if r:
         p99 = float(re.search(r"p99 ([0-9.]+) ms", r["latency"]).group(1))

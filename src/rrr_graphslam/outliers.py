@@ -36,8 +36,9 @@ def chi2_cdf_3dof(x: float) -> float:
 
 def chi2_against(reference: Dict[int, Pose], source: int, target: int, measurement: Pose,
                  information: Tuple[float, ...]) -> float:
-    """Squared Mahalanobis distance of a measurement from the reference's relative pose."""
-    e = between(between(reference[source], reference[target]), measurement)
+    """Squared Mahalanobis distance of a measurement from the reference's relative pose (g2o's
+    error, z^-1 (x_source^-1 x_target), weighted by the information in g2o order)."""
+    e = between(measurement, between(reference[source], reference[target]))
     xx, xy, xt, yy, yt, tt = information
     return (xx * e[0] * e[0] + yy * e[1] * e[1] + tt * e[2] * e[2]
             + 2.0 * (xy * e[0] * e[1] + xt * e[0] * e[2] + yt * e[1] * e[2]))
@@ -58,7 +59,8 @@ def add_outliers(graph: PoseGraph, kind: str, count: int, seed: int = 1, group_s
     if reference is not None:
         missing = [i for i in ids if i not in reference]
         if missing:
-            raise ValueError(f"reference poses lack node {missing[0]} (and {len(missing) - 1} more)")
+            more = f" and {len(missing) - 1} more" if len(missing) > 1 else ""
+            raise ValueError(f"reference poses lack node {missing[0]}{more}")
     grouped = kind.endswith("grouped")
     size = group_size if grouped else 1
     if n < size + 3:
