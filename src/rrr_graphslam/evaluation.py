@@ -13,7 +13,7 @@ import math
 from dataclasses import dataclass
 from typing import Dict, List, Optional, Sequence, Tuple
 
-from .graph_io import GraphFileError, open_text, read_graph
+from .graph_io import GraphFileError, Pose, open_text, read_graph
 
 DECISION_HEADER = ["from", "to", "cluster", "verdict"]
 VERDICTS = ("accepted", "rejected", "pending")
@@ -136,7 +136,7 @@ def label_by_ground_truth(graph, node_times: Sequence[float], samples, true_with
     return labels
 
 
-def read_ground_truth_poses(path: str) -> Dict[int, Tuple[float, float, float]]:
+def read_ground_truth_poses(path: str) -> Dict[int, Pose]:
     """g2o/TORO (vertices, or edges chained), 'id x y theta' or 'x y theta' lines."""
     with open_text(path) as f:
         first = next((l.split() for l in f if l.strip() and not l.startswith("#")), [])
@@ -180,8 +180,7 @@ def align_se2(estimate: Sequence[Tuple[float, float]], truth: Sequence[Tuple[flo
     return angle, (tx - (c * mx - s * my), ty - (s * mx + c * my))
 
 
-def absolute_trajectory_error(estimate: Dict[int, Tuple[float, float, float]],
-                              truth: Dict[int, Tuple[float, float, float]]) -> Optional[float]:
+def absolute_trajectory_error(estimate: Dict[int, Pose], truth: Dict[int, Pose]) -> Optional[float]:
     """RMSE of positions after SE(2) alignment over the common node ids (ids are matched in
     sorted order when the files number their nodes differently but have equal counts)."""
     common = sorted(set(estimate) & set(truth))

@@ -16,6 +16,8 @@ G2O_ORDER = (0, 1, 2, 3, 4, 5)
 # Position in a TORO line of each g2o-ordered entry: xx xy xt yy yt tt <- xx xy yy tt xt yt.
 TORO_TO_G2O = (0, 1, 4, 2, 5, 3)
 
+Pose = Tuple[float, float, float]  # x, y (m), theta (rad)
+
 
 class GraphFileError(ValueError):
     """A malformed pose-graph file; the message starts with 'file:line:'."""
@@ -29,7 +31,7 @@ class GraphFileError(ValueError):
 class Edge:
     source: int
     target: int
-    measurement: Tuple[float, float, float]
+    measurement: Pose
     information: Tuple[float, ...]  # upper triangle, g2o order
     line: int = 0
 
@@ -41,7 +43,7 @@ class Edge:
 
 @dataclass
 class PoseGraph:
-    poses: Dict[int, Tuple[float, float, float]] = field(default_factory=dict)
+    poses: Dict[int, Pose] = field(default_factory=dict)
     edges: List[Edge] = field(default_factory=list)
 
     def loops(self) -> List[Edge]:

@@ -20,9 +20,7 @@ import math
 import random
 from typing import Dict, List, Optional, Tuple
 
-from .graph_io import Edge, PoseGraph, between
-
-Pose = Tuple[float, float, float]
+from .graph_io import Edge, Pose, PoseGraph, between
 
 KINDS = ("random", "local", "random-grouped", "local-grouped")
 

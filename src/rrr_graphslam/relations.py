@@ -13,9 +13,7 @@ import math
 from dataclasses import dataclass
 from typing import List, Tuple
 
-from .graph_io import GraphFileError, between, tagged_lines
-
-Pose = Tuple[float, float, float]
+from .graph_io import GraphFileError, Pose, between, tagged_lines
 
 
 @dataclass

@@ -87,6 +87,7 @@ def test_optimize_reaches_the_reference_chi2(tmp_path):
         assert final == pytest.approx(546.461, rel=1e-3)
 
 
+@needs_binaries
 def test_optimize_starts_far_off_graphs_from_lago(tmp_path):
     m3500 = os.path.join(DATA, "manhattanOlson3500_olson.g2o.gz")
     for init, expected in (("auto", "lago"), ("file", "file"), ("lago", "lago")):
