@@ -12,8 +12,9 @@ import re
 import subprocess
 import sys
 import time
+from typing import NamedTuple
 
-from .evaluation import read_decisions, read_truth, score
+from .evaluation import Score, read_decisions, read_truth, score
 from .graph_io import read_graph, write_graph, write_text_atomically
 from .outliers import add_outliers
 
@@ -23,6 +24,16 @@ COUNTS = (100, 500, 1000)
 KITTI = ("00", "05", "06", "07")
 B25B = ("0.000", "0.250", "0.500", "0.750", "1.000")
 ALPHAS = ("0.00", "0.25", "0.50", "0.75", "1.00")
+
+
+class Row(NamedTuple):
+    """One line of the table, kept for the targets below it."""
+    dataset: str
+    kind: str
+    count: str
+    mode: str
+    score: Score
+    run: dict      # run_offline's result
 
 
 def run_offline(binary, graph, decisions, extra=()):
@@ -79,7 +90,7 @@ def main(argv=None):
     print("| dataset | kind | outliers | mode | precision | recall | time s | optimizations |")
     print("|---|---|---|---|---|---|---|---|")
     worst = {"precision": 1.0, "recall": 1.0}
-    rows = []  # (dataset, kind, count, mode, score, run) for the targets below the table
+    rows = []
 
     def report(dataset, kind, count, mode, graph, truth, extra=()):
         decisions = graph + f".{mode}.tsv"
@@ -88,7 +99,7 @@ def main(argv=None):
         s = score(d, read_truth(truth, d))
         worst["precision"] = min(worst["precision"], s.precision)
         worst["recall"] = min(worst["recall"], s.recall)
-        rows.append((dataset, kind, str(count), mode, s, r))
+        rows.append(Row(dataset, kind, str(count), mode, s, r))
         latency = f" ({r['latency']})" if r["latency"] else ""
         print(f"| {dataset} | {kind} | {count} | {mode} | {s.precision:.4f} | {s.recall:.4f} | "
               f"{r['time']:.2f}{latency} | {r['optimizations']} |", flush=True)
@@ -138,18 +149,17 @@ def main(argv=None):
 
 def target_lines(rows):
     """The issue's targets, each with what this run measured (only those the run covered)."""
-    synthetic = [r for r in rows if r[0] in SYNTHETIC and r[3] == "batch"]
-    kitti = [r for r in rows if r[0].startswith("KITTI")]
+    synthetic = [r for r in rows if r.dataset in SYNTHETIC and r.mode == "batch"]
+    kitti = [r for r in rows if r.dataset.startswith("KITTI")]
 
     def share(selection, test, what):
-        failing = [f"{d} {k} {c} ({getattr(s, what):.4f})" for d, k, c, _, s, _ in selection
-                   if not test(s)]
+        failing = [f"{r.dataset} {r.kind} {r.count} ({getattr(r.score, what):.4f})"
+                   for r in selection if not test(r.score)]
         met = len(selection) - len(failing)
         return f"{met} of {len(selection)}" + (f"; not: {', '.join(failing)}" if failing else "")
 
     def timed(dataset, kind, count, mode):
-        return next((r for d, k, c, m, _, r in rows if (d, k, c, m) == (dataset, kind, count, mode)),
-                    None)
+        return next((r.run for r in rows if r[:4] == (dataset, kind, count, mode)), None)
 
     lines = ["targets:"]
     if synthetic:

@@ -1,12 +1,12 @@
 """The benchmark's targets summary: what it counts as met and what it names as not."""
 from types import SimpleNamespace
 
-from rrr_graphslam.bench import target_lines
+from rrr_graphslam.bench import Row, target_lines
 
 
 def row(dataset, kind, count, mode, precision, recall, time=0.1, latency=""):
-    return (dataset, kind, count, mode, SimpleNamespace(precision=precision, recall=recall),
-            {"time": time, "latency": latency, "optimizations": 1, "wall": time})
+    return Row(dataset, kind, count, mode, SimpleNamespace(precision=precision, recall=recall),
+               {"time": time, "latency": latency, "optimizations": 1, "wall": time})
 
 
 def test_targets_name_the_inputs_that_miss_them():
