@@ -99,7 +99,7 @@ def main(argv=None):
 
     def report(dataset, kind, count, mode, graph, truth, extra=(), label=None):
         label = label or mode
-        decisions = graph + f".{label}.tsv"
+        decisions = graph + "." + label.replace(" --", "-") + ".tsv"  # batch-full-intra
         r = run_offline(args.rrr_offline, graph, decisions, ["--mode", mode, *extra])
         d = read_decisions(decisions)
         s = score(d, read_truth(truth, d))
