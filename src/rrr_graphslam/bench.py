@@ -162,9 +162,9 @@ def target_lines(rows):
     synthetic = [r for r in rows if r.dataset in SYNTHETIC and r.mode == "batch"]
     kitti = [r for r in rows if r.dataset.startswith("KITTI")]
 
-    def share(selection, test, what):
+    def share(selection, what, minimum):
         failing = [f"{r.dataset} {r.kind} {r.count} ({getattr(r.score, what):.4f})"
-                   for r in selection if not test(r.score)]
+                   for r in selection if getattr(r.score, what) < minimum]
         met = len(selection) - len(failing)
         return f"{met} of {len(selection)}" + (f"; not: {', '.join(failing)}" if failing else "")
 
@@ -173,13 +173,10 @@ def target_lines(rows):
 
     lines = ["targets:"]
     if synthetic:
-        lines.append("  synthetic precision 1.000: " + share(synthetic, lambda s: s.precision >= 1.0,
-                                                               "precision"))
-        lines.append("  synthetic recall >= 0.98: " + share(synthetic, lambda s: s.recall >= 0.98,
-                                                              "recall"))
+        lines.append("  synthetic precision 1.000: " + share(synthetic, "precision", 1.0))
+        lines.append("  synthetic recall >= 0.98: " + share(synthetic, "recall", 0.98))
     if kitti:
-        lines.append("  KITTI precision 1.000: " + share(kitti, lambda s: s.precision >= 1.0,
-                                                           "precision"))
+        lines.append("  KITTI precision 1.000: " + share(kitti, "precision", 1.0))
     for dataset, label, limit in (("manhattanOlson3500_olson", "M3500", 1.0),
                                   ("city10000", "City10000", 10.0)):
         r = timed(dataset, "random", "1000", "batch")
