@@ -402,18 +402,23 @@ Rrr::OnlineVerdict Rrr::checkAgainstMap(int cluster) const {
   return OnlineVerdict::kNeedsJointTest;
 }
 
-void Rrr::factorGoodMap() {
+void Rrr::optimizeGoodMap() {
   core::Optimizer& opt = graph_.optimizer();
   graph_.activateOnly(acceptedCandidates());
   opt.setPoses(base_);
-  if (opt.covarianceAvailable()) return;
-  opt.optimize();  // one undamped factorization at the solution
+  opt.optimize();
   ++optimizations_;
   base_ = opt.poses();
 }
 
+void Rrr::factorGoodMap() {
+  graph_.activateOnly(acceptedCandidates());
+  graph_.optimizer().setPoses(base_);
+  // Otherwise one undamped factorization at the solution.
+  if (!graph_.optimizer().covarianceAvailable()) optimizeGoodMap();
+}
+
 bool Rrr::leaveOneOutCheck() {
-  core::Optimizer& opt = graph_.optimizer();
   factorGoodMap();
   std::vector<int> conflicting;
   for (int c : clustersWith(Status::kGood)) {
@@ -422,10 +427,7 @@ bool Rrr::leaveOneOutCheck() {
   }
   if (conflicting.empty()) return false;
   for (int c : conflicting) clusters_[static_cast<std::size_t>(c)].status = Status::kRejected;
-  graph_.activateOnly(acceptedCandidates());
-  opt.optimize();
-  ++optimizations_;
-  base_ = opt.poses();
+  optimizeGoodMap();
   return true;
 }
 
@@ -538,12 +540,7 @@ bool Rrr::jointLinkCheck() {
       if (kept.empty()) clusters_[f.cluster].status = Status::kInconsistent;
     }
     dropped_any = true;
-    core::Optimizer& opt = graph_.optimizer();
-    graph_.activateOnly(acceptedCandidates());
-    opt.setPoses(base_);
-    opt.optimize();
-    ++optimizations_;
-    base_ = opt.poses();
+    optimizeGoodMap();
   }
   return dropped_any;
 }

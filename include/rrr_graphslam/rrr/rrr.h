@@ -182,6 +182,9 @@ class Rrr {
   OnlineVerdict checkAgainstMap(int cluster) const;
   /// decideIncrementally() after syncing with the graph.
   void decideAgainstMap();
+  /// The good set optimized from base_, which becomes its solution (after a cluster or link
+  /// left it).
+  void optimizeGoodMap();
   /// The optimizer holds the good set at base_, factored there (one undamped optimization if
   /// the last factorization is of something else), so covariance() and predictedIndex() describe
   /// the good map.
