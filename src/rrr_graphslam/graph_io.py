@@ -1,16 +1,28 @@
-"""g2o / TORO pose-graph files, the same formats as the C++ reader (core/graph_io.h).
+"""g2o / TORO pose-graph files, read as the C++ reader (core/graph_io.cpp) reads them.
 
 Information matrices are kept in g2o order (xx xy xt yy yt tt); TORO files store
-xx xy yy tt xt yt and are converted on reading and writing. Files may be gzip-compressed.
-Every malformed line raises GraphFileError naming the file and line.
+xx xy yy tt xt yt and are converted on reading and writing. Files may be gzip-compressed (told by
+their first bytes, as zlib does, not by the name). Every malformed line raises GraphFileError
+naming the file and line, with the C++ reader's message. test_graph_io_agreement.py reads every
+bundled graph and the edge cases with both readers.
+
+The C++ reader's conventions followed here: lines end at '\n' only; fields are split at the C
+locale's whitespace; numbers follow std::from_chars (no '+', no '_', a nonzero mantissa that
+underflows to 0 is "not finite"); node ids are unsigned 64-bit decimal integers; vertex angles
+are normalized like measurement angles.
 """
 
 import gzip
 import math
 import os
+import re
 import tempfile
+import zlib
+from collections import defaultdict, deque
 from dataclasses import dataclass, field
-from typing import Dict, List, Optional, Tuple
+from typing import Dict, Iterator, List, Optional, Tuple
+
+import numpy as np
 
 G2O_ORDER = (0, 1, 2, 3, 4, 5)
 # Position in a TORO line of each g2o-ordered entry: xx xy xt yy yt tt <- xx xy yy tt xt yt.
@@ -75,72 +87,157 @@ def normalize_angle(t: float) -> float:
     return math.pi if t <= -math.pi else t
 
 
-def _is_positive_definite(info) -> bool:
-    xx, xy, xt, yy, yt, tt = info
-    m1 = xx
-    m2 = xx * yy - xy * xy
-    m3 = xx * (yy * tt - yt * yt) - xy * (xy * tt - yt * xt) + xt * (xy * yt - yy * xt)
-    return m1 > 0 and m2 > 0 and m3 > 0
+def information_matrix(upper) -> np.ndarray:
+    """The symmetric 3x3 information matrix of six upper-triangle values in g2o order."""
+    xx, xy, xt, yy, yt, tt = upper
+    return np.array([[xx, xy, xt], [xy, yy, yt], [xt, yt, tt]], dtype=float)
 
 
-def tagged_lines(path: str):
-    """(line number, fields) of every line that is not blank or a '#' comment; fields[0] is the tag."""
-    with open_text(path) as f:
-        for number, raw in enumerate(f, start=1):
-            fields = raw.split()
-            if fields and not fields[0].startswith("#"):
-                yield number, fields
+def information_problem(info: np.ndarray) -> str:
+    """'' for a positive-definite matrix, else why not (core::informationProblem: a Cholesky
+    factorization that fails, as Eigen's LLT does)."""
+    try:
+        np.linalg.cholesky(info)
+        return ""
+    except np.linalg.LinAlgError:
+        values = " ".join(f"{v:.6g}" for v in np.linalg.eigvalsh(info))
+        return f"the matrix is not positive definite (eigenvalues {values})"
+
+
+_C_SPACE = re.compile(rb"[ \t\n\v\f\r]+")  # std::isspace in the C locale
+_DECIMAL = re.compile(r"-?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")
+_NON_FINITE = re.compile(r"-?(?:inf(?:inity)?|nan(?:\([0-9A-Za-z_]*\))?)", re.IGNORECASE)
+_NODE_ID = re.compile(r"[0-9]+")
+
+
+def parse_number(text: str) -> Tuple[float, str]:
+    """(value, problem) of a whole field as std::from_chars reads it: problem is '' or 'not a
+    number' or 'not finite' (infinities, NaNs, overflow, and a nonzero value that underflows)."""
+    if _DECIMAL.fullmatch(text):
+        value = float(text)
+        if math.isinf(value) or (value == 0.0 and re.split("[eE]", text)[0].strip("-.0")):
+            return value, "not finite"
+        return value, ""
+    if _NON_FINITE.fullmatch(text):
+        return math.nan, "not finite"
+    return math.nan, "not a number"
+
+
+class _ReadError(Exception):
+    pass
+
+
+def _raw_lines(path: str, chunk_bytes: int = 1 << 16) -> Iterator[bytes]:
+    """The file's lines without their '\\n', as core::LineReader reads them through zlib: gzip
+    if the file starts with gzip's magic (whatever its name), members one after another, bytes
+    after the last member ignored; a damaged or truncated stream raises _ReadError after the
+    lines before the damage."""
+    with open(path, "rb") as f:
+        data = f.read()
+    if data[:2] != b"\x1f\x8b":
+        lines = data.split(b"\n")
+        yield from lines[:-1] if lines[-1] == b"" else lines
+        return
+    pending = b""
+    while data[:2] == b"\x1f\x8b":
+        inflater = zlib.decompressobj(16 + zlib.MAX_WBITS)
+        start = 0
+        while start < len(data) and not inflater.eof:
+            try:
+                pending += inflater.decompress(data[start:start + chunk_bytes])
+            except zlib.error as e:
+                raise _ReadError(str(e)) from None
+            start += chunk_bytes
+            *complete, pending = pending.split(b"\n")
+            yield from complete
+        if not inflater.eof:
+            raise _ReadError("unexpected end of file")
+        data = inflater.unused_data + data[start:]
+    if pending:
+        yield pending
+
+
+def tagged_lines(path: str) -> Iterator[Tuple[int, List[str]]]:
+    """(line number, fields) of every line that is not blank or a '#' comment; fields[0] is the
+    tag. Lines end at '\\n' (a lone '\\r' is whitespace), fields are split at C whitespace, bytes
+    are read as Latin-1; a damaged gzip stream raises GraphFileError ('read error')."""
+    number = 0
+    lines = _raw_lines(path)
+    while True:
+        try:
+            raw = next(lines)
+        except StopIteration:
+            return
+        except _ReadError as e:
+            raise GraphFileError(path, number + 1, f"read error: {e}") from None
+        number += 1
+        fields = _C_SPACE.split(raw.strip(b" \t\n\v\f\r"))
+        if fields[0] and not fields[0].startswith(b"#"):
+            yield number, [v.decode("latin-1") for v in fields]
+
+
+class _Line:
+    """One tagged line's fields, read and checked as core::LineParser does."""
+
+    def __init__(self, path: str, number: int, fields: List[str]):
+        self.path, self.number, self.fields, self.tag = path, number, fields, fields[0]
+
+    def fail(self, what: str):
+        raise GraphFileError(self.path, self.number, what)
+
+    def _field(self, k: int) -> str:
+        return f"field {k} of {self.tag} ('{self.fields[k]}')"
+
+    def expect_count(self, count: int) -> None:
+        if len(self.fields) - 1 != count:
+            self.fail(f"{self.tag} expects {count} fields after the tag, found {len(self.fields) - 1}")
+
+    def node_id(self, k: int) -> int:
+        v = self.fields[k]
+        if not _NODE_ID.fullmatch(v) or int(v) >= 2 ** 64:
+            self.fail(self._field(k) + " is not a node id (a non-negative integer)")
+        return int(v)
+
+    def numbers(self, first: int, count: int) -> List[float]:
+        out = []
+        for k in range(first, first + count):
+            value, problem = parse_number(self.fields[k])
+            if problem:
+                self.fail(f"{self._field(k)} is {problem}")
+            out.append(value)
+        return out
 
 
 def read_graph(path: str, allow_disconnected: bool = True) -> PoseGraph:
+    """The graph of a g2o or TORO file (each line's tag decides). Unlike the C++ reader, whose
+    tools reject disconnected graphs unless told, a disconnected graph is allowed by default."""
     graph = PoseGraph()
     vertex_line: Dict[int, int] = {}
     for number, fields in tagged_lines(path):
-        tag = fields[0]
-
-        def fail(what, number=number):
-            raise GraphFileError(path, number, what)
-
-        def numbers(values):
-            out = []
-            for k, v in enumerate(values):
-                try:
-                    x = float(v)
-                except ValueError:
-                    fail(f"field {k + 1} of {tag} ('{v}') is not a number")
-                if not math.isfinite(x):
-                    fail(f"field {k + 1} of {tag} ('{v}') is not finite")
-                out.append(x)
-            return out
-
-        def node_id(v):
-            if not v.isdigit():
-                fail(f"'{v}' is not a node id (a non-negative integer)")
-            return int(v)
-
+        line = _Line(path, number, fields)
+        tag = line.tag
         if tag in ("VERTEX_SE2", "VERTEX2"):
-            if len(fields) != 5:
-                fail(f"{tag} expects 4 fields after the tag, found {len(fields) - 1}")
-            i = node_id(fields[1])
+            line.expect_count(4)
+            i = line.node_id(1)
+            x, y, t = line.numbers(2, 3)
             if i in vertex_line:
-                fail(f"duplicate vertex id {i} (first defined on line {vertex_line[i]})")
+                line.fail(f"duplicate vertex id {i} (first defined on line {vertex_line[i]})")
             vertex_line[i] = number
-            graph.poses[i] = tuple(numbers(fields[2:5]))
+            graph.poses[i] = (x, y, normalize_angle(t))
         elif tag in ("EDGE_SE2", "EDGE2"):
-            if len(fields) != 12:
-                fail(f"{tag} expects 11 fields after the tag, found {len(fields) - 1}")
-            i, j = node_id(fields[1]), node_id(fields[2])
+            line.expect_count(11)
+            i, j = line.node_id(1), line.node_id(2)
             if i == j:
-                fail(f"self-loop: edge from node {i} to itself")
-            values = numbers(fields[3:12])
-            raw_info = values[3:]
+                line.fail(f"self-loop: edge from node {i} to itself")
+            x, y, t = line.numbers(3, 3)
+            raw_info = line.numbers(6, 6)
             info = tuple(raw_info[k] for k in (TORO_TO_G2O if tag == "EDGE2" else G2O_ORDER))
-            if not _is_positive_definite(info):
-                fail(f"information matrix of {tag} is not positive definite")
-            z = (values[0], values[1], normalize_angle(values[2]))
-            graph.edges.append(Edge(i, j, z, info, number))
+            problem = information_problem(information_matrix(info))
+            if problem:
+                line.fail(f"information matrix of {tag}: {problem}")
+            graph.edges.append(Edge(i, j, (x, y, normalize_angle(t)), info, number))
         else:
-            fail(f"unknown tag '{tag}' (expected VERTEX_SE2, EDGE_SE2, VERTEX2 or EDGE2)")
+            line.fail(f"unknown tag '{tag}' (expected VERTEX_SE2, EDGE_SE2, VERTEX2 or EDGE2)")
     if not vertex_line:
         _chain_initial_poses(graph)
     for e in graph.edges:
@@ -152,15 +249,13 @@ def read_graph(path: str, allow_disconnected: bool = True) -> PoseGraph:
     if not allow_disconnected:
         parts = components(graph)
         if len(parts) > 1:
-            raise GraphFileError(path, 0, f"graph is disconnected: {len(parts)} components")
+            raise GraphFileError(path, 0, "graph is disconnected: " + describe_components(parts))
     return graph
 
 
 def _chain_initial_poses(graph: PoseGraph) -> None:
     """Poses for an edges-only file: a 0-1 breadth-first search in which odometry costs nothing
     and loop candidates cost one, as in C++; a pose is final when its node leaves the queue."""
-    from collections import defaultdict, deque
-
     incident = defaultdict(list)
     for e in graph.edges:
         incident[e.source].append(e)
@@ -191,6 +286,7 @@ def _chain_initial_poses(graph: PoseGraph) -> None:
 
 
 def components(graph: PoseGraph) -> List[List[int]]:
+    """Connected components, each sorted, ordered by their smallest id."""
     parent = {i: i for i in graph.poses}
 
     def find(i):
@@ -205,6 +301,18 @@ def components(graph: PoseGraph) -> List[List[int]]:
     for i in sorted(graph.poses):
         groups.setdefault(find(i), []).append(i)
     return list(groups.values())
+
+
+def describe_components(parts: List[List[int]]) -> str:
+    """core::describeComponents: e.g. '2 components: {0..99} (100 nodes), {100,...,180} (3 nodes)'."""
+    def describe(ids):
+        text = "{" + str(ids[0])
+        if len(ids) > 1:
+            text += (".." if ids[-1] - ids[0] + 1 == len(ids) else ",...,") + str(ids[-1])
+        return text + f"}} ({len(ids)} {'node' if len(ids) == 1 else 'nodes'})"
+
+    shown = ", ".join(describe(ids) for ids in parts[:8])
+    return f"{len(parts)} components: {shown}" + (", ..." if len(parts) > 8 else "")
 
 
 def format_number(x: float) -> str:

@@ -63,3 +63,22 @@ def test_bad_input_names_file_and_line(tmp_path, content, line, message):
 def test_se2_helpers():
     a, b = (1.0, 2.0, 0.5), (-0.3, 0.7, 3.0)
     assert between(a, compose(a, b)) == pytest.approx((b[0], b[1], b[2] - 2 * math.pi if b[2] > math.pi else b[2]))
+
+
+def test_vertex_angles_are_normalized_like_measurements(tmp_path):
+    path = tmp_path / "angles.g2o"
+    path.write_text("VERTEX_SE2 0 0 0 4.0\nVERTEX_SE2 1 1 0 -3.141592653589793\n"
+                    "EDGE_SE2 0 1 1 0 7.0 1 0 0 1 0 1\n")
+    graph = read_graph(str(path))
+    assert graph.poses[0][2] == pytest.approx(4.0 - 2 * math.pi, abs=1e-15)
+    assert graph.poses[1][2] == math.pi
+    assert graph.edges[0].measurement[2] == pytest.approx(7.0 - 2 * math.pi, abs=1e-15)
+
+
+def test_disconnected_graph_names_its_components(tmp_path):
+    path = tmp_path / "two.g2o"
+    path.write_text("EDGE_SE2 0 1 1 0 0 1 0 0 1 0 1\nEDGE_SE2 5 6 1 0 0 1 0 0 1 0 1\n")
+    assert len(read_graph(str(path)).poses) == 4
+    with pytest.raises(GraphFileError, match=r"two.g2o: graph is disconnected: 2 components: "
+                                             r"\{0..1\} \(2 nodes\), \{5..6\} \(2 nodes\)"):
+        read_graph(str(path), allow_disconnected=False)
