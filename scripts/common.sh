@@ -24,7 +24,7 @@ RRR_APT_PACKAGES=(
   libmrpt-graphslam-dev libmrpt-slam-dev libmrpt-maps-dev libmrpt-ros1bridge-dev mrpt-apps
   libsuitesparse-dev libopenblas0-serial libeigen3-dev libboost-math-dev zlib1g-dev
   libgtest-dev googletest clang-format-14
-  python3-numpy python3-matplotlib python3-pytest
+  python3-numpy python3-scipy python3-matplotlib python3-pytest
 )
 
 rrr_install_missing() {

@@ -10,10 +10,13 @@ Decisions: the TSV of rrr_offline / replay_posegraph with header 'from to cluste
 """
 
 import math
+import re
 from dataclasses import dataclass
 from typing import Dict, List, Optional, Sequence, Tuple
 
-from .graph_io import GraphFileError, Pose, open_text, read_graph
+import numpy as np
+
+from .graph_io import GraphFileError, Pose, open_text, read_graph, tagged_lines
 
 DECISION_HEADER = ["from", "to", "cluster", "verdict"]
 VERDICTS = ("accepted", "rejected", "pending")
@@ -71,14 +74,10 @@ def read_decisions(path: str) -> List[Decision]:
 def read_truth(path: str, decisions: Sequence[Decision]) -> List[Optional[bool]]:
     """One truth value per decision (same order); None where a label is -1 (unknown)."""
     rows = []
-    with open_text(path) as f:
-        for number, line in enumerate(f, start=1):
-            fields = line.split()
-            if not fields or fields[0].startswith("#"):
-                continue
-            if len(fields) not in (2, 3) or not all(x.lstrip("-").isdigit() for x in fields):
-                raise GraphFileError(path, number, "expected 'from to label' (label 1, 0 or -1) or 'i j'")
-            rows.append((number, [int(x) for x in fields]))
+    for number, fields in tagged_lines(path):
+        if len(fields) not in (2, 3) or not all(re.fullmatch("-?[0-9]+", x) for x in fields):
+            raise GraphFileError(path, number, "expected 'from to label' (label 1, 0 or -1) or 'i j'")
+        rows.append((number, [int(x) for x in fields]))
     if rows and len(rows[0][1]) == 3:
         if len(rows) != len(decisions):
             raise GraphFileError(path, 0, f"{len(rows)} labels for {len(decisions)} decisions")
@@ -138,46 +137,38 @@ def label_by_ground_truth(graph, node_times: Sequence[float], samples, true_with
 
 def read_ground_truth_poses(path: str) -> Dict[int, Pose]:
     """g2o/TORO (vertices, or edges chained), 'id x y theta' or 'x y theta' lines."""
-    with open_text(path) as f:
-        first = next((l.split() for l in f if l.strip() and not l.startswith("#")), [])
-    if first and first[0][0].isalpha():
+    _, first = next(tagged_lines(path), (0, [""]))
+    if first[0][:1].isalpha():
         return read_graph(path).poses
     poses = {}
-    with open_text(path) as f:
-        k = 0
-        for number, line in enumerate(f, start=1):
-            fields = line.split()
-            if not fields or fields[0].startswith("#"):
-                continue
-            try:
-                values = [float(x) for x in fields]
-            except ValueError:
-                raise GraphFileError(path, number, "expected numbers") from None
-            if len(values) == 4:
-                poses[int(values[0])] = tuple(values[1:4])
-            elif len(values) == 3:
-                poses[k] = tuple(values)
-            else:
-                raise GraphFileError(path, number, "expected 'x y theta' or 'id x y theta'")
-            k += 1
+    for k, (number, fields) in enumerate(tagged_lines(path)):
+        try:
+            values = [float(x) for x in fields]
+        except ValueError:
+            raise GraphFileError(path, number, "expected numbers") from None
+        if len(values) == 4:
+            poses[int(values[0])] = tuple(values[1:4])
+        elif len(values) == 3:
+            poses[k] = tuple(values)
+        else:
+            raise GraphFileError(path, number, "expected 'x y theta' or 'id x y theta'")
     return poses
 
 
-def align_se2(estimate: Sequence[Tuple[float, float]], truth: Sequence[Tuple[float, float]]):
-    """Rotation angle and translation that map estimate points onto truth (least squares)."""
-    n = len(estimate)
-    mx = sum(p[0] for p in estimate) / n
-    my = sum(p[1] for p in estimate) / n
-    tx = sum(q[0] for q in truth) / n
-    ty = sum(q[1] for q in truth) / n
-    sxx = sxy = 0.0
-    for (px, py), (qx, qy) in zip(estimate, truth):
-        ax, ay, bx, by = px - mx, py - my, qx - tx, qy - ty
-        sxx += ax * bx + ay * by
-        sxy += ax * by - ay * bx
-    angle = math.atan2(sxy, sxx)
+def align_se2(estimate, truth) -> Tuple[float, Tuple[float, float]]:
+    """Rotation angle and translation that map estimate points onto truth in the least-squares
+    sense (Umeyama 1991 without scale; in 2D the angle is that of the cross-covariance)."""
+    p, q = np.asarray(estimate, dtype=float), np.asarray(truth, dtype=float)
+    p_mean, q_mean = p.mean(axis=0), q.mean(axis=0)
+    a, b = p - p_mean, q - q_mean
+    angle = math.atan2(float(np.sum(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0])), float(np.sum(a * b)))
+    t = q_mean - _rotation(angle) @ p_mean
+    return angle, (float(t[0]), float(t[1]))
+
+
+def _rotation(angle: float) -> np.ndarray:
     c, s = math.cos(angle), math.sin(angle)
-    return angle, (tx - (c * mx - s * my), ty - (s * mx + c * my))
+    return np.array([[c, -s], [s, c]])
 
 
 def absolute_trajectory_error(estimate: Dict[int, Pose], truth: Dict[int, Pose]) -> Optional[float]:
@@ -190,16 +181,11 @@ def absolute_trajectory_error(estimate: Dict[int, Pose], truth: Dict[int, Pose])
         pairs = [(i, i) for i in common]
     if len(pairs) < 2:
         return None
-    est = [estimate[a][:2] for a, _ in pairs]
-    gt = [truth[b][:2] for _, b in pairs]
-    angle, (dx, dy) = align_se2(est, gt)
-    c, s = math.cos(angle), math.sin(angle)
-    total = 0.0
-    for (px, py), (qx, qy) in zip(est, gt):
-        ex = c * px - s * py + dx - qx
-        ey = s * px + c * py + dy - qy
-        total += ex * ex + ey * ey
-    return math.sqrt(total / len(pairs))
+    est = np.array([estimate[a][:2] for a, _ in pairs], dtype=float)
+    gt = np.array([truth[b][:2] for _, b in pairs], dtype=float)
+    angle, t = align_se2(est, gt)
+    residual = est @ _rotation(angle).T + np.array(t) - gt
+    return float(np.sqrt(np.mean(np.sum(residual * residual, axis=1))))
 
 
 def plot_decisions(path: str, poses, decisions: Sequence[Decision], truth: Optional[Sequence[bool]],

@@ -20,26 +20,25 @@ import math
 import random
 from typing import Dict, List, Optional, Tuple
 
-from .graph_io import Edge, Pose, PoseGraph, between
+import numpy as np
+from scipy.stats import chi2
+
+from .graph_io import Edge, Pose, PoseGraph, between, information_matrix
 
 KINDS = ("random", "local", "random-grouped", "local-grouped")
-
-
-def chi2_cdf_3dof(x: float) -> float:
-    """P(X <= x) for a chi-square variable with 3 degrees of freedom (closed form)."""
-    if x <= 0.0:
-        return 0.0
-    return math.erf(math.sqrt(x / 2.0)) - math.sqrt(2.0 * x / math.pi) * math.exp(-x / 2.0)
 
 
 def chi2_against(reference: Dict[int, Pose], source: int, target: int, measurement: Pose,
                  information: Tuple[float, ...]) -> float:
     """Squared Mahalanobis distance of a measurement from the reference's relative pose (g2o's
     error, z^-1 (x_source^-1 x_target), weighted by the information in g2o order)."""
-    e = between(measurement, between(reference[source], reference[target]))
-    xx, xy, xt, yy, yt, tt = information
-    return (xx * e[0] * e[0] + yy * e[1] * e[1] + tt * e[2] * e[2]
-            + 2.0 * (xy * e[0] * e[1] + xt * e[0] * e[2] + yt * e[1] * e[2]))
+    e = np.array(between(measurement, between(reference[source], reference[target])))
+    return float(e @ information_matrix(information) @ e)
+
+
+def gate(alpha: float, dof: int = 3) -> float:
+    """The chi-square gate: a squared Mahalanobis distance below it is consistent at `alpha`."""
+    return float(chi2.ppf(alpha, dof))
 
 
 def add_outliers(graph: PoseGraph, kind: str, count: int, seed: int = 1, group_size: int = 10,
@@ -65,6 +64,9 @@ def add_outliers(graph: PoseGraph, kind: str, count: int, seed: int = 1, group_s
         raise ValueError(f"graph has {n} nodes, too few for outliers in groups of {size}")
     loops = graph.loops()
     info = (loops[0] if loops else graph.edges[0]).information
+    if reference is not None and not 0.0 < alpha < 1.0:
+        raise ValueError(f"alpha must be in (0, 1), got {alpha}")
+    threshold = gate(alpha) if reference is not None else math.inf
     rng = random.Random(seed)
     existing = {(e.source, e.target) for e in graph.edges} | {(e.target, e.source) for e in graph.edges}
 
@@ -89,7 +91,7 @@ def add_outliers(graph: PoseGraph, kind: str, count: int, seed: int = 1, group_s
             continue
         z = (rng.gauss(0.0, 0.3), rng.gauss(0.0, 0.3), rng.gauss(0.0, math.radians(10.0)))
         if reference is not None and any(
-                chi2_cdf_3dof(chi2_against(reference, i, j, z, info)) < alpha for i, j in group):
+                chi2_against(reference, i, j, z, info) < threshold for i, j in group):
             continue
         for p in group:
             existing.add(p)

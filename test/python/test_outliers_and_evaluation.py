@@ -9,8 +9,8 @@ import pytest
 from conftest import DATA
 from rrr_graphslam.evaluation import (Decision, absolute_trajectory_error, align_se2, read_decisions,
                                       read_truth, score)
-from rrr_graphslam.graph_io import GraphFileError, PoseGraph, read_graph, write_graph
-from rrr_graphslam.outliers import KINDS, add_outliers, chi2_against, chi2_cdf_3dof
+from rrr_graphslam.graph_io import GraphFileError, PoseGraph, between, read_graph, write_graph
+from rrr_graphslam.outliers import KINDS, add_outliers, chi2_against, gate
 
 
 @pytest.mark.parametrize("kind", KINDS)
@@ -41,12 +41,25 @@ def test_same_seed_same_outliers():
     assert a == b
 
 
-def test_chi2_cdf_matches_tabulated_quantiles():
-    # chi2(p, 3) quantiles: 0.5 -> 2.366, 0.95 -> 7.815, 0.99 -> 11.345
-    assert chi2_cdf_3dof(2.3660) == pytest.approx(0.5, abs=1e-4)
-    assert chi2_cdf_3dof(7.8147) == pytest.approx(0.95, abs=1e-5)
-    assert chi2_cdf_3dof(11.3449) == pytest.approx(0.99, abs=1e-5)
-    assert chi2_cdf_3dof(0.0) == 0.0
+def test_gate_is_the_tabulated_chi2_quantile():
+    # chi2(p, k) quantiles: k = 3: 0.5 -> 2.366, 0.95 -> 7.815, 0.99 -> 11.345; k = 2: 0.95 -> 5.991
+    assert gate(0.5) == pytest.approx(2.3660, abs=1e-4)
+    assert gate(0.95) == pytest.approx(7.8147, abs=1e-4)
+    assert gate(0.99) == pytest.approx(11.3449, abs=1e-4)
+    assert gate(0.95, 2) == pytest.approx(5.9915, abs=1e-4)
+
+
+def test_chi2_against_is_the_quadratic_form_written_out():
+    rng = random.Random(7)
+    for _ in range(100):
+        reference = {0: (rng.uniform(-5, 5), rng.uniform(-5, 5), rng.uniform(-3, 3)),
+                     1: (rng.uniform(-5, 5), rng.uniform(-5, 5), rng.uniform(-3, 3))}
+        z = (rng.gauss(0, 1), rng.gauss(0, 1), rng.gauss(0, 1))
+        xx, xy, xt, yy, yt, tt = info = (40.0, 3.0, -2.0, 25.0, 1.0, 90.0)
+        e = between(z, between(reference[0], reference[1]))
+        written_out = (xx * e[0] ** 2 + yy * e[1] ** 2 + tt * e[2] ** 2
+                       + 2 * (xy * e[0] * e[1] + xt * e[0] * e[2] + yt * e[1] * e[2]))
+        assert chi2_against(reference, 0, 1, z, info) == pytest.approx(written_out, rel=1e-12)
 
 
 @pytest.mark.parametrize("kind", ["local", "local-grouped"])
@@ -59,13 +72,15 @@ def test_outliers_that_agree_with_the_reference_are_drawn_again(kind):
     gated = add_outliers(graph, kind, 100, seed=4, reference=still)[0].loops()[len(graph.loops()):]
 
     def inside(edges):
-        return sum(chi2_cdf_3dof(chi2_against(still, e.source, e.target, e.measurement, e.information)) < 0.95
+        return sum(chi2_against(still, e.source, e.target, e.measurement, e.information) < gate(0.95)
                    for e in edges)
 
     assert inside(plain) > 0
     assert len(gated) == 100 and inside(gated) == 0
     with pytest.raises(ValueError, match="reference poses lack node"):
         add_outliers(graph, kind, 10, reference={0: (0.0, 0.0, 0.0)})
+    with pytest.raises(ValueError, match="alpha must be in"):
+        add_outliers(graph, kind, 10, reference=still, alpha=1.0)
 
 
 ADD_OUTLIERS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "scripts",
@@ -89,8 +104,8 @@ def test_add_outliers_command_gates_on_a_reference_file(tmp_path):
         added = read_graph(str(out)).loops()[len(graph.loops()):]
         assert len(added) == 40
         reference = read_graph(str(still)).poses
-        return sum(chi2_cdf_3dof(chi2_against(reference, e.source, e.target, e.measurement,
-                                              e.information)) < 0.99 for e in added)
+        return sum(chi2_against(reference, e.source, e.target, e.measurement, e.information) < gate(0.99)
+                   for e in added)
 
     assert run().returncode == 0 and inside() > 0
     result = run("--reference", still, "--alpha", "0.99")
@@ -145,6 +160,33 @@ def test_ate_is_zero_after_a_rigid_motion_and_alignment_recovers_it():
     assert (found, tx, ty) == pytest.approx((angle, dx, dy))
     noisy = {i: (x + 0.1, y, t) for i, (x, y, t) in moved.items()}
     assert absolute_trajectory_error(noisy, truth) == pytest.approx(0.0, abs=1e-9)  # a shift aligns away
+
+
+def test_ate_is_the_smallest_rmse_over_every_rotation():
+    """The closed-form alignment against a search over the angle (for each angle the best
+    translation moves the centroids onto each other)."""
+    rng = random.Random(2)
+    truth = {i: (rng.uniform(-10, 10), rng.uniform(-10, 10), 0.0) for i in range(40)}
+    c, s = math.cos(2.5), math.sin(2.5)
+    estimate = {i: (c * x - s * y + 4.0 + rng.gauss(0, 0.3), s * x + c * y - 1.0 + rng.gauss(0, 0.3), 0.0)
+                for i, (x, y, _) in truth.items()}
+    p = [estimate[i][:2] for i in truth]
+    q = [truth[i][:2] for i in truth]
+
+    def rmse(angle):
+        ca, sa = math.cos(angle), math.sin(angle)
+        moved = [(ca * x - sa * y, sa * x + ca * y) for x, y in p]
+        dx = sum(b[0] - a[0] for a, b in zip(moved, q)) / len(q)
+        dy = sum(b[1] - a[1] for a, b in zip(moved, q)) / len(q)
+        return math.sqrt(sum((a[0] + dx - b[0]) ** 2 + (a[1] + dy - b[1]) ** 2 for a, b in zip(moved, q)) / len(q))
+
+    best = min((rmse(k * 2 * math.pi / 20000), k) for k in range(20000))
+    ate = absolute_trajectory_error(estimate, truth)
+    assert 0.3 < ate <= best[0] + 1e-12
+    assert ate == pytest.approx(best[0], abs=1e-6)
+    angle, _ = align_se2(p, q)
+    assert math.remainder(angle - best[1] * 2 * math.pi / 20000, 2 * math.pi) == pytest.approx(0.0, abs=1e-3)
+    assert absolute_trajectory_error({0: (0.0, 0.0, 0.0)}, truth) is None
 
 
 def test_labels_from_a_ground_truth_trajectory():
