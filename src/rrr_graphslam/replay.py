@@ -11,17 +11,14 @@ import math
 from dataclasses import dataclass, field
 from typing import Dict, List, Optional, Sequence, Tuple
 
-from .graph_io import Edge, PoseGraph, inverse
+import numpy as np
 
-# Row-major 3x3 position of each upper-triangle entry in g2o order (xx xy xt yy yt tt).
-_UPPER = ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2))
+from .graph_io import Edge, PoseGraph, information_matrix, inverse
 
 
 def information_row_major(upper: Sequence[float]) -> List[float]:
-    m = [0.0] * 9
-    for (r, c), v in zip(_UPPER, upper):
-        m[3 * r + c] = m[3 * c + r] = float(v)
-    return m
+    """The 3x3 information matrix of six upper-triangle values (g2o order), row-major."""
+    return information_matrix(upper).ravel().tolist()
 
 
 def inverted_edge(edge: Edge) -> Tuple[Tuple[float, float, float], List[float]]:
@@ -30,12 +27,9 @@ def inverted_edge(edge: Edge) -> Tuple[Tuple[float, float, float], List[float]]:
     x, y, t = edge.measurement
     c, s = math.cos(t), math.sin(t)
     # Ad(z) = [[R, (y, -x)^T], [0, 1]]; its inverse is [[R^T, -R^T (y, -x)^T], [0, 1]].
-    ad_inv = [[c, s, s * x - c * y], [-s, c, s * y + c * x], [0.0, 0.0, 1.0]]
-    om = information_row_major(edge.information)
-    omega = [[om[3 * r + k] for k in range(3)] for r in range(3)]
-    tmp = [[sum(omega[i][k] * ad_inv[k][j] for k in range(3)) for j in range(3)] for i in range(3)]
-    out = [[sum(ad_inv[k][i] * tmp[k][j] for k in range(3)) for j in range(3)] for i in range(3)]
-    return inverse(edge.measurement), [out[r][c] for r in range(3) for c in range(3)]
+    ad_inv = np.array([[c, s, s * x - c * y], [-s, c, s * y + c * x], [0.0, 0.0, 1.0]])
+    omega = ad_inv.T @ information_matrix(edge.information) @ ad_inv
+    return inverse(edge.measurement), omega.ravel().tolist()
 
 
 @dataclass

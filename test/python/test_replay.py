@@ -3,14 +3,19 @@ import math
 import os
 import random
 
+import numpy as np
 from conftest import DATA
 from rrr_graphslam.graph_io import Edge, PoseGraph, between, compose, read_graph
 from rrr_graphslam.replay import decisions_in_file_order, information_row_major, inverted_edge, plan_replay
 
 
 def chi2(edge_measurement, info9, xi, xj):
-    e = between(edge_measurement, between(xi, xj))
-    return sum(e[r] * info9[3 * r + c] * e[c] for r in range(3) for c in range(3))
+    e = np.array(between(edge_measurement, between(xi, xj)))
+    return float(e @ np.reshape(info9, (3, 3)) @ e)
+
+
+def test_information_row_major_mirrors_the_upper_triangle():
+    assert information_row_major((1, 2, 3, 4, 5, 6)) == [1.0, 2.0, 3.0, 2.0, 4.0, 5.0, 3.0, 5.0, 6.0]
 
 
 def test_inverted_edge_has_the_same_chi2_at_any_poses():
