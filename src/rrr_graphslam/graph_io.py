@@ -7,9 +7,9 @@ naming the file and line, with the C++ reader's message. test_graph_io_agreement
 bundled graph and the edge cases with both readers.
 
 The C++ reader's conventions followed here: lines end at LF only (a lone CR is whitespace);
-fields are split at the C locale's whitespace; numbers follow std::from_chars (no '+', no '_', a nonzero mantissa that
-underflows to 0 is "not finite"); node ids are unsigned 64-bit decimal integers; vertex angles
-are normalized like measurement angles.
+fields are split at the C locale's whitespace; numbers follow std::from_chars (no '+', no '_', a
+nonzero mantissa that underflows to 0 is "not finite"); node ids are unsigned 64-bit decimal
+integers; vertex angles are normalized like measurement angles.
 """
 
 import gzip
