@@ -1,7 +1,16 @@
+"""The test environment: the module from this source tree, in-process and for the scripts the
+tests run as subprocesses (which, like installed scripts, import it from PYTHONPATH: a sourced
+workspace puts it there; the scripts do not edit sys.path themselves)."""
 import os
 import sys
 
-# The module from the source tree, whether or not the workspace is sourced.
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "src"))
+HERE = os.path.dirname(os.path.abspath(__file__))
+SRC = os.path.normpath(os.path.join(HERE, "..", "..", "src"))
+SCRIPTS = os.path.normpath(os.path.join(HERE, "..", "..", "scripts"))
+DATA = os.path.normpath(os.path.join(HERE, "..", "data"))
 
-DATA = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "data")
+# In-process: this tree's module, whether or not a workspace is sourced.
+sys.path.insert(0, SRC)
+# Subprocesses: after a sourced workspace's entries (its devel package extends itself to the
+# source tree and adds the generated messages), so that alone it still finds this tree's module.
+os.environ["PYTHONPATH"] = os.pathsep.join(p for p in (os.environ.get("PYTHONPATH"), SRC) if p)

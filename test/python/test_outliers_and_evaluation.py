@@ -6,7 +6,7 @@ import subprocess
 import sys
 
 import pytest
-from conftest import DATA
+from conftest import DATA, SCRIPTS
 from rrr_graphslam.evaluation import (Decision, absolute_trajectory_error, align_se2, read_decisions,
                                       read_truth, score)
 from rrr_graphslam.graph_io import GraphFileError, PoseGraph, between, read_graph, write_graph
@@ -83,8 +83,7 @@ def test_outliers_that_agree_with_the_reference_are_drawn_again(kind):
         add_outliers(graph, kind, 10, reference=still, alpha=1.0)
 
 
-ADD_OUTLIERS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "scripts",
-                            "add_outliers")
+ADD_OUTLIERS = os.path.join(SCRIPTS, "add_outliers")
 
 
 def test_add_outliers_command_gates_on_a_reference_file(tmp_path):

@@ -1,0 +1,66 @@
+"""The Python scripts: installed by catkin_install_python, importing the module from a sourced
+workspace (PYTHONPATH) without touching sys.path or PATH themselves, and each one starts."""
+import os
+import re
+import subprocess
+import sys
+
+import pytest
+from conftest import SCRIPTS
+
+CMAKELISTS = os.path.join(SCRIPTS, "..", "CMakeLists.txt")
+
+
+def python_scripts():
+    """The files in scripts/ whose first line is a Python shebang."""
+    names = []
+    for name in sorted(os.listdir(SCRIPTS)):
+        with open(os.path.join(SCRIPTS, name), "rb") as f:
+            first = f.readline()
+        if first.startswith(b"#!") and b"python" in first:
+            names.append(name)
+    return names
+
+
+PYTHON_SCRIPTS = python_scripts()
+
+
+def test_the_scripts_are_found():
+    assert {"add_outliers", "evaluate", "replay_posegraph", "replay_carmen", "carmen_to_bag",
+            "snapshot_rviz"} <= set(PYTHON_SCRIPTS)
+    assert not os.path.exists(os.path.join(SCRIPTS, "_module_path.py"))
+
+
+@pytest.mark.parametrize("name", PYTHON_SCRIPTS)
+def test_script_leaves_sys_path_and_path_alone(name):
+    with open(os.path.join(SCRIPTS, name)) as f:
+        text = f.read()
+    assert "sys.path" not in text
+    assert not re.search(r"""environ\[["']PATH["']\]|putenv|_module_path""", text)
+
+
+def test_every_python_script_is_installed():
+    with open(CMAKELISTS) as f:
+        text = f.read()
+    listed = re.search(r"catkin_install_python\(PROGRAMS(.*?)\sDESTINATION\s", text, re.S).group(1).split()
+    assert sorted(os.path.basename(p) for p in listed) == PYTHON_SCRIPTS
+
+
+def importable(module):
+    return subprocess.run([sys.executable, "-c", f"import {module}"], capture_output=True).returncode == 0
+
+
+@pytest.mark.parametrize("name", PYTHON_SCRIPTS)
+def test_script_starts_from_the_environment(tmp_path, name):
+    """--help from another folder, with the module on PYTHONPATH only (conftest: a sourced
+    workspace, or this tree after it)."""
+    with open(os.path.join(SCRIPTS, name)) as f:
+        text = f.read()
+    for module in ("rospy", "rosbag", "rrr_graphslam.msg"):
+        needed = f"import {module}" in text or (module == "rrr_graphslam.msg" and "replay_ros" in text)
+        if needed and not importable(module):
+            pytest.skip(f"{module} is not importable here (a sourced catkin workspace provides it)")
+    result = subprocess.run([sys.executable, os.path.join(SCRIPTS, name), "--help"], cwd=str(tmp_path),
+                            capture_output=True, text=True)
+    assert result.returncode == 0, result.stderr
+    assert "usage" in result.stdout
