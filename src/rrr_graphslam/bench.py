@@ -115,14 +115,12 @@ def main(argv=None):
             for count in args.counts:
                 graph, truth = synthetic_input(args.data, args.cache, optimizer, name, kind, count)
                 report(name, kind, count, "batch", graph, truth)
-    for spec in args.incremental:
-        name, kind, count = spec.split(":")
-        graph, truth = synthetic_input(args.data, args.cache, optimizer, name, kind, int(count))
-        report(name, kind, count, "incremental", graph, truth)
-    for spec in args.baseline:
-        name, kind, count = spec.split(":")
-        graph, truth = synthetic_input(args.data, args.cache, optimizer, name, kind, int(count))
-        report(name, kind, count, "batch", graph, truth, ["--full-intra"], label=BASELINE)
+    for specs, mode, extra, label in ((args.incremental, "incremental", [], None),
+                                      (args.baseline, "batch", ["--full-intra"], BASELINE)):
+        for spec in specs:
+            name, kind, count = spec.split(":")
+            graph, truth = synthetic_input(args.data, args.cache, optimizer, name, kind, int(count))
+            report(name, kind, count, mode, graph, truth, extra, label=label)
     if not args.no_kitti:
         for seq in KITTI:
             for alpha in ALPHAS:

@@ -92,21 +92,15 @@ class PoseGraphReplay:
                 self.clock_pub.publish(Clock(clock=sim))
             if step.odometry is not None:
                 o = step.odometry
-                msg = PoseGraphEdge(from_id=o.source, to_id=o.target, information=o.information)
-                msg.header.stamp = sim
-                msg.measurement.x, msg.measurement.y, msg.measurement.theta = o.measurement
-                self.edges_pub.publish(msg)
-                self.sent += 1
+                self._publish(self.edges_pub, PoseGraphEdge(from_id=o.source, to_id=o.target,
+                                                            information=o.information), sim, o.measurement)
             for cand in step.candidates:
                 if cand.duplicate_of is not None:
                     continue
                 e = cand.edge
                 msg = LoopCandidate(from_id=e.source, to_id=e.target, information=information_row_major(e.information),
                                     source="replay_posegraph", score=1.0)
-                msg.header.stamp = sim
-                msg.measurement.x, msg.measurement.y, msg.measurement.theta = e.measurement
-                self.candidates_pub.publish(msg)
-                self.sent += 1
+                self._publish(self.candidates_pub, msg, sim, e.measurement)
             if lockstep:
                 self._wait(lambda: self._processed() >= self.sent, f"node {step.node} to be processed")
             else:
@@ -122,6 +116,13 @@ class PoseGraphReplay:
         else:
             self.sync()
         return plan
+
+    def _publish(self, publisher, msg, stamp, measurement) -> None:
+        """Stamps a PoseGraphEdge or LoopCandidate, fills its measurement and sends it."""
+        msg.header.stamp = stamp
+        msg.measurement.x, msg.measurement.y, msg.measurement.theta = measurement
+        publisher.publish(msg)
+        self.sent += 1
 
     def call(self, service: str) -> str:
         """Calls a Trigger service of the node and waits until every decision it caused arrived."""
