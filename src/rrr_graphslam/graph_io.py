@@ -104,7 +104,9 @@ def information_problem(info: np.ndarray) -> str:
         return f"the matrix is not positive definite (eigenvalues {values})"
 
 
-_C_SPACE = re.compile(rb"[ \t\n\v\f\r]+")  # std::isspace in the C locale
+# Whitespace to str.split() on Latin-1 text but not to std::isspace in the C locale (to which,
+# as to bytes.split(), only space, \t, \n, \v, \f and \r are).
+_NOT_C_SPACE = re.compile(rb"[\x1c-\x1f\x85\xa0]")
 _DECIMAL = re.compile(r"-?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")
 _NON_FINITE = re.compile(r"-?(?:inf(?:inity)?|nan(?:\([0-9A-Za-z_]*\))?)", re.IGNORECASE)
 _NODE_ID = re.compile(r"[0-9]+")
@@ -171,9 +173,12 @@ def tagged_lines(path: str) -> Iterator[Tuple[int, List[str]]]:
         except _ReadError as e:
             raise GraphFileError(path, number + 1, f"read error: {e}") from None
         number += 1
-        fields = _C_SPACE.split(raw.strip(b" \t\n\v\f\r"))
-        if fields[0] and not fields[0].startswith(b"#"):
-            yield number, [v.decode("latin-1") for v in fields]
+        if _NOT_C_SPACE.search(raw):
+            fields = [v.decode("latin-1") for v in raw.split()]
+        else:
+            fields = raw.decode("latin-1").split()
+        if fields and not fields[0].startswith("#"):
+            yield number, fields
 
 
 class _Line:
