@@ -13,6 +13,8 @@ import math
 from dataclasses import dataclass
 from typing import List, Tuple
 
+import numpy as np
+
 from .graph_io import GraphFileError, Pose, between, tagged_lines
 
 
@@ -81,13 +83,11 @@ def relation_error(stamps: List[float], poses: List[Pose], relations, tolerance:
         trans.append(math.hypot(e[0], e[1]))
         rot.append(abs(math.degrees(e[2])))
 
+    trans, rot = np.array(trans), np.array(rot)
+
     def mean_std(v):
-        if not v:
-            return math.nan, math.nan
-        m = sum(v) / len(v)
-        return m, math.sqrt(sum((x - m) ** 2 for x in v) / len(v))
+        return (float(v.mean()), float(v.std())) if v.size else (math.nan, math.nan)
 
     tm, ts = mean_std(trans)
     rm, rs = mean_std(rot)
-    return RelationError(len(trans), missing, tm, ts, rm, rs,
-                         mean_std([x * x for x in trans])[0], mean_std([x * x for x in rot])[0])
+    return RelationError(len(trans), missing, tm, ts, rm, rs, mean_std(trans ** 2)[0], mean_std(rot ** 2)[0])

@@ -33,3 +33,16 @@ def test_malformed_files_name_the_line(tmp_path):
         read_tum(str(tmp_path / "bad.txt"))
     with pytest.raises(GraphFileError, match="bad.txt:1"):
         read_relations(str(tmp_path / "bad.txt"))
+
+
+def test_squares_and_no_match(tmp_path):
+    write_tum(tmp_path / "t.txt", [(1.0, 0, 0, 0), (2.0, 1, 0, 0), (3.0, 2, 0, 0)])
+    stamps, poses = read_tum(str(tmp_path / "t.txt"))
+    # 0.1 m and 0.3 m off, 2 and 4 degrees off.
+    relations = [(1.0, 2.0, (1.1, 0.0, math.radians(2.0))), (2.0, 3.0, (1.3, 0.0, math.radians(-4.0)))]
+    err = relation_error(stamps, poses, relations)
+    assert err.trans_sq_mean == pytest.approx((0.01 + 0.09) / 2)
+    assert err.rot_mean_deg == pytest.approx(3.0) and err.rot_std_deg == pytest.approx(1.0)
+    assert err.rot_sq_mean_deg2 == pytest.approx((4.0 + 16.0) / 2)
+    none = relation_error(stamps, poses, [(7.0, 8.0, (0.0, 0.0, 0.0))])
+    assert none.count == 0 and none.missing == 1 and math.isnan(none.trans_mean) and math.isnan(none.rot_std_deg)
