@@ -20,8 +20,12 @@ std::string toString(StopReason reason) {
       return "converged";
     case StopReason::kMaxIterations:
       return "max-iterations";
-    case StopReason::kSolverFailure:
-      return "solver-failure";
+    case StopReason::kSingular:
+      return "singular";
+    case StopReason::kDiverged:
+      return "diverged";
+    case StopReason::kCancelled:
+      return "cancelled";
     case StopReason::kNoVariables:
       return "no-variables";
   }
@@ -298,6 +302,8 @@ OptimizationResult Optimizer::optimize() {
 
   if (used_variables_ == 0) {
     result.stop_reason = StopReason::kNoVariables;
+  } else if (!std::isfinite(chi2_now)) {
+    result.stop_reason = StopReason::kDiverged;  // no step can be judged from here
   } else if (gauss_newton) {
     gaussNewton(result, chi2_now, updated, clock);
   } else {
@@ -410,6 +416,10 @@ void Optimizer::gaussNewton(OptimizationResult& result, double& chi2_now, bool s
   // (optimize() assembled H unless it starts from an updated factor).
   bool hessian_current = !start_with_factor;
   while (result.iterations < params_.max_iterations) {
+    if (cancelled()) {
+      result.stop_reason = StopReason::kCancelled;
+      return;
+    }
     if (!reuse_factor) {
       if (!hessian_current) {
         assemble();
@@ -421,7 +431,7 @@ void Optimizer::gaussNewton(OptimizationResult& result, double& chi2_now, bool s
       covariance_valid_ = factorized;
       factor_valid_ = false;
       if (!factorized) {
-        result.stop_reason = StopReason::kSolverFailure;
+        result.stop_reason = StopReason::kSingular;
         return;
       }
       rememberFactoredState();
@@ -444,7 +454,10 @@ void Optimizer::gaussNewton(OptimizationResult& result, double& chi2_now, bool s
     const double chi2_next = assemble(false);
     timing.assemble_sec += secondsSince(clock);
     const double decrease = chi2_now - chi2_next;
-    if (!(decrease > 0.0) && (reuse_factor || decrease < -params_.relative_tolerance * chi2_now)) {
+    // A step to a non-finite chi2 is never taken.
+    if (!std::isfinite(chi2_next) ||
+        (!(decrease > 0.0) &&
+         (reuse_factor || decrease < -params_.relative_tolerance * chi2_now))) {
       poses_ = saved;
       chi2_now = assemble();
       hessian_current = true;
@@ -482,8 +495,12 @@ void Optimizer::levenbergMarquardt(OptimizationResult& result, double& chi2_now,
   double nu = 2.0;
   int attempts = 0;
   while (result.iterations < params_.max_iterations) {
+    if (cancelled()) {
+      result.stop_reason = StopReason::kCancelled;
+      return;
+    }
     if (++attempts > 10 * params_.max_iterations + 50 || lambda > 1e30) {
-      result.stop_reason = StopReason::kSolverFailure;
+      result.stop_reason = StopReason::kDiverged;
       return;
     }
     const Eigen::VectorXd damping = lambda * diagonal.cwiseMax(1e-12);

@@ -1,5 +1,6 @@
 #include "rrr_graphslam/ros/params.h"
 
+#include <algorithm>
 #include <cmath>
 #include <functional>
 #include <sstream>
@@ -25,6 +26,13 @@ class ParamReader {
       what << "must be " << requirement << ", got " << value;
       fail(name, what.str());
     }
+  }
+
+  // Reads `name` if set; the type must match (a number for an int or double, true/false for a
+  // bool); the range is checked by the caller.
+  template <class T>
+  void read(const std::string& name, T& value) {
+    if (nh_.hasParam(name) && !nh_.getParam(name, value)) fail(name, "has the wrong type");
   }
 
   void positive(const std::string& name, double& value) {
@@ -74,19 +82,30 @@ NodeParams loadParams(const ros::NodeHandle& private_nh) {
   r.positive("min_rotation_rad", p.keyframes.min_rotation_rad);
   r.vector3("odometry_stddev", p.odometry_stddev);
 
+  // RRR: the preset first, then every parameter of rrr_params.h under its own name, checked by
+  // the same validate() as the command-line tools.
   rrr::RrrParams& rrr = p.rrr.rrr;
-  r.read<double>(
-      "alpha", rrr.alpha, [](const double& a) { return a > 0.0 && a < 1.0; }, "in (0, 1)");
-  r.positive("cluster_gap", rrr.cluster_gap);
-  r.read<double>(
-      "batch_removal_fraction", rrr.batch_removal_fraction,
-      [](const double& f) { return f >= 0.0 && f <= 1.0; }, "in [0, 1]");
-  r.read<double>(
-      "recover_gate", rrr.recover_gate, [](const double& g) { return g >= 0.0; }, "non-negative");
-  r.positive("incremental_map_update_every", rrr.incremental_map_update_every);
-  r.read<int>(
-      "incremental_rebatch_every", rrr.incremental_rebatch_every,
-      [](const int& n) { return n >= 0; }, "non-negative (0: never)");
+  std::string preset = "default";
+  r.read<std::string>(
+      "preset", preset,
+      [](const std::string& name) {
+        const auto& names = rrr::presetNames();
+        return std::find(names.begin(), names.end(), name) != names.end();
+      },
+      "default or paper");
+  rrr::applyPreset(preset, rrr);
+  rrr::forEachParam(rrr,
+                    [&](const rrr::ParamInfo& info, auto& value) { r.read(info.name, value); });
+  try {
+    rrr::validate(rrr);
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument("parameter " + private_nh.resolveName("") + ": " + e.what());
+  }
+  if (rrr.cluster_gap <= 0) {
+    r.fail("cluster_gap",
+           "must be a positive number of nodes: the node cannot derive it from candidates "
+           "that have not arrived (only rrr_offline can)");
+  }
   r.positive("max_waiting_candidates", p.rrr.max_waiting_candidates);
 
   // Front end (slam mode).

@@ -2,6 +2,7 @@
 
 #include <Eigen/Dense>
 #include <algorithm>
+#include <cstdio>
 #include <deque>
 #include <map>
 
@@ -82,8 +83,23 @@ LinkResiduals fullGraphResiduals(VerificationGraph& graph, const std::vector<int
   return out;
 }
 
+std::string chi2Test(const char* statistic, double value, double alpha, int dof) {
+  const double threshold = core::chi2Quantile(alpha, dof);
+  char text[160];
+  std::snprintf(text, sizeof text, "%s %.4g %s chi2(%g, %d) %.4g", statistic, value,
+                value < threshold ? "<" : ">=", alpha, dof, threshold);
+  return text;
+}
+
+std::string indexTest(const char* name, double index, double limit) {
+  char text[96];
+  std::snprintf(text, sizeof text, "%s %.4g %s %g", name, index, index < limit ? "<" : ">=", limit);
+  return text;
+}
+
 IntraClusterResult intraClusterConsistency(const std::vector<int>& cluster, double alpha,
-                                           const ResidualFunction& residuals) {
+                                           const ResidualFunction& residuals,
+                                           bool worst_link_removal) {
   IntraClusterResult result;
   std::vector<int> links = cluster;
   const double link_threshold = core::chi2Quantile(alpha, 3);
@@ -91,15 +107,33 @@ IntraClusterResult intraClusterConsistency(const std::vector<int>& cluster, doub
     const LinkResiduals r = residuals(links);
     ++result.optimizations;
     const int dof = 3 * static_cast<int>(links.size());
-    if (r.total_chi2 < core::chi2Quantile(alpha, dof)) {
+    const double total = failIfNotFinite(r.total_chi2);
+    if (total < core::chi2Quantile(alpha, dof)) {
       for (std::size_t i = 0; i < links.size(); ++i) {
-        (r.link_chi2[i] < link_threshold ? result.kept : result.dropped).push_back(links[i]);
+        const double d2 = failIfNotFinite(r.link_chi2[i]);
+        if (d2 < link_threshold) {
+          result.kept.push_back(links[i]);
+        } else {
+          result.dropped.push_back(links[i]);
+          result.why_dropped.push_back(chi2Test("D2_l", d2, alpha, 3));
+        }
       }
       return result;
     }
-    const auto worst = static_cast<std::size_t>(
-        std::max_element(r.link_chi2.begin(), r.link_chi2.end()) - r.link_chi2.begin());
+    const std::string joint = chi2Test("D2_G", total, alpha, dof);
+    if (!worst_link_removal) {
+      result.dropped.insert(result.dropped.end(), links.begin(), links.end());
+      result.why_dropped.insert(result.why_dropped.end(), links.size(), joint);
+      return result;
+    }
+    std::vector<double> d2(links.size());
+    std::transform(r.link_chi2.begin(), r.link_chi2.end(), d2.begin(), failIfNotFinite);
+    const auto worst =
+        static_cast<std::size_t>(std::max_element(d2.begin(), d2.end()) - d2.begin());
+    char text[64];
+    std::snprintf(text, sizeof text, "worst link (D2_l %.4g) of a cluster with ", d2[worst]);
     result.dropped.push_back(links[worst]);
+    result.why_dropped.push_back(text + joint);
     links.erase(links.begin() + static_cast<long>(worst));
   }
   return result;
@@ -109,12 +143,17 @@ InterClusterResult interClusterConsistency(VerificationGraph& graph,
                                            const std::vector<std::vector<int>>& cluster_links,
                                            const std::vector<int>& clusters,
                                            const std::vector<core::Pose2>& start, double alpha,
-                                           double batch_fraction, bool restart) {
+                                           double batch_fraction, bool restart,
+                                           const std::vector<int>& kept_anyway) {
   InterClusterResult result;
   std::vector<int> active = clusters;
   core::Optimizer& opt = graph.optimizer();
   opt.setPoses(start);
-  while (true) {
+  auto removable = [&](int c) {
+    return !std::binary_search(kept_anyway.begin(), kept_anyway.end(), c);
+  };
+  // Each round removes at least one cluster, so there are at most clusters.size() + 1 rounds.
+  for (std::size_t round = 0; round <= clusters.size(); ++round) {
     std::vector<int> links;
     for (int c : active) {
       const auto& l = cluster_links[static_cast<std::size_t>(c)];
@@ -127,6 +166,9 @@ InterClusterResult interClusterConsistency(VerificationGraph& graph,
     if (restart && result.optimizations > 0) opt.setPoses(start);
     const core::OptimizationResult r = opt.optimize();
     ++result.optimizations;
+    result.stop = r.stop_reason;
+    result.chi2 = failIfNotFinite(opt.chi2());
+    result.dof = 3 * static_cast<int>(links.size());
     if (active.empty()) break;
 
     std::vector<double> index(active.size());
@@ -134,23 +176,42 @@ InterClusterResult interClusterConsistency(VerificationGraph& graph,
       const auto& l = cluster_links[static_cast<std::size_t>(active[i])];
       double d2 = 0.0;
       for (int k : l) d2 += opt.constraintChi2(graph.candidate(k).constraint);
-      index[i] = d2 / core::chi2Quantile(alpha, 3 * static_cast<int>(l.size()));
+      index[i] = failIfNotFinite(d2 / core::chi2Quantile(alpha, 3 * static_cast<int>(l.size())));
     }
-    const double worst = *std::max_element(index.begin(), index.end());
-    const bool joint_ok =
-        opt.chi2() < core::chi2Quantile(alpha, 3 * static_cast<int>(links.size()));
-    if (joint_ok && worst < 1.0) break;
+    double worst = 0.0;  // of the removable clusters
+    bool any_removable = false;
+    for (std::size_t i = 0; i < active.size(); ++i) {
+      if (!removable(active[i])) continue;
+      worst = any_removable ? std::max(worst, index[i]) : index[i];
+      any_removable = true;
+    }
+    const bool joint_ok = result.chi2 < core::chi2Quantile(alpha, result.dof);
+    if ((joint_ok && worst < 1.0) || !any_removable) {
+      result.consistent_index = index;
+      break;
+    }
 
     // Remove the worst cluster and those nearly as bad; with every index below 1 (only the
     // joint test failed) that is the worst alone.
     const double threshold = worst < 1.0 ? worst : std::max(1.0, batch_fraction * worst);
+    std::string joint = chi2Test("D2_G", result.chi2, alpha, result.dof);
+    if (r.stop_reason != core::StopReason::kConverged)
+      joint += " (optimizer: " + core::toString(r.stop_reason) + ")";
     std::vector<int> keep;
     for (std::size_t i = 0; i < active.size(); ++i) {
-      (index[i] >= threshold ? result.removed : keep).push_back(active[i]);
+      if (index[i] >= threshold && removable(active[i])) {
+        result.removed.push_back(active[i]);
+        result.why_removed.push_back(index[i] >= 1.0
+                                         ? indexTest("CI", index[i]) + ", " + joint
+                                         : joint + ", worst " + indexTest("CI", index[i]));
+      } else {
+        keep.push_back(active[i]);
+      }
     }
     active.swap(keep);
   }
   result.consistent = active;
+  result.consistent_index.resize(active.size(), 0.0);  // the empty set's last round
   return result;
 }
 

@@ -1,5 +1,6 @@
 #include "rrr_graphslam/rrr/decisions_io.h"
 
+#include <algorithm>
 #include <ostream>
 
 #include "rrr_graphslam/core/text_file.h"
@@ -8,10 +9,13 @@ namespace rrr_graphslam::rrr {
 
 void writeDecisions(const std::string& path, const std::vector<DecisionRow>& rows) {
   core::writeFileAtomically(path, [&](std::ostream& out) {
-    out << "from\tto\tcluster\tverdict\n";
+    out << "from\tto\tcluster\tverdict\treason\n";
     for (const DecisionRow& row : rows) {
+      std::string reason = row.reason;
+      std::replace_if(
+          reason.begin(), reason.end(), [](char c) { return c == '\t' || c == '\n'; }, ' ');
       out << row.from << '\t' << row.to << '\t' << row.cluster << '\t' << toString(row.verdict)
-          << '\n';
+          << '\t' << reason << '\n';
     }
   });
 }

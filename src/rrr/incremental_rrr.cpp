@@ -92,7 +92,8 @@ std::vector<std::vector<int>> byNewestEnd(int num_nodes, const std::vector<Candi
 
 RrrSummary runIncrementalRrr(VerificationGraph& graph, const RrrParams& params,
                              std::vector<Verdict>& verdicts, std::vector<int>& cluster_of,
-                             const ProgressFunction& progress, std::vector<double>* latencies_sec) {
+                             const ProgressFunction& progress, std::vector<double>* latencies_sec,
+                             std::vector<std::string>* reasons) {
   const auto start = std::chrono::steady_clock::now();
   RrrSummary summary;
   summary.candidates = graph.numCandidates();
@@ -150,14 +151,18 @@ RrrSummary runIncrementalRrr(VerificationGraph& graph, const RrrParams& params,
 
   std::vector<Verdict> robot_verdicts;
   std::vector<int> robot_clusters;
-  collectVerdicts(incremental.rrr(), start, robot_verdicts, robot_clusters, summary);
+  std::vector<std::string> robot_reasons;
+  collectVerdicts(incremental.rrr(), start, robot_verdicts, robot_clusters, summary,
+                  &robot_reasons);
   verdicts.assign(arrival.size(), Verdict::kPending);
   cluster_of.assign(arrival.size(), -1);
+  if (reasons != nullptr) reasons->assign(arrival.size(), std::string());
   std::vector<int> accepted;
   for (std::size_t i = 0; i < arrival.size(); ++i) {
     const auto k = static_cast<std::size_t>(arrival[i]);
     verdicts[k] = robot_verdicts[i];
     cluster_of[k] = robot_clusters[i];
+    if (reasons != nullptr) (*reasons)[k] = robot_reasons[i];
     if (verdicts[k] == Verdict::kAccepted) accepted.push_back(arrival[i]);
   }
   // As after batch RRR: the graph's optimizer holds odometry + the accepted loops, optimized.

@@ -180,34 +180,9 @@ void OnlineRrr::collectChanges() {
     const LoopCandidate& c = candidate(k);
     changes_.push_back({k, nodeIds()[static_cast<std::size_t>(c.from)],
                         nodeIds()[static_cast<std::size_t>(c.to)], rrr.clusterOf(k), now, before,
-                        reason(k, now, before)});
+                        rrr.reason(k)});
     before = now;
   }
-}
-
-std::string OnlineRrr::reason(int k, Verdict verdict, Verdict previous) const {
-  const std::string cluster = "cluster " + std::to_string(incremental_.rrr().clusterOf(k));
-  switch (verdict) {
-    case Verdict::kAccepted:
-      return previous == Verdict::kRejected
-                 ? "recovered: " + cluster + " is consistent with the accepted clusters now"
-                 : "realized: " + cluster + " is consistent on its own and with the accepted " +
-                       "clusters";
-    case Verdict::kRejected:
-      if (!incremental_.rrr().passedIntraTest(k)) {
-        return "intra-cluster: the link is inconsistent with the rest of " + cluster;
-      }
-      if (incremental_.rrr().droppedByJointLinkCheck(k)) {
-        return "joint link check: the link of " + cluster +
-               " is inconsistent with the map of the accepted clusters";
-      }
-      return previous == Verdict::kAccepted
-                 ? "reversed: " + cluster + " conflicts with the accepted clusters"
-                 : "inter-cluster: " + cluster + " is inconsistent with the accepted clusters";
-    case Verdict::kPending:
-      break;
-  }
-  return cluster + " awaits a joint decision";
 }
 
 std::vector<DecisionChange> OnlineRrr::takeChanges() {
@@ -274,7 +249,7 @@ std::vector<DecisionRow> OnlineRrr::decisionRows() const {
   for (int k = 0; k < numCandidates(); ++k) {
     const LoopCandidate& c = candidate(k);
     rows.push_back({ids[static_cast<std::size_t>(c.from)], ids[static_cast<std::size_t>(c.to)],
-                    incremental_.rrr().clusterOf(k), verdict(k)});
+                    incremental_.rrr().clusterOf(k), verdict(k), incremental_.rrr().reason(k)});
   }
   return rows;
 }

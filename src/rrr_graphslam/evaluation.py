@@ -19,6 +19,9 @@ import numpy as np
 from .graph_io import GraphFileError, Pose, open_text, read_graph, tagged_lines
 
 DECISION_HEADER = ["from", "to", "cluster", "verdict"]
+# The fifth column, the step of RRR that decided and its statistic; files written before it
+# existed have four.
+REASON_COLUMN = "reason"
 VERDICTS = ("accepted", "rejected", "pending")
 
 
@@ -28,6 +31,7 @@ class Decision:
     target: int
     cluster: int
     verdict: str
+    reason: str = ""
 
 
 @dataclass
@@ -55,14 +59,18 @@ def read_decisions(path: str) -> List[Decision]:
     decisions = []
     with open_text(path) as f:
         header = f.readline().rstrip("\n").split("\t")
-        if header != DECISION_HEADER:
-            raise GraphFileError(path, 1, f"header must be '{chr(9).join(DECISION_HEADER)}'")
+        if header not in (DECISION_HEADER, DECISION_HEADER + [REASON_COLUMN]):
+            raise GraphFileError(path, 1, f"header must be '{chr(9).join(DECISION_HEADER)}' "
+                                          f"(+ '{chr(9)}{REASON_COLUMN}')")
+        columns = len(header)
         for number, line in enumerate(f, start=2):
             fields = line.rstrip("\n").split("\t")
-            if len(fields) != 4:
-                raise GraphFileError(path, number, f"expected 4 tab-separated fields, found {len(fields)}")
+            if len(fields) != columns:
+                raise GraphFileError(path, number,
+                                     f"expected {columns} tab-separated fields, found {len(fields)}")
             try:
-                d = Decision(int(fields[0]), int(fields[1]), int(fields[2]), fields[3])
+                d = Decision(int(fields[0]), int(fields[1]), int(fields[2]), fields[3],
+                             fields[4] if columns == 5 else "")
             except ValueError:
                 raise GraphFileError(path, number, "from, to and cluster must be integers") from None
             if d.verdict not in VERDICTS:

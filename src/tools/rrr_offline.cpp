@@ -1,5 +1,5 @@
 // rrr_offline INPUT [--decisions DECISIONS.tsv] [--output OPTIMIZED.g2o]
-//             [--mode batch|incremental] [--alpha 0.95] [--cluster-gap N] ...
+//             [--mode batch|incremental] [--preset paper|default] [--alpha 0.95] ...
 // Decides which loop candidates of a pose graph are real (RRR) and writes the decisions and the
 // graph optimized with the accepted loops.
 
@@ -17,6 +17,7 @@
 #include "rrr_graphslam/rrr/decisions_io.h"
 #include "rrr_graphslam/rrr/incremental_rrr.h"
 #include "rrr_graphslam/rrr/rrr.h"
+#include "rrr_params_cli.h"
 
 namespace {
 
@@ -24,35 +25,25 @@ namespace tools = rrr_graphslam::tools;
 namespace core = rrr_graphslam::core;
 namespace rrr = rrr_graphslam::rrr;
 
-const char* const kUsage =
-    "usage: rrr_offline INPUT [--decisions DECISIONS.tsv] [--output OPTIMIZED.g2o]\n"
-    "                   [--mode batch|incremental] [--alpha 0.95] [--cluster-gap N]\n"
-    "                   [--batch-removal-fraction F] [--recover-gate G] [--full-intra]\n"
-    "                   [--keep-mixed-clusters] [--far-retry-min-links N]\n"
-    "                   [--fresh-factorizations] [--rebatch-every N] [--no-joint-link-check]\n"
-    "                   [--quiet]\n"
-    "  INPUT            g2o or TORO pose graph (.gz allowed); edges with |from-to| != 1 are\n"
-    "                   loop candidates, the others trusted odometry\n"
-    "  --decisions      TSV with header 'from to cluster verdict', one row per candidate\n"
-    "  --output         the graph with odometry and accepted loops, optimized\n"
-    "  --mode           batch (default) or incremental (candidates fed in node order)\n"
-    "  --alpha          confidence of the chi-square tests (default 0.95)\n"
-    "  --cluster-gap    nodes; default derived from the candidates\n"
-    "  --batch-removal-fraction   inter-cluster removal batch (default 0.5; 1 = one at a time)\n"
-    "  --recover-gate   consistency index below which rejected clusters are retried (default 10)\n"
-    "  --full-intra     intra-cluster tests on the whole graph (slow reference) instead of the\n"
-    "                   reduced graph\n"
-    "  --keep-mixed-clusters  a cluster failing its intra test loses its worst links until the\n"
-    "                   rest passes, instead of being split into pairwise consistent sets\n"
-    "  --far-retry-min-links N  rejected clusters of at least N links far from the good map are\n"
-    "                   tested once more with the good set (default 10; 0: never)\n"
-    "  --fresh-factorizations  incremental joint tests factorize afresh instead of updating the\n"
-    "                   good set's factor by rank updates (slower reference)\n"
-    "  --rebatch-every N  incremental: the closed clusters are decided from scratch each time the\n"
-    "                   replay passes a multiple of N nodes (default 1000; 0: only at the end)\n"
-    "  --no-joint-link-check  keep links of good clusters that fail the per-link test at the\n"
-    "                   good set's joint solution (by default they are dropped)\n"
-    "  --quiet          no progress line\n";
+const std::string& usage() {
+  static const std::string text =
+      "usage: rrr_offline INPUT [--decisions DECISIONS.tsv] [--output OPTIMIZED.g2o]\n"
+      "                   [--mode batch|incremental] [--preset paper|default] [--PARAMETER V ...]\n"
+      "                   [--quiet]\n"
+      "  INPUT            g2o or TORO pose graph (.gz allowed); edges with |from-to| != 1 are\n"
+      "                   loop candidates, the others trusted odometry\n"
+      "  --decisions      TSV with header 'from to cluster verdict reason', one row per candidate\n"
+      "  --output         the graph with odometry and accepted loops, optimized\n"
+      "  --mode           batch (default) or incremental (candidates fed in node order)\n"
+      "  --quiet          no progress line\n"
+      "RRR's parameters (the same names as the ROS parameters, with dashes):\n" +
+      tools::rrrParamsUsage() +
+      "Shorthands: --full-intra (--reduced-intra-graph false), --keep-mixed-clusters\n"
+      "  (--split-mixed-clusters false), --fresh-factorizations (--incremental-factor-updates\n"
+      "  false), --rebatch-every N (--incremental-rebatch-every N), --no-joint-link-check\n"
+      "  (--joint-link-check false).\n";
+  return text;
+}
 
 struct Arguments {
   std::string input;
@@ -64,8 +55,9 @@ struct Arguments {
 };
 
 Arguments parseArguments(int argc, char** argv) {
-  const tools::CommandLine cli(argc, argv, "rrr_offline", kUsage);
+  const tools::CommandLine cli(argc, argv, "rrr_offline", usage().c_str());
   Arguments args;
+  tools::applyPresetArgument(cli, argc, argv, args.params);
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--decisions") {
@@ -76,18 +68,10 @@ Arguments parseArguments(int argc, char** argv) {
       const std::string m = cli.value(i, a);
       if (m != "batch" && m != "incremental") cli.fail("--mode must be batch or incremental");
       args.incremental = m == "incremental";
-    } else if (a == "--alpha") {
-      args.params.alpha = cli.number(a, cli.value(i, a), 1e-6, 1.0 - 1e-9);
-    } else if (a == "--cluster-gap") {
-      args.params.cluster_gap = static_cast<int>(cli.number(a, cli.value(i, a), 1, 1e6));
-    } else if (a == "--batch-removal-fraction") {
-      args.params.batch_removal_fraction = cli.number(a, cli.value(i, a), 0.0, 1.0);
-    } else if (a == "--recover-gate") {
-      args.params.recover_gate = cli.number(a, cli.value(i, a), 0.0, 1e12);
+    } else if (tools::readRrrParam(cli, i, argv, args.params)) {
+      continue;
     } else if (a == "--full-intra") {
       args.params.reduced_intra_graph = false;
-    } else if (a == "--far-retry-min-links") {
-      args.params.far_retry_min_links = static_cast<int>(cli.number(a, cli.value(i, a), 0, 1e9));
     } else if (a == "--keep-mixed-clusters") {
       args.params.split_mixed_clusters = false;
     } else if (a == "--fresh-factorizations") {
@@ -129,12 +113,13 @@ int main(int argc, char** argv) {
     std::vector<int> cluster_of;
     rrr::RrrSummary summary;
     std::vector<double> latencies;
+    std::vector<std::string> reasons;
     if (args.incremental) {
       summary = rrr::runIncrementalRrr(verification, args.params, verdicts, cluster_of,
-                                       terminalProgress(args.quiet), &latencies);
+                                       terminalProgress(args.quiet), &latencies, &reasons);
     } else {
       summary = rrr::runBatchRrr(verification, args.params, verdicts, cluster_of,
-                                 terminalProgress(args.quiet));
+                                 terminalProgress(args.quiet), &reasons);
     }
 
     std::printf("input          %s: %zu nodes, %zu edges\n", args.input.c_str(), graph.numNodes(),
@@ -166,7 +151,7 @@ int main(int argc, char** argv) {
       for (int k = 0; k < verification.numCandidates(); ++k) {
         const auto& edge = graph.edge(verification.candidate(k).edge);
         const auto i = static_cast<std::size_t>(k);
-        rows.push_back({edge.from, edge.to, cluster_of[i], verdicts[i]});
+        rows.push_back({edge.from, edge.to, cluster_of[i], verdicts[i], reasons[i]});
       }
       rrr::writeDecisions(args.decisions, rows);
       std::printf("decisions      %s\n", args.decisions.c_str());

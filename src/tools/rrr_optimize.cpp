@@ -1,7 +1,9 @@
 // rrr_optimize INPUT --output OUTPUT.g2o [--method gn|lm] [--max-iterations N]
-// Optimizes a g2o/TORO pose graph with every edge trusted and writes the optimized graph.
+// Optimizes a g2o/TORO pose graph with every edge trusted and writes the optimized graph. Exits 1,
+// writing nothing, when the optimization does not converge (the stop reason is printed).
 
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
@@ -24,7 +26,7 @@ const char* const kUsage =
     "  INPUT            g2o (VERTEX_SE2/EDGE_SE2) or TORO (VERTEX2/EDGE2) file, .gz allowed\n"
     "  --output FILE    optimized graph; TORO if it ends in .graph or .toro, g2o otherwise\n"
     "  --method gn|lm   Gauss-Newton (default) or Levenberg-Marquardt\n"
-    "  --max-iterations N   default 50\n"
+    "  --max-iterations N   default 50; 0 writes the start poses unoptimized\n"
     "  --init auto|file|lago  start from the file's poses or from the linear (LAGO) estimate;\n"
     "                   auto (default): LAGO when the file's poses are far from a minimum (chi2\n"
     "                   above 100 per constraint)\n"
@@ -111,10 +113,28 @@ int main(int argc, char** argv) {
                 init_sec + result.time_sec, init_sec, result.time_sec);
     std::printf("stop reason    %s\n", core::toString(result.stop_reason).c_str());
 
+    // Only a minimum is written (or, with --max-iterations 0, the start as asked): a run that did
+    // not converge, or poses that are not finite, are an error and leave no file.
+    const bool asked_no_steps = args.params.max_iterations == 0;
+    if (!result.converged() && !asked_no_steps) {
+      std::cerr << "rrr_optimize: " << args.input << ": the optimization did not converge ("
+                << core::toString(result.stop_reason) << ", chi2 " << result.final_chi2
+                << "); nothing written\n";
+      return 1;
+    }
+    for (int n = 0; n < optimizer.numNodes(); ++n) {
+      const core::Pose2& p = optimizer.poses()[static_cast<std::size_t>(n)];
+      if (!p.allFinite()) {
+        std::cerr << "rrr_optimize: " << args.input << ": node "
+                  << graph.nodeIds()[static_cast<std::size_t>(n)]
+                  << " has a non-finite pose after the optimization; nothing written\n";
+        return 1;
+      }
+    }
     core::copyPosesToGraph(optimizer, graph);
     core::writePoseGraph(graph, args.output);
     std::printf("output         %s\n", args.output.c_str());
-    return result.stop_reason == core::StopReason::kSolverFailure ? 1 : 0;
+    return 0;
   } catch (const std::exception& e) {
     std::cerr << "rrr_optimize: " << e.what() << "\n";
     return 1;

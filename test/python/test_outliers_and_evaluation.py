@@ -146,6 +146,13 @@ def test_decisions_file_is_checked(tmp_path):
     path.write_text("a\tb\n")
     with pytest.raises(GraphFileError):
         read_decisions(str(path))
+    # The reason column: read when the header names it, and then required on every row.
+    path.write_text("from\tto\tcluster\tverdict\treason\n1\t5\t0\taccepted\trealize: CI 0.1 < 1\n")
+    assert read_decisions(str(path))[0].reason == "realize: CI 0.1 < 1"
+    path.write_text("from\tto\tcluster\tverdict\treason\n1\t5\t0\taccepted\n")
+    with pytest.raises(GraphFileError) as error:
+        read_decisions(str(path))
+    assert error.value.line == 2
 
 
 def test_ate_is_zero_after_a_rigid_motion_and_alignment_recovers_it():

@@ -39,8 +39,14 @@ def test_offline_writes_decisions_and_the_accepted_graph(spoiled):
     assert result.returncode == 0, result.stderr
     assert "candidates     945" in result.stdout
     header = decisions.read_text().splitlines()[0]
-    assert header == "from\tto\tcluster\tverdict"
+    assert header == "from\tto\tcluster\tverdict\treason"
     rows = read_decisions(str(decisions))
+    # Every decision names the step that made it.
+    steps = ("intra-cluster: ", "robust ordering: ", "realize: ", "recover: ", "reverse: ",
+             "far retry: ", "leave-one-out: ", "joint link check: ")
+    assert all(d.reason.startswith(steps) for d in rows), {d.reason for d in rows}
+    assert all(d.reason.startswith(("realize: CI ", "recover: CI ", "far retry: "))
+               for d in rows if d.verdict == "accepted")
     graph = read_graph(str(path))
     assert [(d.source, d.target) for d in rows] == [(e.source, e.target) for e in graph.loops()]
     s = score(rows, read_truth(str(folder / "truth"), rows))
@@ -49,6 +55,25 @@ def test_offline_writes_decisions_and_the_accepted_graph(spoiled):
     accepted = sum(d.verdict == "accepted" for d in rows)
     assert len(out.loops()) == accepted
     assert out.poses != graph.poses  # optimized, not the initial guess
+
+
+@needs_binaries
+def test_paper_preset_and_parameter_flags(spoiled):
+    folder, path = spoiled
+    decisions = folder / "paper.tsv"
+    result = run(OFFLINE, path, "--decisions", decisions, "--preset", "paper", "--quiet")
+    assert result.returncode == 0, result.stderr
+    rows = read_decisions(str(decisions))
+    assert not any(d.reason.startswith(("robust ordering", "far retry", "leave-one-out",
+                                        "joint link check")) for d in rows)
+    # A bad value: the parameter named with its range, exit 2.
+    result = run(OFFLINE, path, "--alpha", "1.5")
+    assert result.returncode == 2
+    assert "alpha = 1.5 is out of range: must be in [" in result.stderr
+    result = run(OFFLINE, path, "--joint-link-check", "maybe")
+    assert result.returncode == 2 and "--joint-link-check must be true or false" in result.stderr
+    result = run(OFFLINE, path, "--preset", "papers")
+    assert result.returncode == 2 and "preset must be default or paper" in result.stderr
 
 
 @needs_binaries

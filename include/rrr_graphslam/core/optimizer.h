@@ -17,7 +17,9 @@
 // Gauss-Newton hands over to Levenberg-Marquardt when a full step raises chi2.
 // Not thread-safe: one thread per Optimizer.
 
+#include <atomic>
 #include <chrono>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -66,10 +68,15 @@ struct OptimizerParams {
   bool compute_constraint_chi2 = false;
 };
 
+/// Why optimize() stopped. Only kConverged (and kNoVariables) leave a minimum in poses(); every
+/// caller handles the others deliberately (RRR: a chi2 test passed at the poses reached still
+/// holds, since the minimum is lower; a failed one is conservative; rrr_optimize: an error).
 enum class StopReason {
   kConverged,      ///< chi2 or step below tolerance
-  kMaxIterations,  ///< max_iterations reached
-  kSolverFailure,  ///< the normal matrix was not positive definite (GN), or LM damping exploded
+  kMaxIterations,  ///< max_iterations reached first
+  kSingular,       ///< Gauss-Newton: the normal matrix is not positive definite
+  kDiverged,       ///< chi2 not finite, or Levenberg-Marquardt's damping grew without a step
+  kCancelled,      ///< the cancel flag (setCancelFlag) was raised
   kNoVariables,    ///< every node is fixed
 };
 
@@ -83,6 +90,11 @@ struct OptimizationResult {
   double final_chi2 = 0.0;
   double time_sec = 0.0;
   StopReason stop_reason = StopReason::kConverged;
+  /// At a minimum: converged (or nothing to optimize) with a finite chi2.
+  bool converged() const {
+    return (stop_reason == StopReason::kConverged || stop_reason == StopReason::kNoVariables) &&
+           final_chi2 == final_chi2 && final_chi2 < std::numeric_limits<double>::infinity();
+  }
   /// Per constraint (active or not) at the final poses, if compute_constraint_chi2.
   std::vector<double> constraint_chi2;
   /// Where time_sec went (seconds): pattern + ordering, building H, factorizations, solves.
@@ -144,8 +156,12 @@ class Optimizer {
   /// e^T Omega e of one constraint at the current poses, whether active or not.
   double constraintChi2(int constraint) const;
 
-  /// Iterates from the current poses and leaves the result in poses().
+  /// Iterates from the current poses and leaves the result in poses() (the last poses with a
+  /// finite chi2: a step that makes it NaN is not taken).
   OptimizationResult optimize();
+  /// optimize() checks `*flag` before each step and stops with kCancelled when it is set (from
+  /// another thread); nullptr (default) disables. The flag must outlive its use.
+  void setCancelFlag(const std::atomic<bool>* flag) { cancel_ = flag; }
 
   /// True when the last factorization was an undamped Gauss-Newton one of the current active
   /// set, so that covariance() describes the current estimate (to first order). Nodes added since
@@ -199,7 +215,10 @@ class Optimizer {
   // Marginal covariance of factored nodes, read from the factor.
   Eigen::MatrixXd factorCovariance(const std::vector<int>& nodes) const;
 
+  bool cancelled() const { return cancel_ != nullptr && cancel_->load(); }
+
   OptimizerParams params_;
+  const std::atomic<bool>* cancel_ = nullptr;
   std::vector<Pose2> poses_;
   std::vector<Constraint> constraints_;
   std::vector<char> active_;

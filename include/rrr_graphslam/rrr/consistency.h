@@ -7,6 +7,8 @@
 // 3 * all their links; the residual D^2 of a set is the optimized chi2 of odometry + those links.
 
 #include <functional>
+#include <limits>
+#include <string>
 #include <vector>
 
 #include "rrr_graphslam/core/optimizer.h"
@@ -30,24 +32,45 @@ LinkResiduals reducedGraphResiduals(const VerificationGraph& graph, const std::v
 /// initial poses. Leaves the graph's optimizer in that state.
 LinkResiduals fullGraphResiduals(VerificationGraph& graph, const std::vector<int>& links);
 
+/// A chi-square test as a decision states it: "D2_l 9.12 >= chi2(0.95, 3) 7.81". A statistic that
+/// is not finite fails (and reads "nan" or "inf").
+std::string chi2Test(const char* statistic, double value, double alpha, int dof);
+/// A consistency index against its limit: "CI 1.52 >= 1".
+std::string indexTest(const char* name, double index, double limit = 1.0);
+/// Non-finite statistics count as failing every test: NaN becomes +infinity.
+inline double failIfNotFinite(double statistic) {
+  return statistic == statistic ? statistic : std::numeric_limits<double>::infinity();
+}
+
 struct IntraClusterResult {
-  std::vector<int> kept;     ///< links that survive, in the cluster's order
-  std::vector<int> dropped;  ///< links removed, in removal order
+  std::vector<int> kept;                 ///< links that survive, in the cluster's order
+  std::vector<int> dropped;              ///< links removed, in removal order
+  std::vector<std::string> why_dropped;  ///< per dropped link: the test it failed
   int optimizations = 0;
 };
 
 using ResidualFunction = std::function<LinkResiduals(const std::vector<int>& links)>;
 
-/// Intra-cluster consistency (the paper's Algorithm 1), with one change: a cluster whose D^2_G
-/// fails chi2(alpha, dof_G) is not dropped whole; its worst link goes and the rest is tested
-/// again, so a cluster mixing true and false links keeps the true ones. Once D^2_G passes,
-/// links with D^2_l >= chi2(alpha, 3) are dropped as in the paper.
+/// Intra-cluster consistency (the paper's Algorithm 1): odometry + the cluster's links are
+/// optimized; if D^2_G < chi2(alpha, dof_G), links with D^2_l >= chi2(alpha, 3) are dropped and
+/// the rest kept; otherwise the cluster fails whole. With `worst_link_removal`
+/// (RrrParams::intra_worst_link_removal) a failing cluster loses only its worst link and the rest
+/// is tested again, so a cluster mixing true and false links keeps the true ones.
 IntraClusterResult intraClusterConsistency(const std::vector<int>& cluster, double alpha,
-                                           const ResidualFunction& residuals);
+                                           const ResidualFunction& residuals,
+                                           bool worst_link_removal = true);
 
 struct InterClusterResult {
-  std::vector<int> consistent;  ///< cluster ids jointly consistent, in the given order
-  std::vector<int> removed;     ///< cluster ids removed, in removal order
+  std::vector<int> consistent;           ///< cluster ids jointly consistent, in the given order
+  std::vector<double> consistent_index;  ///< their consistency indices at the solution
+  std::vector<int> removed;              ///< cluster ids removed, in removal order
+  std::vector<std::string> why_removed;  ///< per removed cluster: the test of its round
+  double chi2 = 0.0;                     ///< D^2_G of the consistent set's solution
+  int dof = 0;                           ///< its degrees of freedom (3 per link)
+  /// How the consistent set's optimization ended. Not converged: the tests were made at the
+  /// poses it reached, whose chi2 is above the minimum's, so a pass still holds and a failure is
+  /// conservative.
+  core::StopReason stop = core::StopReason::kConverged;
   int optimizations = 0;
 };
 
@@ -56,14 +79,17 @@ struct InterClusterResult {
 /// some cluster's consistency index D^2_C / chi2(alpha, dof_C) >= 1) removes the cluster with
 /// the highest index, together with every cluster whose index is at least
 /// `batch_fraction` * the highest (1.0 removes one at a time, as in the paper; removed clusters
-/// get another chance in RRR's recover step). With `restart` every round starts again from
-/// `start`, otherwise from the previous round's solution. On return the graph's optimizer holds
-/// the solution of the consistent set.
+/// get another chance in RRR's recover step). Clusters listed in `kept_anyway` (sorted) are
+/// never removed, only the others (the paper's hypotheses); the loop ends when nothing else can
+/// go. With `restart` every round starts again from `start`, otherwise from the previous round's
+/// solution. A non-finite index counts as infinite (the cluster goes). At most one round per
+/// cluster. On return the graph's optimizer holds the solution of the consistent set.
 InterClusterResult interClusterConsistency(VerificationGraph& graph,
                                            const std::vector<std::vector<int>>& cluster_links,
                                            const std::vector<int>& clusters,
                                            const std::vector<core::Pose2>& start, double alpha,
-                                           double batch_fraction, bool restart = false);
+                                           double batch_fraction, bool restart = false,
+                                           const std::vector<int>& kept_anyway = {});
 
 }  // namespace rrr_graphslam::rrr
 

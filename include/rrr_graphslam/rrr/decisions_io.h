@@ -1,8 +1,10 @@
 #pragma once
 // DECISIONS.tsv, the decision table the tools, the node's ~save and the evaluation scripts share:
-// a header line "from<TAB>to<TAB>cluster<TAB>verdict", then one row per loop candidate in input
-// order (cluster -1 while the candidate is in no closed cluster; verdict accepted, rejected or
-// pending).
+// a header line "from<TAB>to<TAB>cluster<TAB>verdict<TAB>reason", then one row per loop candidate
+// in input order (cluster -1 while the candidate is in no closed cluster; verdict accepted,
+// rejected or pending; reason: the step of RRR that decided and its statistic against its
+// threshold, without tabs). Readers take the first four columns; the fifth may be absent in
+// files written before it existed.
 
 #include <string>
 #include <vector>
@@ -17,6 +19,7 @@ struct DecisionRow {
   core::PoseGraph::NodeId to;
   int cluster;
   Verdict verdict;
+  std::string reason;
 };
 
 /// Writes the table atomically (temp file + rename); throws std::runtime_error naming the path.

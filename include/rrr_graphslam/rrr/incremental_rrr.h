@@ -9,6 +9,7 @@
 // closes the rest and decides every cluster again from the initial estimate (realize, reverse,
 // recover): the batch decision, whatever order the candidates came in.
 
+#include <string>
 #include <vector>
 
 #include "rrr_graphslam/rrr/rrr.h"
@@ -66,6 +67,7 @@ std::vector<std::vector<int>> byNewestEnd(int num_nodes, const std::vector<Candi
 RrrSummary runIncrementalRrr(VerificationGraph& graph, const RrrParams& params,
                              std::vector<Verdict>& verdicts, std::vector<int>& cluster_of,
                              const ProgressFunction& progress = {},
-                             std::vector<double>* latencies_sec = nullptr);
+                             std::vector<double>* latencies_sec = nullptr,
+                             std::vector<std::string>* reasons = nullptr);
 
 }  // namespace rrr_graphslam::rrr

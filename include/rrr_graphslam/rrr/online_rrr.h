@@ -49,7 +49,7 @@ struct DecisionChange {
   int cluster;  ///< -1 while the candidate's cluster is open
   Verdict verdict;
   Verdict previous;
-  std::string reason;  ///< which step of RRR decided, in the paper's words
+  std::string reason;  ///< the step of RRR that decided, and its statistic (Rrr::reason)
 };
 
 /// Counts for status displays.
@@ -155,7 +155,6 @@ class OnlineRrr {
                        const Eigen::Matrix3d& information);
   void admitWaitingCandidates();
   void collectChanges();
-  std::string reason(int candidate, Verdict verdict, Verdict previous) const;
 
   OnlineRrrParams params_;
   VerificationGraph graph_;

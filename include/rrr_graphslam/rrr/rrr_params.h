@@ -1,0 +1,183 @@
+#pragma once
+// RRR's parameters: one definition of each (name, default, range, doc line) in forEachParam(),
+// which rrr_offline (--name-with-dashes), the ROS nodelet (~name) and config/rrr_graphslam.yaml
+// all follow, and one validate() whose message every entry point prints.
+//
+// The published algorithm (Latif, Cadena, Neira, IJRR 2013) is the `paper` preset: every addition
+// below switched off. `default` switches them on; doc/rrr_extensions.md gives, for each, the
+// failure it fixes and the measurement behind it.
+
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "rrr_graphslam/core/optimizer.h"
+
+namespace rrr_graphslam::rrr {
+
+struct RrrParams {
+  // --- The paper's parameters.
+  /// Confidence of every chi-square test; default 0.95 (the paper's).
+  double alpha = 0.95;
+  /// Clustering gap in nodes (the paper's t_g); default 0 = derived from the candidates
+  /// (deriveClusterGap).
+  int cluster_gap = 0;
+  /// Realize/reverse/recover rounds per decision, at most; default 50.
+  int max_rounds = 50;
+
+  // --- Additions to the intra-cluster test (Algorithm 1).
+  /// Intra tests on the reduced graph (only the nodes the links touch, joined by compounded
+  /// odometry) instead of the whole graph; default true (paper: the whole graph).
+  bool reduced_intra_graph = true;
+  /// A cluster whose joint test fails loses its worst link and is tested again, instead of
+  /// failing whole; default true.
+  bool intra_worst_link_removal = true;
+  /// A cluster that fails its intra test as a whole is split into sets of pairwise consistent
+  /// links (pairwise_consistency.h), each a cluster of its own; default true.
+  bool split_mixed_clusters = true;
+
+  // --- Additions to realize / reverse / recover (Algorithms 2 and 3).
+  /// A batch decision tests first the clusters that agree with a robust (DCS) map and sends the
+  /// others to the recover step; default true (paper: every candidate cluster at once).
+  bool robust_ordering = true;
+  /// Dynamic Covariance Scaling parameter of that robust map; default 1.
+  double dcs_phi = 1.0;
+  /// Joint tests start from the good set's map (recover rounds) and each removal round goes on
+  /// from the previous round's solution; default true (paper: every optimization starts from the
+  /// initial estimate).
+  bool warm_start = true;
+  /// A joint test may remove good clusters as well as the hypotheses it tests (reverse); default
+  /// true (paper, as in the authors' implementation: only the hypotheses can be removed).
+  bool reverse_good_clusters = true;
+  /// Inter-cluster: also remove clusters whose consistency index is at least this fraction of the
+  /// worst; default 0.5 (paper: 1, one cluster per optimization).
+  double batch_removal_fraction = 0.5;
+  /// After realizing, the good set is optimized again from LAGO's estimate, which wins if its
+  /// chi2 is lower by more than chi2(alpha, 3); default true.
+  bool settle_good_map = true;
+  /// Recover: when the good set grew, retry a rejected cluster jointly only when its consistency
+  /// index against the good set's map, without moving any pose, is below this (the clusters just
+  /// removed included); default 10. Infinity is the paper's rule: every cluster rejected before
+  /// the round returns to the hypotheses.
+  double recover_gate = 10.0;
+  /// Recover, far: a rejected cluster of at least this many links that the recover gate keeps
+  /// out is still tested once per decision with the good set if its linearized joint test at the
+  /// good map passes the gate, and accepted only as is (nothing removed, the good set's chi2
+  /// raised by less than chi2(alpha, its dof)). Default 10; 0: never (paper).
+  int far_retry_min_links = 10;
+  /// After a batch decision, a good cluster whose removal would lower the chi2 by more than
+  /// chi2(alpha, dof) (linearized) is rejected; default true.
+  bool leave_one_out_check = true;
+  /// The leave-one-out check examines good clusters whose own consistency index is at least this,
+  /// and those of far_retry_min_links links or more; default 0.1 (0 examines all).
+  double loo_min_index = 0.1;
+  /// After a batch decision, links of good clusters that fail the per-link chi-square test at
+  /// the good set's joint solution are dropped; default true.
+  bool joint_link_check = true;
+
+  // --- Incremental RRR.
+  /// A new cluster that fits the good set's map unchanged (index < 1) is accepted, and one whose
+  /// linearized joint test fails is rejected, without a joint optimization; default true (paper:
+  /// every new cluster gets the joint test).
+  bool online_map_check = true;
+  /// Re-optimize the good set after this many clusters were accepted without it; default 32.
+  int incremental_map_update_every = 32;
+  /// When the robot passes a multiple of this many nodes, the closed clusters are decided from
+  /// scratch; default 1000; 0: only at the end.
+  int incremental_rebatch_every = 1000;
+  /// Joint tests start from the good set's last factorization brought up to date by rank
+  /// updates, instead of a fresh factorization each; default true.
+  bool incremental_factor_updates = true;
+  /// Joint tests stop when chi2 would drop by less than this fraction; default 1e-4.
+  double incremental_relative_tolerance = 1e-4;
+
+  /// Optimizer settings for every test; default Gauss-Newton.
+  core::OptimizerParams optimizer;
+};
+
+/// Names accepted by applyPreset().
+const std::vector<std::string>& presetNames();
+/// "paper": the published algorithm (every addition off, one cluster removed per optimization,
+/// every rejected cluster retried); "default": the defaults above. Leaves alpha, cluster_gap,
+/// max_rounds and the optimizer as they are. Throws std::invalid_argument for another name.
+void applyPreset(const std::string& name, RrrParams& params);
+
+/// One parameter's definition: its name (a ROS parameter and YAML key; the command-line flag is
+/// the name with dashes), the closed range of valid values, and what it is.
+struct ParamInfo {
+  const char* name;
+  double low;
+  double high;
+  const char* doc;
+};
+
+/// Calls f(info, field) for every parameter of `p` (RrrParams or const RrrParams), field being a
+/// double&, int& or bool& (const for const p), in a fixed order.
+template <class Params, class F>
+void forEachParam(Params& p, F&& f) {
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  f(ParamInfo{"alpha", 1e-6, 1.0 - 1e-9, "confidence of every chi-square test"}, p.alpha);
+  f(ParamInfo{"cluster_gap", 0, 1e9, "nodes; 0 = derived from the candidates"}, p.cluster_gap);
+  f(ParamInfo{"max_rounds", 1, 1e6, "realize/reverse/recover rounds per decision"}, p.max_rounds);
+  f(ParamInfo{"reduced_intra_graph", 0, 1, "intra tests on the reduced graph"},
+    p.reduced_intra_graph);
+  f(ParamInfo{"intra_worst_link_removal", 0, 1,
+              "a failing cluster loses its worst link and is tested again"},
+    p.intra_worst_link_removal);
+  f(ParamInfo{"split_mixed_clusters", 0, 1,
+              "a failing cluster is split into pairwise consistent sets"},
+    p.split_mixed_clusters);
+  f(ParamInfo{"robust_ordering", 0, 1, "a robust (DCS) map orders the batch decision"},
+    p.robust_ordering);
+  f(ParamInfo{"dcs_phi", 1e-9, kInf, "DCS parameter of the robust ordering map"}, p.dcs_phi);
+  f(ParamInfo{"warm_start", 0, 1, "joint tests start from the good map, not the initial estimate"},
+    p.warm_start);
+  f(ParamInfo{"reverse_good_clusters", 0, 1, "joint tests may remove good clusters (reverse)"},
+    p.reverse_good_clusters);
+  f(ParamInfo{"batch_removal_fraction", 0, 1,
+              "inter-cluster removes clusters with index >= this x the worst (1: one at a time)"},
+    p.batch_removal_fraction);
+  f(ParamInfo{"settle_good_map", 0, 1, "the good set re-optimized from LAGO after realizing"},
+    p.settle_good_map);
+  f(
+      ParamInfo{
+          "recover_gate", 0, kInf,
+          "recover retries rejected clusters whose index at the good map is below this (inf: all)"},
+      p.recover_gate);
+  f(ParamInfo{"far_retry_min_links", 0, 1e9,
+              "rejected clusters of this many links far from the map are tried once (0: never)"},
+    p.far_retry_min_links);
+  f(ParamInfo{"leave_one_out_check", 0, 1,
+              "reject good clusters whose removal lowers chi2 by more than their test"},
+    p.leave_one_out_check);
+  f(ParamInfo{"loo_min_index", 0, kInf,
+              "the leave-one-out check examines clusters from this index"},
+    p.loo_min_index);
+  f(ParamInfo{"joint_link_check", 0, 1, "drop links failing their test at the joint solution"},
+    p.joint_link_check);
+  f(ParamInfo{"online_map_check", 0, 1,
+              "incremental: clusters decided against the map before any joint test"},
+    p.online_map_check);
+  f(ParamInfo{"incremental_map_update_every", 1, 1e9,
+              "incremental: re-optimize the map after this many accepted clusters"},
+    p.incremental_map_update_every);
+  f(ParamInfo{"incremental_rebatch_every", 0, 1e9,
+              "incremental: decide from scratch every N nodes (0: only at the end)"},
+    p.incremental_rebatch_every);
+  f(ParamInfo{"incremental_factor_updates", 0, 1,
+              "incremental: joint tests update the good set's factor by rank updates"},
+    p.incremental_factor_updates);
+  f(ParamInfo{"incremental_relative_tolerance", 0, 1,
+              "incremental: joint tests stop when chi2 drops by less than this fraction"},
+    p.incremental_relative_tolerance);
+}
+
+/// Throws std::invalid_argument "NAME = VALUE is out of range: must be in [LOW, HIGH]" for the
+/// first parameter out of its range (or not finite where the range is).
+void validate(const RrrParams& params);
+
+/// The message validate() gives for `name` = `value` against `info` (for entry points that read
+/// a value before it reaches RrrParams, e.g. a negative number for an int).
+std::string outOfRangeMessage(const ParamInfo& info, const std::string& value);
+
+}  // namespace rrr_graphslam::rrr

@@ -1,0 +1,66 @@
+#include "rrr_graphslam/rrr/rrr_params.h"
+
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+#include <type_traits>
+
+namespace rrr_graphslam::rrr {
+
+const std::vector<std::string>& presetNames() {
+  static const std::vector<std::string> names{"default", "paper"};
+  return names;
+}
+
+void applyPreset(const std::string& name, RrrParams& params) {
+  const RrrParams defaults;
+  RrrParams p = defaults;
+  if (name == "paper") {
+    p.reduced_intra_graph = false;
+    p.intra_worst_link_removal = false;
+    p.split_mixed_clusters = false;
+    p.robust_ordering = false;
+    p.warm_start = false;
+    p.reverse_good_clusters = false;
+    p.batch_removal_fraction = 1.0;
+    p.settle_good_map = false;
+    p.recover_gate = std::numeric_limits<double>::infinity();
+    p.far_retry_min_links = 0;
+    p.leave_one_out_check = false;
+    p.joint_link_check = false;
+    p.online_map_check = false;
+    p.incremental_rebatch_every = 0;
+    p.incremental_factor_updates = false;
+  } else if (name != "default") {
+    throw std::invalid_argument("preset must be default or paper, not '" + name + "'");
+  }
+  p.alpha = params.alpha;
+  p.cluster_gap = params.cluster_gap;
+  p.max_rounds = params.max_rounds;
+  p.optimizer = params.optimizer;
+  params = p;
+}
+
+std::string outOfRangeMessage(const ParamInfo& info, const std::string& value) {
+  std::ostringstream what;
+  what << info.name << " = " << value << " is out of range: must be in [" << info.low << ", "
+       << info.high << "]";
+  return what.str();
+}
+
+void validate(const RrrParams& params) {
+  forEachParam(params, [](const ParamInfo& info, const auto& value) {
+    using T = std::decay_t<decltype(value)>;
+    if constexpr (std::is_same_v<T, bool>) {
+      return;  // any bool is valid
+    } else {
+      const auto v = static_cast<double>(value);
+      if (!std::isnan(v) && v >= info.low && v <= info.high) return;
+      std::ostringstream text;
+      text << value;
+      throw std::invalid_argument(outOfRangeMessage(info, text.str()));
+    }
+  });
+}
+
+}  // namespace rrr_graphslam::rrr

@@ -1,0 +1,368 @@
+// The additions to the published RRR (each switched by its RrrParams field; what each fixes and
+// the measurement behind it: doc/rrr_extensions.md), and the pieces every step shares.
+
+#include <algorithm>
+#include <map>
+
+#include <Eigen/Dense>
+
+#include "rrr_graphslam/core/chi2.h"
+#include "rrr_graphslam/core/lago.h"
+#include "rrr_graphslam/rrr/rrr.h"
+
+namespace rrr_graphslam::rrr {
+
+// --- robust_ordering
+
+std::vector<int> Rrr::orderByRobustMap(const std::vector<int>& hypotheses,
+                                       std::vector<core::Pose2>& start) {
+  // Many clusters at once: test first those that agree with a map outliers cannot bend; the
+  // others are tested in the recover step, against the good set's map.
+  const std::vector<core::Pose2> initial = start;
+  start = robustOrderingMap(hypotheses, initial);
+  std::vector<int> agreeing, set_aside;
+  std::vector<double> set_aside_index;
+  for (int c : hypotheses) {
+    const double index = indexAt(c, start);
+    if (index < 1.0) {
+      agreeing.push_back(c);
+    } else {
+      set_aside.push_back(c);
+      set_aside_index.push_back(index);
+    }
+  }
+  if (agreeing.empty()) {
+    // The map agrees with nothing, so it orders nothing: test every cluster, as the paper does.
+    start = initial;
+    return set_aside;
+  }
+  for (std::size_t i = 0; i < set_aside.size(); ++i) {
+    setStatus(set_aside[i], Status::kRejected,
+              "robust ordering: " + indexTest("CI", set_aside_index[i]) + " at the robust map");
+  }
+  return agreeing;
+}
+
+std::vector<int> Rrr::robustMapLinks(const std::vector<int>& pending) const {
+  // Random false links are mostly alone in their cluster, and long single links fill the
+  // Cholesky factor; when clusters of two or more links hold most links, they make the map.
+  std::vector<int> all, multi;
+  auto add = [&](int c) {
+    const auto& kept = kept_links_[static_cast<std::size_t>(c)];
+    all.insert(all.end(), kept.begin(), kept.end());
+    if (kept.size() >= 2) multi.insert(multi.end(), kept.begin(), kept.end());
+  };
+  for (int c : clustersWith(Status::kGood)) add(c);
+  for (int c : pending) add(c);
+  return 2 * multi.size() >= all.size() ? multi : all;
+}
+
+std::vector<core::Pose2> Rrr::robustOrderingMap(const std::vector<int>& pending,
+                                                const std::vector<core::Pose2>& initial) {
+  const std::vector<int> links = robustMapLinks(pending);
+  std::map<int, int> links_per_time_cluster;
+  auto time_cluster = [&](int k) {
+    return clusters_[static_cast<std::size_t>(clusterOf(k))].time_cluster;
+  };
+  for (int k : links) ++links_per_time_cluster[time_cluster(k)];
+  std::vector<core::Pose2> full_weight =
+      robustMap(graph_, links, initial, params_.dcs_phi, optimizations_);
+  if (links_per_time_cluster.size() == links.size()) return full_weight;  // one link each
+  auto support = [&](const std::vector<core::Pose2>& map, const std::vector<int>& clusters) {
+    std::size_t agreeing = 0;
+    for (int c : clusters) {
+      if (indexAt(c, map) < 1.0) agreeing += kept_links_[static_cast<std::size_t>(c)].size();
+    }
+    return agreeing;
+  };
+  // Nothing was outvoted when the map agrees with (nearly) every link that made it.
+  std::vector<int> voters;
+  for (int k : links) voters.push_back(clusterOf(k));
+  std::sort(voters.begin(), voters.end());
+  voters.erase(std::unique(voters.begin(), voters.end()), voters.end());
+  const std::size_t full_support = support(full_weight, pending);
+  if (support(full_weight, voters) >= links.size() - links.size() / 100) return full_weight;
+
+  std::vector<double> one_vote;
+  one_vote.reserve(links.size());
+  for (int k : links) one_vote.push_back(1.0 / links_per_time_cluster[time_cluster(k)]);
+  std::vector<core::Pose2> voted =
+      robustMap(graph_, links, initial, params_.dcs_phi, optimizations_, one_vote);
+  return support(voted, pending) > full_support ? voted : full_weight;
+}
+
+// --- settle_good_map
+
+void Rrr::settleGoodMap() {
+  core::Optimizer& opt = graph_.optimizer();
+  graph_.activateOnly(acceptedCandidates());
+  opt.setPoses(base_);
+  const double current = opt.chi2();
+  opt.setPoses(core::lagoInitialization(opt));
+  const core::OptimizationResult r = opt.optimize();
+  ++optimizations_;
+  // Lower by more than one link's test threshold: a better minimum, not the same one reached to
+  // another tolerance (which could move a session only its weak prior holds). A failed or
+  // non-finite optimization is no better minimum.
+  if (r.final_chi2 < current - core::chi2Quantile(params_.alpha, 3)) base_ = opt.poses();
+  opt.setPoses(base_);
+}
+
+// --- far_retry_min_links
+
+bool Rrr::recoverFar(std::vector<char>& tried) {
+  if (params_.far_retry_min_links <= 0) return false;
+  std::vector<int> far;
+  for (int c : clustersWith(Status::kRejected)) {
+    if (!tried[static_cast<std::size_t>(c)] && largeCluster(c)) far.push_back(c);
+  }
+  if (far.empty()) return false;
+  std::stable_sort(far.begin(), far.end(), [&](int a, int b) {
+    return kept_links_[static_cast<std::size_t>(a)].size() >
+           kept_links_[static_cast<std::size_t>(b)].size();
+  });
+  core::Optimizer& opt = graph_.optimizer();
+  // Each try costs a full optimization: the linearized joint test at the good map (its factor's
+  // marginal covariance) screens out clusters no motion the map allows could reconcile with it
+  // (City10000 + 1000 random-grouped: false groups at predicted index 200 and more).
+  factorGoodMap();
+  far.erase(std::remove_if(far.begin(), far.end(),
+                           [&](int c) {
+                             const std::optional<double> predicted = predictedIndex(c);
+                             return predicted && *predicted >= params_.recover_gate;
+                           }),
+            far.end());
+  const double good_chi2 = opt.chi2();
+  for (int c : far) {
+    tried[static_cast<std::size_t>(c)] = 1;
+    std::vector<int> tested = clustersWith(Status::kGood);
+    tested.push_back(c);
+    std::vector<int> links = acceptedCandidates();
+    const auto& own = kept_links_[static_cast<std::size_t>(c)];
+    links.insert(links.end(), own.begin(), own.end());
+    graph_.activateOnly(links);
+    opt.setPoses(base_);
+    const core::OptimizationResult r = opt.optimize();
+    ++optimizations_;
+    const std::vector<core::Pose2>& poses = opt.poses();
+    // Accepted only as is: the joint test passes, no cluster, good or new, had to go, and the
+    // cluster raised the good set's chi2 by less than its own test threshold. (A pass at a
+    // non-converged point holds: the minimum's chi2 is lower still.)
+    const double chi2 = failIfNotFinite(opt.chi2());
+    const int dof = 3 * static_cast<int>(links.size());
+    const int own_dof = 3 * static_cast<int>(own.size());
+    bool consistent = chi2 < core::chi2Quantile(params_.alpha, dof) &&
+                      chi2 - good_chi2 < core::chi2Quantile(params_.alpha, own_dof);
+    for (std::size_t i = 0; consistent && i < tested.size(); ++i) {
+      consistent = indexAt(tested[i], poses) < 1.0;
+    }
+    if (consistent) {
+      std::string why = "far retry: " + chi2Test("D2_G", chi2, params_.alpha, dof) + ", increase " +
+                        chi2Test("D2", chi2 - good_chi2, params_.alpha, own_dof);
+      if (r.stop_reason != core::StopReason::kConverged)
+        why += " (optimizer: " + core::toString(r.stop_reason) + ")";
+      setStatus(c, Status::kGood, why);
+      base_ = poses;
+      return true;
+    }
+  }
+  return false;
+}
+
+// --- leave_one_out_check
+
+bool Rrr::leaveOneOutCheck() {
+  factorGoodMap();
+  std::vector<int> conflicting;
+  std::vector<double> conflicting_index;
+  for (int c : clustersWith(Status::kGood)) {
+    if (!largeCluster(c) && indexAt(c, base_) < params_.loo_min_index) continue;
+    const double index = leaveOneOutIndex(c);
+    if (index >= 1.0) {
+      conflicting.push_back(c);
+      conflicting_index.push_back(index);
+    }
+  }
+  if (conflicting.empty()) return false;
+  for (std::size_t i = 0; i < conflicting.size(); ++i) {
+    setStatus(conflicting[i], Status::kRejected,
+              "leave-one-out: " + indexTest("index", conflicting_index[i]));
+  }
+  optimizeGoodMap();
+  return true;
+}
+
+// --- joint_link_check
+
+bool Rrr::jointLinkCheck() {
+  const double threshold = core::chi2Quantile(params_.alpha, 3);
+  bool dropped_any = false;
+  for (int round = 0; round < params_.max_rounds; ++round) {
+    // The worst failing link of each good cluster.
+    struct Failing {
+      double chi2;
+      std::size_t cluster;
+      std::size_t at;  // in the cluster's kept links
+    };
+    std::vector<Failing> failing;
+    double worst = 0.0;
+    for (int c : clustersWith(Status::kGood)) {
+      const auto& kept = kept_links_[static_cast<std::size_t>(c)];
+      Failing f{threshold, static_cast<std::size_t>(c), kept.size()};
+      for (std::size_t i = 0; i < kept.size(); ++i) {
+        const double d2 = failIfNotFinite(linkChi2(kept[i], base_));
+        if (d2 >= f.chi2) f = {d2, f.cluster, i};
+      }
+      if (f.at == kept.size()) continue;
+      failing.push_back(f);
+      worst = std::max(worst, f.chi2);
+    }
+    if (failing.empty()) break;
+    for (const Failing& f : failing) {
+      if (f.chi2 < params_.batch_removal_fraction * worst) continue;
+      auto& kept = kept_links_[f.cluster];
+      link_reason_[static_cast<std::size_t>(kept[f.at])] =
+          "joint link check: " + chi2Test("D2_l", f.chi2, params_.alpha, 3);
+      kept.erase(kept.begin() + static_cast<std::ptrdiff_t>(f.at));
+      // No link left: out of every test until the next decision from scratch.
+      if (kept.empty()) clusters_[f.cluster].status = Status::kInconsistent;
+    }
+    dropped_any = true;
+    optimizeGoodMap();
+  }
+  return dropped_any;
+}
+
+// --- Shared pieces
+
+void Rrr::extendByOdometry(std::vector<core::Pose2>& poses) const {
+  const OdometryChain& chain = graph_.chain();
+  while (poses.size() < static_cast<std::size_t>(graph_.numNodes())) {
+    const int k = static_cast<int>(poses.size());
+    poses.push_back(k > 0 && chain.sameSession(k - 1, k)
+                        ? core::compose(poses.back(), chain.relativePose(k - 1, k))
+                        : graph_.initialPoses()[static_cast<std::size_t>(k)]);
+  }
+}
+
+void Rrr::syncWithGraph() {
+  cluster_of_.resize(static_cast<std::size_t>(graph_.numCandidates()), -1);
+  link_reason_.resize(static_cast<std::size_t>(graph_.numCandidates()));
+  extendByOdometry(base_);
+}
+
+std::vector<core::Pose2> Rrr::mapEstimate() const {
+  std::vector<core::Pose2> poses = base_;
+  extendByOdometry(poses);
+  return poses;
+}
+
+std::vector<int> Rrr::clustersWith(Status status) const {
+  std::vector<int> ids;
+  for (int c = 0; c < numClusters(); ++c) {
+    if (clusters_[static_cast<std::size_t>(c)].status == status) ids.push_back(c);
+  }
+  return ids;
+}
+
+void Rrr::setStatus(int cluster, Status status, std::string reason) {
+  Cluster& c = clusters_[static_cast<std::size_t>(cluster)];
+  c.status = status;
+  c.reason = std::move(reason);
+}
+
+bool Rrr::largeCluster(int cluster) const {
+  return params_.far_retry_min_links > 0 &&
+         kept_links_[static_cast<std::size_t>(cluster)].size() >=
+             static_cast<std::size_t>(params_.far_retry_min_links);
+}
+
+double Rrr::linkChi2(int candidate, const std::vector<core::Pose2>& poses) const {
+  const LoopCandidate& c = graph_.candidate(candidate);
+  const Eigen::Vector3d e = core::edgeError(poses[static_cast<std::size_t>(c.from)],
+                                            poses[static_cast<std::size_t>(c.to)], c.measurement);
+  return e.dot(c.information * e);
+}
+
+double Rrr::indexAt(int cluster, const std::vector<core::Pose2>& poses) const {
+  const auto& kept = kept_links_[static_cast<std::size_t>(cluster)];
+  double d2 = 0.0;
+  for (int k : kept) d2 += linkChi2(k, poses);
+  return failIfNotFinite(d2 / core::chi2Quantile(params_.alpha, 3 * static_cast<int>(kept.size())));
+}
+
+void Rrr::optimizeGoodMap() {
+  core::Optimizer& opt = graph_.optimizer();
+  graph_.activateOnly(acceptedCandidates());
+  opt.setPoses(base_);
+  opt.optimize();
+  ++optimizations_;
+  base_ = opt.poses();
+}
+
+void Rrr::factorGoodMap() {
+  graph_.activateOnly(acceptedCandidates());
+  graph_.optimizer().setPoses(base_);
+  // Otherwise one undamped factorization at the solution.
+  if (!graph_.optimizer().covarianceAvailable()) optimizeGoodMap();
+}
+
+// A cluster's kept links linearized at base_, with the map's covariance of the nodes they touch
+// (from the optimizer's last factorization).
+struct Rrr::ClusterLinearization {
+  Eigen::VectorXd residual;         // 3 per link
+  Eigen::MatrixXd link_covariance;  // block diagonal
+  Eigen::MatrixXd map_term;         // J Sigma_map J^T
+};
+
+Rrr::ClusterLinearization Rrr::linearizeCluster(int cluster) const {
+  const auto& kept = kept_links_[static_cast<std::size_t>(cluster)];
+  const std::vector<int> nodes = graph_.touchedNodes(kept);
+  auto column = [&](int node) {
+    return 3 * static_cast<Eigen::Index>(std::lower_bound(nodes.begin(), nodes.end(), node) -
+                                         nodes.begin());
+  };
+  const Eigen::MatrixXd map_covariance = graph_.optimizer().covariance(nodes);
+  const auto rows = 3 * static_cast<Eigen::Index>(kept.size());
+  ClusterLinearization out;
+  out.residual.resize(rows);
+  out.link_covariance = Eigen::MatrixXd::Zero(rows, rows);
+  Eigen::MatrixXd J = Eigen::MatrixXd::Zero(rows, map_covariance.cols());
+  for (std::size_t i = 0; i < kept.size(); ++i) {
+    const LoopCandidate& c = graph_.candidate(kept[i]);
+    const core::EdgeLinearization lin =
+        core::linearizeEdge(base_[static_cast<std::size_t>(c.from)],
+                            base_[static_cast<std::size_t>(c.to)], c.measurement);
+    const auto r = 3 * static_cast<Eigen::Index>(i);
+    out.residual.segment<3>(r) = lin.error;
+    J.block<3, 3>(r, column(c.from)) += lin.J_from;
+    J.block<3, 3>(r, column(c.to)) += lin.J_to;
+    out.link_covariance.block<3, 3>(r, r) = c.information.inverse();
+  }
+  out.map_term = J * map_covariance * J.transpose();
+  return out;
+}
+
+std::optional<double> Rrr::predictedIndex(int cluster) const {
+  const auto& kept = kept_links_[static_cast<std::size_t>(cluster)];
+  if (!graph_.optimizer().covarianceAvailable() || kept.empty()) return std::nullopt;
+  const ClusterLinearization lin = linearizeCluster(cluster);
+  // Adding the cluster: the innovation covariance is the links' plus the map's.
+  const Eigen::MatrixXd S = lin.link_covariance + lin.map_term;
+  const double d2 = lin.residual.dot(S.ldlt().solve(lin.residual));
+  return failIfNotFinite(d2 /
+                         core::chi2Quantile(params_.alpha, static_cast<int>(lin.residual.size())));
+}
+
+double Rrr::leaveOneOutIndex(int cluster) const {
+  const ClusterLinearization lin = linearizeCluster(cluster);
+  // Removing a cluster the map already contains: its own share comes off the links' covariance.
+  const Eigen::MatrixXd S = lin.link_covariance - lin.map_term;
+  const Eigen::LDLT<Eigen::MatrixXd> ldlt(S);
+  if (ldlt.info() != Eigen::Success || (ldlt.vectorD().array() <= 0.0).any()) return 0.0;
+  const double d2 = lin.residual.dot(ldlt.solve(lin.residual));
+  return failIfNotFinite(d2 /
+                         core::chi2Quantile(params_.alpha, static_cast<int>(lin.residual.size())));
+}
+
+}  // namespace rrr_graphslam::rrr
