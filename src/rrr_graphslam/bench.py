@@ -1,5 +1,6 @@
 """The RRR benchmark (scripts/bench_rrr): rrr_offline on the bundled graphs with injected outliers
-of every kind and count, and on the KITTI loop-candidate sets, as a Markdown table.
+of every kind and count, and on the KITTI loop-candidate sets, as a Markdown table. With
+--ablation, a second table: each addition to the published RRR switched off on its own.
 
 Outlier sets are generated once with a fixed seed into the cache folder and reused. The
 reference for the generator's truth gate (no "outlier" that agrees with the true relative pose) is
@@ -25,6 +26,25 @@ KITTI = ("00", "05", "06", "07")
 B25B = ("0.000", "0.250", "0.500", "0.750", "1.000")
 ALPHAS = ("0.00", "0.25", "0.50", "0.75", "1.00")
 BASELINE = "batch --full-intra"
+ABLATION_INPUTS = ("manhattanOlson3500_olson:random:1000",
+                   "manhattanOlson3500_olson:local-grouped:500")
+# The switches the paper preset changes (applyPreset in src/rrr/rrr_params.cpp) that act in a batch
+# decision, each with the value that turns its addition off. The incremental-only ones
+# (online_map_check, incremental_rebatch_every, incremental_factor_updates) change nothing here.
+ABLATION_SWITCHES = (
+    ("reduced-intra-graph", "false"),
+    ("intra-worst-link-removal", "false"),
+    ("split-mixed-clusters", "false"),
+    ("robust-ordering", "false"),
+    ("warm-start", "false"),
+    ("reverse-good-clusters", "false"),
+    ("batch-removal-fraction", "1"),
+    ("settle-good-map", "false"),
+    ("recover-gate", "inf"),
+    ("far-retry-min-links", "0"),
+    ("leave-one-out-check", "false"),
+    ("joint-link-check", "false"),
+)
 
 
 class Row(NamedTuple):
@@ -49,6 +69,13 @@ def run_offline(binary, graph, decisions, extra=()):
         "latency": fields.get("latency", ""),
         "wall": wall,
     }
+
+
+def scored_run(binary, graph, truth, decisions, extra=()):
+    """rrr_offline on `graph`, its decisions written to `decisions` and scored against `truth`."""
+    r = run_offline(binary, graph, decisions, extra)
+    d = read_decisions(decisions)
+    return score(d, read_truth(truth, d)), r
 
 
 def reference_poses(optimizer, source, cache, name):
@@ -88,21 +115,31 @@ def main(argv=None):
                              "speed targets are compared with")
     parser.add_argument("--incremental", nargs="*", default=["city10000:random:1000"],
                         help="NAME:KIND:COUNT inputs also run in incremental mode")
+    parser.add_argument("--ablation", nargs="*", metavar="NAME:KIND:COUNT",
+                        help="also run these inputs (given without any: "
+                             f"{' '.join(ABLATION_INPUTS)}) with --preset paper, the default, and "
+                             "the default with each addition switched off, as a second table "
+                             "(slow: the paper preset optimizes the whole graph from the initial "
+                             "estimate for every intra test and every removal)")
     args = parser.parse_args(argv)
     os.makedirs(args.cache, exist_ok=True)
     optimizer = args.rrr_optimize or os.path.join(os.path.dirname(args.rrr_offline), "rrr_optimize")
+    ablation = None if args.ablation is None else (args.ablation or list(ABLATION_INPUTS))
+    # A run of the ablation alone (every other input deselected) prints only its table.
+    main_table = ablation is None or bool(
+        (args.datasets and args.kinds and args.counts) or args.incremental or args.baseline
+        or not args.no_kitti or not args.no_b25b)
 
-    print("| dataset | kind | outliers | mode | precision | recall | time s | optimizations |")
-    print("|---|---|---|---|---|---|---|---|")
+    if main_table:
+        print("| dataset | kind | outliers | mode | precision | recall | time s | optimizations |")
+        print("|---|---|---|---|---|---|---|---|")
     worst = {"precision": 1.0, "recall": 1.0}
     rows = []
 
     def report(dataset, kind, count, mode, graph, truth, extra=(), label=None):
         label = label or mode
         decisions = graph + "." + label.replace(" --", "-") + ".tsv"  # batch-full-intra
-        r = run_offline(args.rrr_offline, graph, decisions, ["--mode", mode, *extra])
-        d = read_decisions(decisions)
-        s = score(d, read_truth(truth, d))
+        s, r = scored_run(args.rrr_offline, graph, truth, decisions, ["--mode", mode, *extra])
         worst["precision"] = min(worst["precision"], s.precision)
         worst["recall"] = min(worst["recall"], s.recall)
         rows.append(Row(dataset, kind, str(count), label, s, r))
@@ -148,11 +185,63 @@ def main(argv=None):
                 labels = label_by_ground_truth(graph, node_times, samples)
                 write_text_atomically(truth, "".join(f"{i} {j} {label}\n" for i, j, label in labels))
             report("B25b", f"BoW {threshold}", "real", "batch", local, truth)
-    print()
-    for line in target_lines(rows):
-        print(line)
-    print(f"\nworst precision {worst['precision']:.4f}, worst recall {worst['recall']:.4f}")
+    if main_table:
+        print()
+        for line in target_lines(rows):
+            print(line)
+        print(f"\nworst precision {worst['precision']:.4f}, worst recall {worst['recall']:.4f}")
+    if ablation is not None:
+        if main_table:
+            print()
+        run_ablation(args, optimizer, ablation)
     return 0
+
+
+def ablation_configurations():
+    """(label, rrr_offline options) of each ablation run: the paper preset, the default preset,
+    then the default with one addition switched off."""
+    switched_off = [(f"default --{switch} {value}", [f"--{switch}", value])
+                    for switch, value in ABLATION_SWITCHES]
+    return [("paper", ["--preset", "paper"]), ("default", [])] + switched_off
+
+
+def ablation_row(name, label, s, run, default):
+    """One line of the ablation table; false positives and negatives are counted against
+    `default`, the default preset's score on the same input (the default's own line, default
+    None, gives them as they are)."""
+    if default is None:
+        versus = f"fp {s.fp}, fn {s.fn}"
+    else:
+        versus = f"{s.fp - default.fp:+d} / {s.fn - default.fn:+d}"
+    return (f"| {name} | {label} | {s.precision:.4f} | {s.recall:.4f} | {run['time']:.2f} | "
+            f"{run['optimizations']} | {versus} |")
+
+
+def run_ablation(args, optimizer, specs):
+    """The ablation table: each NAME:KIND:COUNT input of `specs` decided with every configuration
+    of ablation_configurations(). Decisions go beside the input as GRAPH.ablation-LABEL.tsv."""
+    print("| input | configuration | precision | recall | time s | optimizations | "
+          "fp / fn vs default |")
+    print("|---|---|---|---|---|---|---|")
+    for spec in specs:
+        name, kind, count = spec.split(":")
+        graph, truth = synthetic_input(args.data, args.cache, optimizer, name, kind, int(count))
+        results = {}
+
+        def decide(label, extra):
+            slug = re.sub(r"[^A-Za-z0-9.]+", "-", label.replace("default --", ""))
+            results[label] = scored_run(args.rrr_offline, graph, truth,
+                                        f"{graph}.ablation-{slug}.tsv", extra)
+
+        configurations = ablation_configurations()
+        decide(*configurations[1])  # the default first: every other line is counted against it
+        default = results["default"][0]
+        for label, extra in configurations:
+            if label not in results:
+                decide(label, extra)
+            s, r = results[label]
+            print(ablation_row(f"{name} {kind} {count}", label, s, r,
+                               None if label == "default" else default), flush=True)
 
 
 def target_lines(rows):

@@ -1,7 +1,14 @@
-"""The benchmark's targets summary: what it counts as met and what it names as not."""
+"""The benchmark's targets summary: what it counts as met and what it names as not; the ablation
+table, with a stand-in for rrr_offline."""
+import contextlib
+import io
+import math
+import os
+import re
+import sys
 from types import SimpleNamespace
 
-from rrr_graphslam.bench import Row, target_lines
+from rrr_graphslam.bench import ABLATION_SWITCHES, Row, main, target_lines
 
 
 def row(dataset, kind, count, mode, precision, recall, time=0.1, latency=""):
@@ -32,3 +39,105 @@ def test_targets_name_the_inputs_that_miss_them():
 def test_targets_a_run_did_not_cover_are_left_out():
     lines = target_lines([row("intel", "random", "100", "batch", 1.0, 1.0)])
     assert lines == ["targets:", "  synthetic precision 1.000: 1 of 1", "  synthetic recall >= 0.98: 1 of 1"]
+
+
+FAKE_OFFLINE = """#!{python}
+# rrr_offline's stand-in: four candidates, the first two true; the default preset decides them
+# right, the paper preset rejects every one, --joint-link-check false accepts a false one.
+import sys
+args = sys.argv[1:]
+with open({log!r}, "a") as log:
+    log.write(" ".join(args) + "\\n")
+accepted = {{0, 1}}
+if "--preset" in args and args[args.index("--preset") + 1] == "paper":
+    accepted = set()
+if "--joint-link-check" in args:
+    accepted.add(2)
+rows = ["from\\tto\\tcluster\\tverdict\\treason"]
+for k in range(4):
+    verdict = "accepted" if k in accepted else "rejected"
+    rows.append(f"{{k}}\\t{{k + 5}}\\t{{k}}\\t{{verdict}}\\tfake")
+with open(args[args.index("--decisions") + 1], "w") as f:
+    f.write("\\n".join(rows) + "\\n")
+print("optimizations  " + str(10 + len(args)))
+print("time           0.250 s")
+"""
+HEADER = ("| input | configuration | precision | recall | time s | optimizations | "
+          "fp / fn vs default |")
+
+
+def fake_bench(tmp_path, *options):
+    """bench.main with a fake rrr_offline and one cached input, g random 4, every other input
+    deselected; its stdout lines, the fake's calls and the cache folder."""
+    cache = tmp_path / "cache"
+    cache.mkdir(parents=True)
+    (cache / "g_random4_s1_gated.g2o").write_text("")  # the fake reads nothing
+    (cache / "g_random4_s1_gated.g2o.labels").write_text("0 5 1\n1 6 1\n2 7 0\n3 8 0\n")
+    log = tmp_path / "calls"
+    fake = tmp_path / "rrr_offline"
+    fake.write_text(FAKE_OFFLINE.format(python=sys.executable, log=str(log)))
+    fake.chmod(0o755)
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        assert main(["--rrr-offline", str(fake), "--rrr-optimize", str(tmp_path / "none"),
+                     "--data", str(tmp_path), "--cache", str(cache), "--datasets", "--no-kitti",
+                     "--no-b25b", "--incremental", *options]) == 0
+    calls = log.read_text().splitlines() if log.exists() else []
+    return out.getvalue().splitlines(), calls, cache
+
+
+def test_ablation_counts_each_switch_against_the_default(tmp_path):
+    lines, calls, cache = fake_bench(tmp_path, "--baseline", "--ablation", "g:random:4")
+    # The ablation alone: its table and nothing else (the fake's optimizations: 10 + its options).
+    assert lines[:5] == [
+        HEADER, "|---|---|---|---|---|---|---|",
+        "| g random 4 | paper | 1.0000 | 0.0000 | 0.25 | 16 | +0 / +2 |",
+        "| g random 4 | default | 1.0000 | 1.0000 | 0.25 | 14 | fp 0, fn 0 |",
+        "| g random 4 | default --reduced-intra-graph false | 1.0000 | 1.0000 | 0.25 | 16 | "
+        "+0 / +0 |",
+    ]
+    assert ("| g random 4 | default --joint-link-check false | 0.6667 | 1.0000 | 0.25 | 16 | "
+            "+1 / +0 |") in lines
+    assert ("| g random 4 | default --recover-gate inf | 1.0000 | 1.0000 | 0.25 | 16 | "
+            "+0 / +0 |") in lines
+    assert len(lines) == 2 + 2 + len(ABLATION_SWITCHES)
+    # One run per configuration, the default first; nothing written over the bench's own files.
+    assert len(calls) == 2 + len(ABLATION_SWITCHES)
+    assert calls[0].endswith("g_random4_s1_gated.g2o.ablation-default.tsv --quiet")
+    assert calls[1].endswith(".ablation-paper.tsv --quiet --preset paper")
+    assert calls[-6].endswith(".ablation-batch-removal-fraction-1.tsv --quiet "
+                              "--batch-removal-fraction 1")
+    assert (cache / "g_random4_s1_gated.g2o.ablation-recover-gate-inf.tsv").exists()
+    assert not list(cache.glob("*.batch.tsv"))
+
+
+def test_ablation_beside_the_bench_and_only_when_asked(tmp_path):
+    lines, calls, _ = fake_bench(tmp_path, "--baseline", "g:random:4")
+    assert lines == [
+        "| dataset | kind | outliers | mode | precision | recall | time s | optimizations |",
+        "|---|---|---|---|---|---|---|---|",
+        "| g | random | 4 | batch --full-intra | 1.0000 | 1.0000 | 0.25 | 17 |",
+        "", "targets:", "", "worst precision 1.0000, worst recall 1.0000"]
+    assert len(calls) == 1 and ".ablation-" not in calls[0]
+    both, calls, _ = fake_bench(tmp_path / "both", "--baseline", "g:random:4", "--ablation",
+                                "g:random:4")
+    assert both[:len(lines)] == lines
+    assert both[len(lines):len(lines) + 3] == ["", HEADER, "|---|---|---|---|---|---|---|"]
+    assert len(calls) == 3 + len(ABLATION_SWITCHES)
+
+
+def test_ablation_switches_are_those_the_paper_preset_changes():
+    source = open(os.path.join(os.path.dirname(__file__), "..", "..", "src", "rrr",
+                               "rrr_params.cpp")).read()
+    paper = source[source.index('if (name == "paper")'):source.index("} else if")]
+    changed = dict(re.findall(r"p\.(\w+) = ([^;]+);", paper))
+    incremental_only = {"online_map_check", "incremental_rebatch_every",
+                        "incremental_factor_updates"}
+    ablated = {switch.replace("-", "_"): value for switch, value in ABLATION_SWITCHES}
+    assert set(ablated) == set(changed) - incremental_only
+
+    def number(value):
+        words = {"false": 0.0, "true": 1.0, "std::numeric_limits<double>::infinity()": math.inf}
+        return words[value] if value in words else float(value)
+
+    assert all(number(ablated[name]) == number(changed[name]) for name in ablated)
