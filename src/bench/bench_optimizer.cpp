@@ -21,10 +21,12 @@
 #include "rrr_graphslam/core/graph_io.h"
 #include "rrr_graphslam/core/lago.h"
 #include "rrr_graphslam/core/optimizer.h"
+#include "rrr_graphslam/core/stopwatch.h"
 
 namespace {
 
 namespace core = rrr_graphslam::core;
+using core::secondsSince;
 
 struct Options {
   int repeat = 5;
@@ -34,10 +36,6 @@ struct Options {
   int reopt_edges = 10;
   std::vector<std::string> graphs;
 };
-
-double secondsSince(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
 
 double median(std::vector<double> v) {
   std::sort(v.begin(), v.end());

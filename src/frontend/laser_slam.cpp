@@ -1,4 +1,5 @@
 #include "rrr_graphslam/frontend/laser_slam.h"
+#include "rrr_graphslam/core/stopwatch.h"
 
 #include <chrono>
 #include <stdexcept>
@@ -6,13 +7,8 @@
 #include <mrpt/poses/CPose3D.h>
 
 namespace rrr_graphslam::frontend {
-namespace {
 
-double secondsSince(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
-
-}  // namespace
+using core::secondsSince;
 
 LaserSlam::LaserSlam(const LaserSlamParams& params)
     : params_(params), local_(params.local), rrr_(std::make_unique<rrr::OnlineRrr>(params.rrr)) {

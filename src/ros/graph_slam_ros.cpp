@@ -1,4 +1,5 @@
 #include "rrr_graphslam/ros/graph_slam_ros.h"
+#include "rrr_graphslam/core/stopwatch.h"
 
 #include <algorithm>
 #include <chrono>
@@ -17,6 +18,9 @@
 #include "rrr_graphslam/rrr/decisions_io.h"
 
 namespace rrr_graphslam::ros_adapter {
+
+using core::secondsSince;
+
 namespace {
 
 constexpr const char* kOdomTopic = "odom";
@@ -27,10 +31,6 @@ constexpr const char* kScanTopic = "scan";
 const char* ownerName(int owner) {
   static const char* const kNames[] = {"auto", "odom", "edges", "scan"};
   return kNames[owner];
-}
-
-double secondsSince(std::chrono::steady_clock::time_point t) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
 }
 
 // "map.g2o" -> "map.decisions.tsv" (also for .graph, .toro and their .gz).

@@ -15,6 +15,10 @@ std::vector<CandidateEnds> candidateEnds(const VerificationGraph& graph) {
   return ends;
 }
 
+int clusterGapFor(const RrrParams& params, const std::vector<CandidateEnds>& ends) {
+  return params.cluster_gap > 0 ? params.cluster_gap : deriveClusterGap(ends);
+}
+
 void collectVerdicts(const Rrr& rrr, std::chrono::steady_clock::time_point start,
                      std::vector<Verdict>& verdicts, std::vector<int>& cluster_of,
                      RrrSummary& summary, std::vector<std::string>* reasons) {
@@ -41,7 +45,7 @@ RrrSummary runBatchRrr(VerificationGraph& graph, const RrrParams& params,
   RrrSummary summary;
   summary.candidates = graph.numCandidates();
   const std::vector<CandidateEnds> ends = candidateEnds(graph);
-  summary.cluster_gap = params.cluster_gap > 0 ? params.cluster_gap : deriveClusterGap(ends);
+  summary.cluster_gap = clusterGapFor(params, ends);
   const auto clusters = clusterCandidates(ends, summary.cluster_gap);
 
   Rrr rrr(graph, params);

@@ -99,7 +99,7 @@ RrrSummary runIncrementalRrr(VerificationGraph& graph, const RrrParams& params,
   summary.candidates = graph.numCandidates();
   const std::vector<CandidateEnds> ends = candidateEnds(graph);
   // Offline the gap can be derived from every candidate; a robot sets cluster_gap instead.
-  summary.cluster_gap = params.cluster_gap > 0 ? params.cluster_gap : deriveClusterGap(ends);
+  summary.cluster_gap = clusterGapFor(params, ends);
 
   // What arrives with each node: its odometry (the optimizer's constraints that are not
   // candidates) and the candidates whose newest end it is, in input order.

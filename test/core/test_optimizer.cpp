@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
+#include <Eigen/SparseCholesky>
 #include <algorithm>
 #include <random>
 #include <unordered_map>
@@ -479,6 +480,45 @@ TEST(Optimizer, StopReasonsReachTheCaller) {
     const OptimizationResult r = opt.optimize();
     EXPECT_EQ(r.stop_reason, StopReason::kSingular);
     EXPECT_FALSE(r.converged());
+  }
+}
+
+// The information matrix built from the constraints, solved for unit vectors by Eigen's own
+// sparse LDL^T (the slow, obvious way), gives the marginal covariances the factor's partial
+// inverse gives.
+TEST(Optimizer, InformationMatrixInvertsToTheMarginalCovariance) {
+  const PoseGraph graph = readPoseGraph(kData + "/intel.g2o.gz");
+  Optimizer opt = makeOptimizer(graph);
+  ASSERT_TRUE(opt.optimize().converged());
+  ASSERT_TRUE(opt.covarianceAvailable());
+  const std::vector<int> nodes{5, 400, 900};  // of 943
+  const Eigen::MatrixXd fast = opt.covariance(nodes);
+  EXPECT_THROW(opt.covariance({943}), std::out_of_range);
+  const Eigen::SparseMatrix<double> H = opt.informationMatrix();
+  ASSERT_EQ(H.rows(), 3 * opt.numNodes());
+  const Eigen::SparseMatrix<double> asymmetry = H - Eigen::SparseMatrix<double>(H.transpose());
+  EXPECT_LT(asymmetry.norm(), 1e-9 * H.norm());
+  // Node 0 is fixed: the others' covariance is the inverse of H without its rows and columns.
+  const Eigen::Index n = H.rows() - 3;
+  const Eigen::SparseMatrix<double> free = H.bottomRightCorner(n, n);
+  const Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(free);
+  ASSERT_EQ(ldlt.info(), Eigen::Success);
+  Eigen::MatrixXd unit = Eigen::MatrixXd::Zero(n, 9);
+  for (int i = 0; i < 3; ++i) {
+    for (int r = 0; r < 3; ++r)
+      unit(3 * (nodes[static_cast<std::size_t>(i)] - 1) + r, 3 * i + r) = 1;
+  }
+  const Eigen::MatrixXd columns = ldlt.solve(unit);
+  const double scale = columns.cwiseAbs().maxCoeff();
+  for (std::size_t i = 0; i < nodes.size(); ++i) {
+    for (std::size_t j = 0; j < nodes.size(); ++j) {
+      const Eigen::Matrix3d slow =
+          columns.block<3, 3>(3 * (nodes[i] - 1), 3 * static_cast<Eigen::Index>(j));
+      const Eigen::Matrix3d got =
+          fast.block<3, 3>(3 * static_cast<Eigen::Index>(i), 3 * static_cast<Eigen::Index>(j));
+      // The factor is of the last Gauss-Newton iterate but one: equal to ~1e-4.
+      EXPECT_LT((got - slow).cwiseAbs().maxCoeff(), 2e-3 * scale) << nodes[i] << " " << nodes[j];
+    }
   }
 }
 

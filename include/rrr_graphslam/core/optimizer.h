@@ -24,6 +24,7 @@
 #include <vector>
 
 #include <Eigen/Core>
+#include <Eigen/SparseCore>
 
 #include "rrr_graphslam/core/block_hessian.h"
 #include "rrr_graphslam/core/pose_graph.h"
@@ -176,8 +177,14 @@ class Optimizer {
   /// factorization; fixed nodes have zero covariance. A node added since gets its parent's,
   /// propagated through the constraint it hangs from, linearized at the current poses (exact to
   /// first order, as the tree adds no information about the rest). Zero unless
-  /// covarianceAvailable().
+  /// covarianceAvailable(); std::out_of_range for a node that does not exist.
   Eigen::MatrixXd covariance(const std::vector<int>& nodes) const;
+
+  /// The information matrix H = sum_k J_k^T (w_k Omega_k) J_k of the active constraints at the
+  /// current poses, 3 rows and columns per node in node order (fixed nodes included, anchors'
+  /// weak priors left out): what marginalizing nodes out of the graph starts from. Built directly
+  /// from the constraints, independent of the solver's ordering and factor.
+  Eigen::SparseMatrix<double> informationMatrix() const;
 
   /// Symbolic analyses done so far (one per sparsity pattern).
   int symbolicAnalyses() const { return solver_.analysisCount(); }

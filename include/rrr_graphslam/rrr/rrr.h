@@ -220,6 +220,8 @@ struct RrrSummary {
 
 /// Ends of every candidate of `graph`, for clustering.
 std::vector<CandidateEnds> candidateEnds(const VerificationGraph& graph);
+/// params.cluster_gap, or when it is 0 the gap derived from the candidates (deriveClusterGap).
+int clusterGapFor(const RrrParams& params, const std::vector<CandidateEnds>& ends);
 
 /// Per-candidate verdicts, clusters (and reasons, if given) of `rrr`, counted into `summary`
 /// (whose `candidates` must be set) with the optimizations run and the time since `start`.
