@@ -1,10 +1,11 @@
 #include "rrr_graphslam/frontend/laser_slam.h"
-#include "rrr_graphslam/core/stopwatch.h"
 
 #include <chrono>
 #include <stdexcept>
 
 #include <mrpt/poses/CPose3D.h>
+
+#include "rrr_graphslam/core/stopwatch.h"
 
 namespace rrr_graphslam::frontend {
 
@@ -42,7 +43,8 @@ std::optional<int> LaserSlam::addScan(const RangeScan& scan, const core::Pose2& 
     }
     stats_.rrr_seconds += secondsSince(start);
     node_local_poses_.push_back(result.local_pose);
-    node_scans_.push_back(std::move(*result.observation));
+    node_scans_.push_back(
+        std::make_shared<const mrpt::obs::CObservation2DRangeScan>(std::move(*result.observation)));
     stats_.nodes = node + 1;
     stats_.submaps = local_.submaps().numSubmaps();
     if (result.finished_submap) {
@@ -133,29 +135,8 @@ std::vector<core::Pose2> LaserSlam::scanMapPoses() const {
   return poses;
 }
 
-mrpt::maps::COccupancyGridMap2D LaserSlam::renderMap(double resolution_m) const {
-  const std::vector<core::Pose2> map = rrr_->mapPoses();
-  // Start from the trajectory's bounding box (MRPT grows the grid to fit the rays); the log's
-  // odometry origin may lie hundreds of metres away.
-  Eigen::Vector2d low(-1.0, -1.0);
-  Eigen::Vector2d high(1.0, 1.0);
-  if (!map.empty()) {
-    low = high = map.front().head<2>();
-    for (const auto& x : map) {
-      low = low.cwiseMin(x.head<2>());
-      high = high.cwiseMax(x.head<2>());
-    }
-  }
-  mrpt::maps::COccupancyGridMap2D grid(
-      static_cast<float>(low.x() - 1.0), static_cast<float>(high.x() + 1.0),
-      static_cast<float>(low.y() - 1.0), static_cast<float>(high.y() + 1.0),
-      static_cast<float>(resolution_m));
-  configureInsertion(grid, params_.local.submap);
-  for (std::size_t k = 0; k < node_scans_.size(); ++k) {
-    const core::Pose2& x = map[k];
-    grid.insertObservation(node_scans_[k], mrpt::poses::CPose3D(x.x(), x.y(), 0.0, x.z(), 0, 0));
-  }
-  return grid;
+MapInputs LaserSlam::mapInputs() const {
+  return MapInputs{rrr_->mapPoses(), node_scans_, params_.local.submap};
 }
 
 }  // namespace rrr_graphslam::frontend

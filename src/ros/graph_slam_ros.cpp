@@ -1,5 +1,4 @@
 #include "rrr_graphslam/ros/graph_slam_ros.h"
-#include "rrr_graphslam/core/stopwatch.h"
 
 #include <algorithm>
 #include <chrono>
@@ -12,10 +11,10 @@
 #include "rrr_graphslam/LoopClosureDecision.h"
 #include "rrr_graphslam/RrrStatus.h"
 #include "rrr_graphslam/core/constraint_check.h"
-#include "rrr_graphslam/core/graph_io.h"
+#include "rrr_graphslam/core/odometry_noise.h"
+#include "rrr_graphslam/core/stopwatch.h"
 #include "rrr_graphslam/ros/conversions.h"
 #include "rrr_graphslam/ros/visualization.h"
-#include "rrr_graphslam/rrr/decisions_io.h"
 
 namespace rrr_graphslam::ros_adapter {
 
@@ -31,25 +30,6 @@ constexpr const char* kScanTopic = "scan";
 const char* ownerName(int owner) {
   static const char* const kNames[] = {"auto", "odom", "edges", "scan"};
   return kNames[owner];
-}
-
-// "map.g2o" -> "map.decisions.tsv" (also for .graph, .toro and their .gz).
-std::string defaultDecisionsPath(std::string path) {
-  for (const char* ext : {".gz", ".g2o", ".graph", ".toro"}) {
-    const std::string e = ext;
-    if (path.size() > e.size() && path.compare(path.size() - e.size(), e.size(), e) == 0) {
-      path.resize(path.size() - e.size());
-    }
-  }
-  return path + ".decisions.tsv";
-}
-
-void logServiceResult(const char* service, bool success, const std::string& message) {
-  if (success) {
-    ROS_INFO("%s: %s", service, message.c_str());
-  } else {
-    ROS_ERROR("%s failed: %s", service, message.c_str());
-  }
 }
 
 }  // namespace
@@ -74,6 +54,8 @@ GraphSlamRos::GraphSlamRos(ros::NodeHandle nh, ros::NodeHandle private_nh)
   if (params_.input_mode == "scan") {
     startSlam();
     map_pub_ = nh_.advertise<nav_msgs::OccupancyGrid>("map", 1, true);
+    map_publisher_ =
+        std::make_unique<MapPublisher>(map_pub_, params_.map_frame, params_.map_resolution);
     tf_buffer_ = std::make_unique<tf2_ros::Buffer>();
     tf_listener_ = std::make_unique<tf2_ros::TransformListener>(*tf_buffer_);
   }
@@ -245,7 +227,7 @@ void GraphSlamRos::workerLoop() {
         lock.unlock();
         if (dirty_ && secondsSince(last_publish_) >= params_.publish_period) publishOutputs();
         if (slam_ && map_dirty_ && secondsSince(last_map_) >= params_.map_publish_period) {
-          publishMap();
+          offerMap();
         }
         publishStatus();
         lock.lock();
@@ -349,12 +331,10 @@ void GraphSlamRos::handleOdometry(const nav_msgs::Odometry& msg) {
   } catch (const std::invalid_argument& e) {
     throw std::invalid_argument(std::string("pose.pose.") + e.what());
   }
-  Eigen::Matrix3d information =
-      params_.odometry_stddev.cwiseAbs2().cwiseInverse().asDiagonal().toDenseMatrix();
-  if (const auto covariance = planarCovariance(msg.pose.covariance)) {
+  const std::optional<Eigen::Matrix3d> covariance = planarCovariance(msg.pose.covariance);
+  if (covariance) {
     const std::string problem = core::informationProblem(*covariance);
     if (!problem.empty()) throw std::invalid_argument("pose.covariance (x, y, yaw): " + problem);
-    information = covariance->inverse();
   }
   last_odom_stamp_ = msg.header.stamp;
   if (!keyframes_.accept(pose)) return;
@@ -362,14 +342,37 @@ void GraphSlamRos::handleOdometry(const nav_msgs::Odometry& msg) {
   const bool continues = last_keyframe_odom_.has_value() && !graph().empty();
   const auto id = graph().empty() ? rrr::OnlineRrr::NodeId{0} : graph().nodeIds().back() + 1;
   if (continues) {
-    graph().addOdometry(id - 1, id, core::between(*last_keyframe_odom_, pose), information);
+    graph().addOdometry(id - 1, id, core::between(*last_keyframe_odom_, pose),
+                        stepInformation(pose, covariance));
   } else {
     graph().startSession(id, pose);  // first node, or the first after ~load
   }
+  last_keyframe_covariance_ = covariance;
   owner_ = Owner::kOdometry;
   last_keyframe_odom_ = pose;
   node_stamps_.push_back(msg.header.stamp);
   dirty_ = true;
+}
+
+Eigen::Matrix3d GraphSlamRos::stepInformation(const core::Pose2& pose,
+                                              const std::optional<Eigen::Matrix3d>& covariance) {
+  // The message's covariance is the absolute pose's: the step's follows from two of them when
+  // they grow as dead reckoning does; otherwise (constant, zero) the motion model gives it.
+  if (covariance && last_keyframe_covariance_) {
+    if (const auto step = core::stepCovarianceFromAbsolute(
+            *last_keyframe_odom_, *last_keyframe_covariance_, pose, *covariance)) {
+      return step->inverse();
+    }
+    ROS_INFO_ONCE(
+        "%s: pose.covariance does not grow as dead reckoning would (constant?): each step's "
+        "noise comes from odometry_stddev per metre driven and per radian turned",
+        nh_.resolveName(kOdomTopic).c_str());
+  }
+  core::MotionNoise noise;
+  noise.stddev = params_.odometry_stddev;
+  noise.min_travel_m = params_.keyframes.min_travel_m;
+  noise.min_rotation_rad = params_.keyframes.min_rotation_rad;
+  return core::stepCovarianceFromMotion(core::between(*last_keyframe_odom_, pose), noise).inverse();
 }
 
 void GraphSlamRos::handleEdge(const PoseGraphEdge& msg) {
@@ -418,15 +421,13 @@ void GraphSlamRos::startSlam() {
   map_dirty_ = true;
 }
 
-void GraphSlamRos::publishMap() {
+void GraphSlamRos::offerMap() {
+  // Rendered on the map publisher's thread, and only for subscribers: until one comes, the map
+  // stays dirty and is offered then (a latched map reaches later subscribers as well).
+  if (!map_publisher_->wanted()) return;
   map_dirty_ = false;
   last_map_ = std::chrono::steady_clock::now();
-  nav_msgs::OccupancyGrid msg;
-  msg.header.stamp = ros::Time::now();
-  msg.header.frame_id = params_.map_frame;
-  msg.info.map_load_time = msg.header.stamp;
-  toOccupancyGridMsg(slam_->renderMap(params_.map_resolution), msg);
-  map_pub_.publish(msg);
+  map_publisher_->offer(slam_->mapInputs());
 }
 
 void GraphSlamRos::publishChanges() {
@@ -437,6 +438,7 @@ void GraphSlamRos::publishChanges() {
   const std::vector<rrr::DecisionChange> changes = graph().takeChanges();
   if (changes.empty()) return;
   dirty_ = true;
+  map_dirty_ = map_dirty_ || slam_ != nullptr;  // a decision moves the map's poses
   const ros::Time now = ros::Time::now();
   for (const rrr::DecisionChange& change : changes) {
     LoopClosureDecision msg;
@@ -471,7 +473,7 @@ void GraphSlamRos::publishOutputs() {
     }
   }
   path_pub_.publish(buildPath(graph(), poses, node_stamps_, params_.map_frame, now));
-  if (slam_ && map_dirty_ && secondsSince(last_map_) >= params_.map_publish_period) publishMap();
+  if (slam_ && map_dirty_ && secondsSince(last_map_) >= params_.map_publish_period) offerMap();
   if (markers_pub_.getNumSubscribers() > 0) {
     markers_pub_.publish(buildMarkers(graph(), poses, params_.map_frame, now));
   }
@@ -504,114 +506,6 @@ void GraphSlamRos::publishStatus() {
   }
   msg.last_update_sec = last_update_sec_;
   status_pub_.publish(msg);
-}
-
-void GraphSlamRos::replaceGraph(std::unique_ptr<rrr::OnlineRrr> replacement) {
-  if (slam_) {
-    startSlam();  // a fresh front end (its graph holds no scans to go on from a loaded one)
-  } else {
-    graph_ = std::move(replacement);
-  }
-  owner_ = Owner::kNone;
-  keyframes_.reset();
-  last_keyframe_odom_.reset();
-  last_odom_stamp_ = ros::Time();
-  node_stamps_.assign(static_cast<std::size_t>(graph().numNodes()), ros::Time::now());
-  dirty_ = true;
-  publishChanges();
-}
-
-// ---- Services ----------------------------------------------------------------------------------
-
-bool GraphSlamRos::save(SaveGraph::Request& req, SaveGraph::Response& res) {
-  res.success = runInWorker(
-      [&]() -> std::string {
-        if (req.path.empty()) throw std::invalid_argument("path is empty");
-        const std::string decisions =
-            req.decisions_path.empty() ? defaultDecisionsPath(req.path) : req.decisions_path;
-        core::writePoseGraph(graph().toPoseGraph(), req.path);
-        rrr::writeDecisions(decisions, graph().decisionRows());
-        std::string written = req.path + " and " + decisions;
-        if (!req.optimized_path.empty()) {
-          core::writePoseGraph(graph().optimizedPoseGraph(), req.optimized_path);
-          written += " and " + req.optimized_path;
-        }
-        return "saved " + std::to_string(graph().numNodes()) + " nodes and " +
-               std::to_string(graph().numCandidates()) + " candidates to " + written;
-      },
-      res.message);
-  logServiceResult("~save", res.success, res.message);
-  return true;
-}
-
-bool GraphSlamRos::load(LoadGraph::Request& req, LoadGraph::Response& res) {
-  res.success = runInWorker(
-      [&]() -> std::string {
-        if (slam_) {
-          throw std::invalid_argument(
-              "~load is not available in slam mode: a saved graph holds no scans to match new "
-              "ones against");
-        }
-        core::GraphReadOptions options;
-        options.allow_disconnected = true;
-        replaceGraph(
-            rrr::OnlineRrr::fromPoseGraph(core::readPoseGraph(req.path, options), params_.rrr));
-        const rrr::OnlineRrrStatus s = graph().status();
-        return "loaded " + std::to_string(s.nodes) + " nodes (" + std::to_string(s.sessions) +
-               " sessions) and " + std::to_string(s.candidates) + " candidates from " + req.path +
-               ": " + std::to_string(s.accepted) + " accepted, " + std::to_string(s.rejected) +
-               " rejected";
-      },
-      res.message);
-  logServiceResult("~load", res.success, res.message);
-  return true;
-}
-
-bool GraphSlamRos::reset(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res) {
-  res.success = runInWorker(
-      [&]() -> std::string {
-        replaceGraph(std::make_unique<rrr::OnlineRrr>(params_.rrr));
-        received_ = processed_ = malformed_ = ignored_ = 0;
-        decisions_published_ = 0;
-        return "graph cleared";
-      },
-      res.message);
-  return true;
-}
-
-bool GraphSlamRos::optimize(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res) {
-  res.success = runInWorker(
-      [&]() -> std::string {
-        const auto start = std::chrono::steady_clock::now();
-        graph().decideClosedFromScratch();
-        publishChanges();
-        dirty_ = true;
-        const rrr::OnlineRrrStatus s = graph().status();
-        return "closed clusters decided again in " + std::to_string(secondsSince(start)) +
-               " s: " + std::to_string(s.accepted) + " accepted, " + std::to_string(s.rejected) +
-               " rejected, " + std::to_string(s.pending) + " pending";
-      },
-      res.message);
-  return true;
-}
-
-bool GraphSlamRos::finish(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res) {
-  res.success = runInWorker(
-      [&]() -> std::string {
-        if (slam_) {
-          slam_->finish();
-          publishMap();
-        } else {
-          graph().finish();
-        }
-        publishChanges();
-        dirty_ = true;
-        const rrr::OnlineRrrStatus s = graph().status();
-        return "every cluster closed and decided: " + std::to_string(s.accepted) + " accepted, " +
-               std::to_string(s.rejected) + " rejected";
-      },
-      res.message);
-  return true;
 }
 
 // ---- Timer thread ------------------------------------------------------------------------------

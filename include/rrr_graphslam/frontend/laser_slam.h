@@ -15,6 +15,7 @@
 
 #include "rrr_graphslam/frontend/local_slam.h"
 #include "rrr_graphslam/frontend/loop_search.h"
+#include "rrr_graphslam/frontend/map_render.h"
 #include "rrr_graphslam/rrr/online_rrr.h"
 
 namespace rrr_graphslam::frontend {
@@ -60,8 +61,12 @@ class LaserSlam {
   std::vector<core::Pose2> scanMapPoses() const;
   /// Timestamps of every scan so far.
   const std::vector<double>& scanTimestamps() const { return scan_timestamps_; }
+  /// What the occupancy map is made of now (the scans shared, not copied).
+  MapInputs mapInputs() const;
   /// The occupancy map: every node's scan inserted at its map pose.
-  mrpt::maps::COccupancyGridMap2D renderMap(double resolution_m) const;
+  mrpt::maps::COccupancyGridMap2D renderMap(double resolution_m) const {
+    return renderOccupancyMap(mapInputs(), resolution_m);
+  }
 
  private:
   void searchLoops(int node, const PointCloud& points);
@@ -72,7 +77,7 @@ class LaserSlam {
   Eigen::Matrix3d odometry_information_;
   std::vector<std::shared_ptr<const Submap>> finished_;
   std::vector<core::Pose2> node_local_poses_;
-  std::vector<mrpt::obs::CObservation2DRangeScan> node_scans_;
+  std::vector<std::shared_ptr<const mrpt::obs::CObservation2DRangeScan>> node_scans_;
   // Per scan: the newest node at its time and the scan's pose relative to it.
   std::vector<int> scan_node_;
   std::vector<core::Pose2> scan_offset_;

@@ -11,7 +11,9 @@
 // filter holds each scan until its transforms are known).
 // Out (private): ~decisions (LoopClosureDecision), ~markers (MarkerArray, latched, built only for
 // subscribers), ~path (nav_msgs/Path, latched), ~status (RrrStatus), tf map -> odom; in slam mode
-// also map (nav_msgs/OccupancyGrid, latched, relative to the node handle like map_server's).
+// also map (nav_msgs/OccupancyGrid, latched, relative to the node handle like map_server's;
+// rendered on a thread of its own, only while it has subscribers, at most every
+// map_publish_period, and again only when a node or a decision changed it).
 
 #include <atomic>
 #include <condition_variable>
@@ -44,6 +46,7 @@
 #include "rrr_graphslam/SaveGraph.h"
 #include "rrr_graphslam/core/keyframe_selector.h"
 #include "rrr_graphslam/frontend/laser_slam.h"
+#include "rrr_graphslam/ros/map_publisher.h"
 #include "rrr_graphslam/ros/params.h"
 #include "rrr_graphslam/rrr/online_rrr.h"
 
@@ -85,6 +88,9 @@ class GraphSlamRos {
   void workerLoop();
   void process(const Input& input);
   void handleOdometry(const nav_msgs::Odometry& msg);
+  /// Information of the odometry step from the last keyframe to `pose` (see core/odometry_noise.h).
+  Eigen::Matrix3d stepInformation(const core::Pose2& pose,
+                                  const std::optional<Eigen::Matrix3d>& covariance);
   void handleEdge(const PoseGraphEdge& msg);
   void handleCandidate(const LoopCandidate& msg);
   void handleScan(const ScanInput& input);
@@ -98,7 +104,8 @@ class GraphSlamRos {
   void publishChanges();
   void publishOutputs();
   void publishStatus();
-  void publishMap();
+  /// Slam mode: hands the map's inputs to map_publisher_ when someone subscribes.
+  void offerMap();
 
   // Services (their own queue and thread).
   bool save(SaveGraph::Request& req, SaveGraph::Response& res);
@@ -124,6 +131,7 @@ class GraphSlamRos {
   Owner owner_ = Owner::kNone;
   core::KeyframeSelector keyframes_;
   std::optional<core::Pose2> last_keyframe_odom_;  // odometry pose of the newest odom node
+  std::optional<Eigen::Matrix3d> last_keyframe_covariance_;  // its message's (x, y, yaw) block
   ros::Time last_odom_stamp_;
   bool dirty_ = false;
   double last_update_sec_ = 0.0;
@@ -144,7 +152,8 @@ class GraphSlamRos {
   ros::Time last_tf_time_;  // timer thread only
 
   ros::Publisher decisions_pub_, markers_pub_, path_pub_, status_pub_, map_pub_;
-  std::unique_ptr<tf2_ros::Buffer> tf_buffer_;  // slam mode only
+  std::unique_ptr<MapPublisher> map_publisher_;  // slam mode only
+  std::unique_ptr<tf2_ros::Buffer> tf_buffer_;   // slam mode only
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
   // Scans wait in the filter until odom_frame -> their frame is known at their stamp.
   std::unique_ptr<message_filters::Subscriber<sensor_msgs::LaserScan>> scan_sub_;

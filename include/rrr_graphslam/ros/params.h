@@ -26,8 +26,10 @@ struct NodeParams {
 
   // Nodes from odometry.
   core::KeyframeParams keyframes;
-  /// Standard deviations (m, m, rad) of one odometry step between nodes, used when the Odometry
-  /// message's pose covariance is zero; default 0.05 m, 0.05 m, 0.02 rad.
+  /// Odometry noise when the Odometry message's pose covariance does not give the step's (zero,
+  /// or constant instead of growing as dead reckoning does): standard deviations of x and y in
+  /// metres per metre driven, of yaw in radians per radian turned and per metre driven
+  /// (core::MotionNoise); default 0.05, 0.05, 0.02.
   Eigen::Vector3d odometry_stddev{0.05, 0.05, 0.02};
 
   // RRR (cluster_gap in nodes, alpha, ...).

@@ -1,0 +1,148 @@
+// The node's services (~save, ~load, ~reset, ~optimize, ~finish): each runs in the worker thread
+// in turn with the input (runInWorker), so it sees a consistent graph and never races RRR.
+
+#include <chrono>
+#include <string>
+
+#include "rrr_graphslam/core/graph_io.h"
+#include "rrr_graphslam/core/stopwatch.h"
+#include "rrr_graphslam/ros/graph_slam_ros.h"
+#include "rrr_graphslam/rrr/decisions_io.h"
+
+namespace rrr_graphslam::ros_adapter {
+
+using core::secondsSince;
+
+namespace {
+
+// "map.g2o" -> "map.decisions.tsv" (also for .graph, .toro and their .gz).
+std::string defaultDecisionsPath(std::string path) {
+  for (const char* ext : {".gz", ".g2o", ".graph", ".toro"}) {
+    const std::string e = ext;
+    if (path.size() > e.size() && path.compare(path.size() - e.size(), e.size(), e) == 0) {
+      path.resize(path.size() - e.size());
+    }
+  }
+  return path + ".decisions.tsv";
+}
+
+void logServiceResult(const char* service, bool success, const std::string& message) {
+  if (success) {
+    ROS_INFO("%s: %s", service, message.c_str());
+  } else {
+    ROS_ERROR("%s failed: %s", service, message.c_str());
+  }
+}
+
+}  // namespace
+
+void GraphSlamRos::replaceGraph(std::unique_ptr<rrr::OnlineRrr> replacement) {
+  if (slam_) {
+    startSlam();  // a fresh front end (its graph holds no scans to go on from a loaded one)
+  } else {
+    graph_ = std::move(replacement);
+  }
+  owner_ = Owner::kNone;
+  keyframes_.reset();
+  last_keyframe_odom_.reset();
+  last_keyframe_covariance_.reset();
+  last_odom_stamp_ = ros::Time();
+  node_stamps_.assign(static_cast<std::size_t>(graph().numNodes()), ros::Time::now());
+  dirty_ = true;
+  publishChanges();
+}
+
+// ---- Services ----------------------------------------------------------------------------------
+
+bool GraphSlamRos::save(SaveGraph::Request& req, SaveGraph::Response& res) {
+  res.success = runInWorker(
+      [&]() -> std::string {
+        if (req.path.empty()) throw std::invalid_argument("path is empty");
+        const std::string decisions =
+            req.decisions_path.empty() ? defaultDecisionsPath(req.path) : req.decisions_path;
+        core::writePoseGraph(graph().toPoseGraph(), req.path);
+        rrr::writeDecisions(decisions, graph().decisionRows());
+        std::string written = req.path + " and " + decisions;
+        if (!req.optimized_path.empty()) {
+          core::writePoseGraph(graph().optimizedPoseGraph(), req.optimized_path);
+          written += " and " + req.optimized_path;
+        }
+        return "saved " + std::to_string(graph().numNodes()) + " nodes and " +
+               std::to_string(graph().numCandidates()) + " candidates to " + written;
+      },
+      res.message);
+  logServiceResult("~save", res.success, res.message);
+  return true;
+}
+
+bool GraphSlamRos::load(LoadGraph::Request& req, LoadGraph::Response& res) {
+  res.success = runInWorker(
+      [&]() -> std::string {
+        if (slam_) {
+          throw std::invalid_argument(
+              "~load is not available in slam mode: a saved graph holds no scans to match new "
+              "ones against");
+        }
+        core::GraphReadOptions options;
+        options.allow_disconnected = true;
+        replaceGraph(
+            rrr::OnlineRrr::fromPoseGraph(core::readPoseGraph(req.path, options), params_.rrr));
+        const rrr::OnlineRrrStatus s = graph().status();
+        return "loaded " + std::to_string(s.nodes) + " nodes (" + std::to_string(s.sessions) +
+               " sessions) and " + std::to_string(s.candidates) + " candidates from " + req.path +
+               ": " + std::to_string(s.accepted) + " accepted, " + std::to_string(s.rejected) +
+               " rejected";
+      },
+      res.message);
+  logServiceResult("~load", res.success, res.message);
+  return true;
+}
+
+bool GraphSlamRos::reset(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res) {
+  res.success = runInWorker(
+      [&]() -> std::string {
+        replaceGraph(std::make_unique<rrr::OnlineRrr>(params_.rrr));
+        received_ = processed_ = malformed_ = ignored_ = 0;
+        decisions_published_ = 0;
+        return "graph cleared";
+      },
+      res.message);
+  return true;
+}
+
+bool GraphSlamRos::optimize(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res) {
+  res.success = runInWorker(
+      [&]() -> std::string {
+        const auto start = std::chrono::steady_clock::now();
+        graph().decideClosedFromScratch();
+        publishChanges();
+        dirty_ = true;
+        const rrr::OnlineRrrStatus s = graph().status();
+        return "closed clusters decided again in " + std::to_string(secondsSince(start)) +
+               " s: " + std::to_string(s.accepted) + " accepted, " + std::to_string(s.rejected) +
+               " rejected, " + std::to_string(s.pending) + " pending";
+      },
+      res.message);
+  return true;
+}
+
+bool GraphSlamRos::finish(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res) {
+  res.success = runInWorker(
+      [&]() -> std::string {
+        if (slam_) {
+          slam_->finish();
+          offerMap();
+        } else {
+          graph().finish();
+        }
+        publishChanges();
+        dirty_ = true;
+        const rrr::OnlineRrrStatus s = graph().status();
+        return "every cluster closed and decided: " + std::to_string(s.accepted) + " accepted, " +
+               std::to_string(s.rejected) + " rejected";
+      },
+      res.message);
+  return true;
+}
+
+}  // namespace rrr_graphslam::ros_adapter
