@@ -1,6 +1,7 @@
 #include "rrr_graphslam/ros/conversions.h"
 
 #include <limits>
+#include <string>
 
 #include <mrpt/maps/COccupancyGridMap2D.h>
 
@@ -140,6 +141,28 @@ std::uint8_t toVerdictMsg(rrr::Verdict verdict) {
       break;
   }
   return LoopClosureDecision::PENDING;
+}
+
+LoopClosureDecision toDecisionMsg(const rrr::DecisionChange& change, const std::string& frame,
+                                  const ros::Time& stamp) {
+  auto id32 = [](const char* field, rrr::OnlineRrr::NodeId id) {
+    if (id > std::numeric_limits<std::uint32_t>::max()) {
+      throw std::invalid_argument(std::string(field) + " " + std::to_string(id) +
+                                  " does not fit LoopClosureDecision's uint32");
+    }
+    return static_cast<std::uint32_t>(id);
+  };
+  LoopClosureDecision msg;
+  msg.header.stamp = stamp;
+  msg.header.frame_id = frame;
+  msg.from_id = id32("from_id", change.from);
+  msg.to_id = id32("to_id", change.to);
+  msg.cluster = change.cluster;
+  msg.verdict = toVerdictMsg(change.verdict);
+  msg.previous_verdict = toVerdictMsg(change.previous);
+  msg.reason = change.reason;
+  msg.candidate = static_cast<std::uint32_t>(change.candidate);
+  return msg;
 }
 
 }  // namespace rrr_graphslam::ros_adapter

@@ -441,18 +441,13 @@ void GraphSlamRos::publishChanges() {
   map_dirty_ = map_dirty_ || slam_ != nullptr;  // a decision moves the map's poses
   const ros::Time now = ros::Time::now();
   for (const rrr::DecisionChange& change : changes) {
-    LoopClosureDecision msg;
-    msg.header.stamp = now;
-    msg.header.frame_id = params_.map_frame;
-    msg.from_id = static_cast<std::uint32_t>(change.from);
-    msg.to_id = static_cast<std::uint32_t>(change.to);
-    msg.cluster = change.cluster;
-    msg.verdict = toVerdictMsg(change.verdict);
-    msg.previous_verdict = toVerdictMsg(change.previous);
-    msg.reason = change.reason;
-    msg.candidate = static_cast<std::uint32_t>(change.candidate);
-    decisions_pub_.publish(msg);
-    ++decisions_published_;
+    try {
+      decisions_pub_.publish(toDecisionMsg(change, params_.map_frame, now));
+      ++decisions_published_;
+    } catch (const std::invalid_argument& e) {
+      ROS_ERROR_THROTTLE(1.0, "%s: decision on candidate %d not published: %s",
+                         decisions_pub_.getTopic().c_str(), change.candidate, e.what());
+    }
   }
 }
 

@@ -4,6 +4,7 @@
 
 #include <cstdint>
 #include <optional>
+#include <string>
 
 #include <geometry_msgs/Pose.h>
 #include <geometry_msgs/Pose2D.h>
@@ -13,8 +14,10 @@
 #include <Eigen/Core>
 #include <boost/array.hpp>
 
+#include "rrr_graphslam/LoopClosureDecision.h"
 #include "rrr_graphslam/core/se2.h"
 #include "rrr_graphslam/frontend/range_scan.h"
+#include "rrr_graphslam/rrr/online_rrr.h"
 #include "rrr_graphslam/rrr/rrr.h"
 
 namespace mrpt::maps {
@@ -54,5 +57,10 @@ void toOccupancyGridMsg(const mrpt::maps::COccupancyGridMap2D& grid, nav_msgs::O
 
 /// LoopClosureDecision's verdict constant.
 std::uint8_t toVerdictMsg(rrr::Verdict verdict);
+
+/// A verdict change as ~decisions carries it. Throws std::invalid_argument when a node id does
+/// not fit the message's uint32 ("from_id", "to_id"): a truncated id would name another node.
+LoopClosureDecision toDecisionMsg(const rrr::DecisionChange& change, const std::string& frame,
+                                  const ros::Time& stamp);
 
 }  // namespace rrr_graphslam::ros_adapter
