@@ -2,6 +2,9 @@
 // in turn with the input (runInWorker), so it sees a consistent graph and never races RRR.
 
 #include <chrono>
+#include <cstdint>
+#include <limits>
+#include <stdexcept>
 #include <string>
 
 #include "rrr_graphslam/core/graph_io.h"
@@ -85,8 +88,15 @@ bool GraphSlamRos::load(LoadGraph::Request& req, LoadGraph::Response& res) {
         }
         core::GraphReadOptions options;
         options.allow_disconnected = true;
-        replaceGraph(
-            rrr::OnlineRrr::fromPoseGraph(core::readPoseGraph(req.path, options), params_.rrr));
+        const core::PoseGraph loaded = core::readPoseGraph(req.path, options);
+        // The messages carry node ids as uint32: a larger one would be reported as another.
+        for (const core::PoseGraph::NodeId id : loaded.nodeIds()) {
+          if (id > std::numeric_limits<std::uint32_t>::max()) {
+            throw std::invalid_argument(req.path + ": node id " + std::to_string(id) +
+                                        " does not fit the uint32 ids of the node's messages");
+          }
+        }
+        replaceGraph(rrr::OnlineRrr::fromPoseGraph(loaded, params_.rrr));
         const rrr::OnlineRrrStatus s = graph().status();
         return "loaded " + std::to_string(s.nodes) + " nodes (" + std::to_string(s.sessions) +
                " sessions) and " + std::to_string(s.candidates) + " candidates from " + req.path +

@@ -162,7 +162,8 @@ def _raw_lines(path: str, chunk_bytes: int = 1 << 16) -> Iterator[bytes]:
 def tagged_lines(path: str) -> Iterator[Tuple[int, List[str]]]:
     """(line number, fields) of every line that is not blank or a '#' comment; fields[0] is the
     tag. Lines end at '\\n' (a lone '\\r' is whitespace), fields are split at C whitespace, bytes
-    are read as Latin-1; a damaged gzip stream raises GraphFileError ('read error')."""
+    are read as Latin-1; a damaged gzip stream raises GraphFileError ('read error'), and so does
+    a NUL byte (no text file has one)."""
     number = 0
     lines = _raw_lines(path)
     while True:
@@ -173,6 +174,9 @@ def tagged_lines(path: str) -> Iterator[Tuple[int, List[str]]]:
         except _ReadError as e:
             raise GraphFileError(path, number + 1, f"read error: {e}") from None
         number += 1
+        nul = raw.find(b"\0")
+        if nul >= 0:
+            raise GraphFileError(path, number, f"NUL byte at column {nul + 1}: not a text file")
         if _NOT_C_SPACE.search(raw):
             fields = [v.decode("latin-1") for v in raw.split()]
         else:

@@ -209,6 +209,34 @@ INSTANTIATE_TEST_SUITE_P(
       return std::string(param_info.param.name);
     });
 
+// A NUL byte is no text: an error naming its line (C string handling would drop the rest of the
+// line, and a loop candidate after a comment would vanish).
+TEST(GraphIo, NulByteIsAnErrorNamingTheLine) {
+  TempDir dir;
+  const std::string content = std::string("VERTEX_SE2 0 0 0 0\n# note") + '\0' +
+                              "\nVERTEX_SE2 1 1 0 0\nEDGE_SE2 0 1 1 0 0 1 0 0 1 0 1\n";
+  const std::string path = dir.file("nul.g2o", content);
+  try {
+    readPoseGraph(path);
+    FAIL() << "NUL byte accepted";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.line(), 2u) << e.what();
+    EXPECT_NE(std::string(e.what()).find("NUL byte at column 7"), std::string::npos) << e.what();
+  }
+}
+
+// Lines longer than the reader's buffer, and a last line without its newline.
+TEST(GraphIo, LongLinesAndAMissingFinalNewline) {
+  TempDir dir;
+  const std::string content = "# " + std::string(200000, 'x') +
+                              "\nVERTEX_SE2 0 0 0 0\r\nVERTEX_SE2 1 1 0 0\n# " +
+                              std::string(70000, 'y') + "\nEDGE_SE2 0 1 1 0 0 1 0 0 1 0 1";
+  const PoseGraph g = readPoseGraph(dir.file("long.g2o", content));
+  EXPECT_EQ(g.numNodes(), 2u);
+  ASSERT_EQ(g.numEdges(), 1u);
+  EXPECT_EQ(g.edge(0).to, 1u);
+}
+
 TEST(GraphIo, MissingFileAndTruncatedGzip) {
   EXPECT_THROW(readPoseGraph("/nonexistent/graph.g2o"), InputError);
   TempDir dir;

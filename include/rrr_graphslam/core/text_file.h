@@ -19,7 +19,8 @@ class LineReader {
   LineReader& operator=(const LineReader&) = delete;
 
   /// Reads the next line without its end-of-line characters; false at end of file.
-  /// Throws InputError on a read error (e.g. a truncated .gz).
+  /// Throws InputError on a read error (e.g. a truncated .gz) and for a line holding a NUL byte
+  /// (no text file has one; C string handling would drop the rest of the line).
   bool next(std::string& line);
   /// 1-based number of the line last returned.
   std::size_t lineNumber() const { return line_number_; }
@@ -27,8 +28,14 @@ class LineReader {
 
  private:
   std::string path_;
+  /// Reads more of the file into buffer_; false at end of file.
+  bool fill();
+
   void* file_;  // gzFile; kept opaque so zlib.h stays out of the header
   std::size_t line_number_ = 0;
+  std::string buffer_;  // read, not yet returned from `start_` on
+  std::size_t start_ = 0;
+  bool at_end_ = false;
 };
 
 /// Writes `path` atomically: `write` fills a temporary file next to it, which is flushed,
