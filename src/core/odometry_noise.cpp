@@ -30,7 +30,8 @@ std::optional<Eigen::Matrix3d> stepCovarianceFromAbsolute(
   if (!step.allFinite()) return std::nullopt;
   const Eigen::LLT<Eigen::Matrix3d> llt(step);
   if (llt.info() != Eigen::Success) return std::nullopt;
-  // Definite, and not merely by rounding: its smallest eigenvalue against its largest.
+  // Definite, and not merely by rounding: no Cholesky pivot below 1e-6 of the largest (the units
+  // mix m^2 and rad^2: a guard against rounding, not a physical floor).
   const Eigen::Vector3d d = llt.matrixLLT().diagonal();
   if (d.minCoeff() <= 1e-6 * d.maxCoeff()) return std::nullopt;
   return step;

@@ -125,6 +125,7 @@ bool GraphSlamRos::optimize(std_srvs::Trigger::Request&, std_srvs::Trigger::Resp
       [&]() -> std::string {
         const auto start = std::chrono::steady_clock::now();
         graph().decideClosedFromScratch();
+        map_dirty_ = map_dirty_ || slam_ != nullptr;  // the poses move, verdicts or not
         publishChanges();
         dirty_ = true;
         const rrr::OnlineRrrStatus s = graph().status();
@@ -141,6 +142,7 @@ bool GraphSlamRos::finish(std_srvs::Trigger::Request&, std_srvs::Trigger::Respon
       [&]() -> std::string {
         if (slam_) {
           slam_->finish();
+          map_dirty_ = true;  // the decision from scratch moves the poses, verdicts or not
           offerMap();
         } else {
           graph().finish();

@@ -33,11 +33,6 @@ void MapPublisher::offer(frontend::MapInputs inputs) {
   wake_.notify_one();
 }
 
-int MapPublisher::published() const {
-  std::lock_guard<std::mutex> lock(mutex_);
-  return published_;
-}
-
 void MapPublisher::loop() {
   for (;;) {
     frontend::MapInputs inputs;
@@ -55,8 +50,6 @@ void MapPublisher::loop() {
       msg.info.map_load_time = msg.header.stamp;
       toOccupancyGridMsg(frontend::renderOccupancyMap(inputs, resolution_m_), msg);
       publisher_.publish(msg);
-      std::lock_guard<std::mutex> lock(mutex_);
-      ++published_;
     } catch (const std::exception& e) {
       ROS_ERROR_THROTTLE(10.0, "%s: map not rendered: %s", publisher_.getTopic().c_str(), e.what());
     }

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "rrr_graphslam/core/chi2.h"
 #include "rrr_graphslam/rrr/pairwise_consistency.h"
@@ -126,9 +127,10 @@ void Rrr::decideFromScratch() {
     }
     grew = realize(hypotheses, params_.warm_start ? base_ : initial, "recover", false);
   }
-  // Hypotheses never preselected are rejected.
+  // Hypotheses never selected again are rejected, with their last preselection's statistic.
   for (int c : clustersWith(Status::kPending)) {
-    setStatus(c, Status::kRejected, "preselection: no link within chi2(alpha, 3) of the map");
+    const std::string why = clusters_[static_cast<std::size_t>(c)].reason;
+    setStatus(c, Status::kRejected, why.empty() ? "preselection: never tested" : why);
   }
   // Leave the optimizer holding the good set's solution.
   graph_.activateOnly(acceptedCandidates());
@@ -162,17 +164,24 @@ std::vector<int> Rrr::preselect(const std::vector<int>& hypotheses) {
   graph_.activateOnly(links);
   core::Optimizer& opt = graph_.optimizer();
   opt.setPoses(graph_.initialPoses());
-  opt.optimize();
+  const core::OptimizationResult r = opt.optimize();
   ++optimizations_;
   const double threshold = core::chi2Quantile(params_.alpha, 3);
   std::vector<int> selected;
   for (int c : hypotheses) {
-    const auto& kept = kept_links_[static_cast<std::size_t>(c)];
-    if (std::any_of(kept.begin(), kept.end(), [&](int k) {
-          return opt.constraintChi2(graph_.candidate(k).constraint) < threshold;
-        })) {
-      selected.push_back(c);
+    double best = std::numeric_limits<double>::infinity();
+    for (int k : kept_links_[static_cast<std::size_t>(c)]) {
+      best = std::min(best, failIfNotFinite(opt.constraintChi2(graph_.candidate(k).constraint)));
     }
+    if (best < threshold) {
+      selected.push_back(c);
+      continue;
+    }
+    // Not selected: a hypothesis still; rejected for this reason if never selected again.
+    std::string why = "preselection: " + chi2Test("min D2_l", best, params_.alpha, 3);
+    if (r.stop_reason != core::StopReason::kConverged)
+      why += " (optimizer: " + core::toString(r.stop_reason) + ")";
+    clusters_[static_cast<std::size_t>(c)].reason = why;
   }
   return selected;
 }
@@ -195,14 +204,18 @@ bool Rrr::realize(const std::vector<int>& hypotheses, const std::vector<core::Po
   return apply(tested, inter, step);
 }
 
-std::vector<int> Rrr::recoverHypotheses(bool grew) const {
+std::vector<int> Rrr::recoverHypotheses(bool grew) {
+  if (grew && std::isinf(params_.recover_gate)) {
+    for (int c : clustersWith(Status::kRejected)) {
+      if (!std::binary_search(last_removed_.begin(), last_removed_.end(), c)) {
+        setStatus(c, Status::kPending, "");
+      }
+    }
+  }
   std::vector<int> hypotheses = clustersWith(Status::kPending);
-  if (!grew) return hypotheses;
+  if (!grew || std::isinf(params_.recover_gate)) return hypotheses;
   for (int c : clustersWith(Status::kRejected)) {
-    const bool retried = std::isinf(params_.recover_gate)
-                             ? !std::binary_search(last_removed_.begin(), last_removed_.end(), c)
-                             : indexAt(c, base_) < params_.recover_gate;
-    if (retried) hypotheses.push_back(c);
+    if (indexAt(c, base_) < params_.recover_gate) hypotheses.push_back(c);
   }
   std::sort(hypotheses.begin(), hypotheses.end());
   return hypotheses;

@@ -1,6 +1,7 @@
 #include "rrr_graphslam/rrr/rrr_params.h"
 
 #include <cmath>
+#include <iomanip>
 #include <sstream>
 #include <stdexcept>
 #include <type_traits>
@@ -43,8 +44,8 @@ void applyPreset(const std::string& name, RrrParams& params) {
 
 std::string outOfRangeMessage(const ParamInfo& info, const std::string& value) {
   std::ostringstream what;
-  what << info.name << " = " << value << " is out of range: must be in [" << info.low << ", "
-       << info.high << "]";
+  what << std::setprecision(12) << info.name << " = " << value << " is out of range: must be in ["
+       << info.low << ", " << info.high << "]";
   return what.str();
 }
 

@@ -102,8 +102,8 @@ void Rrr::settleGoodMap() {
   const core::OptimizationResult r = opt.optimize();
   ++optimizations_;
   // Lower by more than one link's test threshold: a better minimum, not the same one reached to
-  // another tolerance (which could move a session only its weak prior holds). A failed or
-  // non-finite optimization is no better minimum.
+  // another tolerance (which could move a session only its weak prior holds). A lower chi2 is a
+  // better map even where the run stopped early; a non-finite one (NaN) never compares lower.
   if (r.final_chi2 < current - core::chi2Quantile(params_.alpha, 3)) base_ = opt.poses();
   opt.setPoses(base_);
 }

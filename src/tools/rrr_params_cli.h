@@ -4,6 +4,7 @@
 // messages as the ROS parameters.
 
 #include <algorithm>
+#include <cmath>
 #include <cstdlib>
 #include <sstream>
 #include <stdexcept>
@@ -57,9 +58,9 @@ inline bool readRrrParam(const CommandLine& cli, int& i, char** argv, rrr::RrrPa
       const double v = std::strtod(text.c_str(), &end);
       if (end == text.c_str() || *end != '\0')
         cli.fail(a + " must be a number, not '" + text + "'");
-      if (std::is_integral_v<T> && v != static_cast<double>(static_cast<long long>(v)))
-        cli.fail(a + " must be an integer, not '" + text + "'");
       if (!(v >= info.low && v <= info.high)) cli.fail(rrr::outOfRangeMessage(info, text));
+      if (std::is_integral_v<T> && v != std::floor(v))
+        cli.fail(a + " must be an integer, not '" + text + "'");
       field = static_cast<T>(v);
     }
   });

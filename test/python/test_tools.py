@@ -72,6 +72,12 @@ def test_paper_preset_and_parameter_flags(spoiled):
     assert "alpha = 1.5 is out of range: must be in [" in result.stderr
     result = run(OFFLINE, path, "--joint-link-check", "maybe")
     assert result.returncode == 2 and "--joint-link-check must be true or false" in result.stderr
+    result = run(OFFLINE, path, "--max-rounds", "1e300")
+    assert result.returncode == 2 and "max_rounds = 1e300 is out of range" in result.stderr
+    result = run(OFFLINE, path, "--max-rounds", "2.5")
+    assert result.returncode == 2 and "--max-rounds must be an integer" in result.stderr
+    result = run(OFFLINE, path, "--alpha", "1")
+    assert result.returncode == 2 and "must be in [1e-06, 0.999999999]" in result.stderr
     result = run(OFFLINE, path, "--preset", "papers")
     assert result.returncode == 2 and "preset must be default or paper" in result.stderr
 

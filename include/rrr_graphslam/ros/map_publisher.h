@@ -27,8 +27,6 @@ class MapPublisher {
   bool wanted() const { return publisher_.getNumSubscribers() > 0; }
   /// Renders and publishes `inputs` soon, replacing inputs offered before that wait.
   void offer(frontend::MapInputs inputs);
-  /// Maps published so far.
-  int published() const;
 
  private:
   void loop();
@@ -40,7 +38,6 @@ class MapPublisher {
   std::condition_variable wake_;
   std::optional<frontend::MapInputs> next_;
   bool stop_ = false;
-  int published_ = 0;
   std::thread thread_;  // last: started when everything else is set
 };
 

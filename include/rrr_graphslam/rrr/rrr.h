@@ -107,10 +107,12 @@ class Rrr {
   /// optimizer ends holding an undamped factorization of the good map (for the online gate).
   bool realize(const std::vector<int>& hypotheses, const std::vector<core::Pose2>& start,
                const char* step, bool restart, bool factor_at_solution = false);
-  /// Recover: the rejected clusters that become hypotheses again, when the good set grew (with
-  /// the clusters still hypotheses). The paper: every cluster rejected before this round; with a
-  /// finite recover_gate, those whose index at the good map is below it.
-  std::vector<int> recoverHypotheses(bool grew) const;
+  /// Recover: the hypotheses of the next round, when the good set grew the rejected clusters
+  /// that become hypotheses again with those still hypotheses. The paper: the reject set is
+  /// cleared but for this round's removals (those clusters are hypotheses, kPending, again until
+  /// a joint test removes them); with a finite recover_gate, the rejected clusters whose index at
+  /// the good map is below it are retried without leaving the reject set.
+  std::vector<int> recoverHypotheses(bool grew);
   /// Makes `inter.consistent` the good set; the other `tested` clusters are rejected, each with
   /// its reason. Returns true if a cluster became good that was not before.
   bool apply(const std::vector<int>& tested, const InterClusterResult& inter, const char* step);

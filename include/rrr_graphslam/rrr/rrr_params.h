@@ -42,9 +42,9 @@ struct RrrParams {
   bool robust_ordering = true;
   /// Dynamic Covariance Scaling parameter of that robust map; default 1.
   double dcs_phi = 1.0;
-  /// Joint tests start from the good set's map (recover rounds) and each removal round goes on
-  /// from the previous round's solution; default true (paper: every optimization starts from the
-  /// initial estimate).
+  /// Joint tests start from the good set's map (recover rounds) and, in batch, each removal round
+  /// goes on from the previous round's solution (online every round restarts from the good map);
+  /// default true (paper: every optimization starts from the initial estimate).
   bool warm_start = true;
   /// A joint test may remove good clusters as well as the hypotheses it tests (reverse); default
   /// true (paper, as in the authors' implementation: only the hypotheses can be removed).
