@@ -6,7 +6,7 @@ Truth files, either
            (label 1 = true loop, 0 = false), as written by add_outliers and vertigo's sets;
   pairs:   one line 'i j' per true loop, any order (KITTI's *_GT_LC.txt); every candidate not
            listed is false.
-Decisions: the TSV of rrr_offline / replay_posegraph with header 'from to cluster verdict'.
+Decisions: the TSV of rrr_offline / replay_posegraph with header 'from to cluster verdict' (+ 'reason', written by the C++ tools and the node).
 """
 
 import math

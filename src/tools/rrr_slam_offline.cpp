@@ -48,7 +48,7 @@ const char* const kUsage =
     "  LOG               CARMEN log (FLASER or ROBOTLASER1 lines; the scans carry the odometry)\n"
     "  --output          the pose graph: nodes at their optimized poses, odometry and every loop\n"
     "                    candidate (rrr_offline can decide it again)\n"
-    "  --decisions       TSV 'from to cluster verdict', one row per loop candidate\n"
+    "  --decisions       TSV 'from to cluster verdict reason', one row per loop candidate\n"
     "  --trajectory      optimized pose of every scan, TUM format 't x y z qx qy qz qw' with the\n"
     "                    log's ipc_timestamp\n"
     "  --map             writes MAP.pgm + MAP.yaml (map_server) and MAP.png (accepted loops\n"
