@@ -14,20 +14,38 @@ echo "[rrr] clang-format check"
 (cd "${RRR_REPO}" && git ls-files '*.cpp' '*.h' | xargs clang-format-14 --dry-run --Werror) ||
   { echo "[rrr] formatting differs from .clang-format: run clang-format-14 -i on the files above"; exit 1; }
 
+# Runs every test of the sourced workspace in the current folder and judges the results. The
+# test targets are built first, so a compile error fails here. `catkin_make run_tests` records
+# each test's result (a failing or crashing test included) and exits 0 for failed tests, so its
+# status says nothing: catkin_test_results does, and a run that recorded no test fails too.
+# Results of earlier runs are removed first, so a test that no longer runs cannot pass on them.
+rrr_run_tests() {
+  rm -rf build/test_results
+  catkin_make tests >/dev/null || { echo "[rrr] building the tests failed"; return 1; }
+  catkin_make run_tests 2>&1 | grep -E '^\[ +(RUN|OK|FAILED|PASSED) +\]|Failure|error' || true
+  local summary status=0
+  summary=$(catkin_test_results build/test_results) || status=$?
+  [[ $status != 0 ]] && catkin_test_results build/test_results --verbose | grep -vE '^Summary' || true
+  echo "${summary}" | tail -n 1
+  [[ $status == 0 ]] || return 1
+  if ! echo "${summary}" | tail -n 1 | grep -qE '^Summary: [1-9][0-9]* tests'; then
+    echo "[rrr] no test ran"
+    return 1
+  fi
+}
+
 if [[ $sanitize == 1 ]]; then
   echo "[rrr] sanitizer build (ASan + UBSan) of the core tests"
   (
     RRR_WS=${RRR_WS}_asan RRR_CMAKE_ARGS="-DRRR_SANITIZE=ON" rrr_build >/dev/null
     # libgomp keeps its thread pool alive at exit; leak checks would only report that.
     export ASAN_OPTIONS=detect_leaks=0:abort_on_error=1 UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1
-    cd "${RRR_WS}_asan" && catkin_make run_tests >/dev/null 2>&1 || true
-    catkin_test_results build/test_results | tail -n 1
-    catkin_test_results build/test_results >/dev/null
+    cd "${RRR_WS}_asan"
+    rrr_run_tests >sanitizer_tests.log 2>&1 || { tail -n 80 sanitizer_tests.log; exit 1; }
+    tail -n 1 sanitizer_tests.log
   ) || { echo "[rrr] sanitizer tests failed"; exit 1; }
 fi
 
 rrr_build >/dev/null
 cd "${RRR_WS}"
-catkin_make run_tests 2>&1 | grep -E '^\[ +(RUN|OK|FAILED|PASSED) +\]|Failure|error' || true
-catkin_test_results build/test_results --verbose >/dev/null 2>&1 || true
-catkin_test_results build/test_results
+rrr_run_tests
