@@ -307,7 +307,7 @@ OptimizationResult Optimizer::optimize() {
       result.constraint_chi2[static_cast<std::size_t>(k)] = constraintChi2(k);
     }
   }
-  result.time_sec = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  result.time_sec = secondsSince(start);
   return result;
 }
 

@@ -97,6 +97,11 @@ std::string indexTest(const char* name, double index, double limit) {
   return text;
 }
 
+std::string stopNote(core::StopReason stop) {
+  return stop == core::StopReason::kConverged ? std::string()
+                                              : " (optimizer: " + core::toString(stop) + ")";
+}
+
 IntraClusterResult intraClusterConsistency(const std::vector<int>& cluster, double alpha,
                                            const ResidualFunction& residuals,
                                            bool worst_link_removal) {
@@ -194,9 +199,8 @@ InterClusterResult interClusterConsistency(VerificationGraph& graph,
     // Remove the worst cluster and those nearly as bad; with every index below 1 (only the
     // joint test failed) that is the worst alone.
     const double threshold = worst < 1.0 ? worst : std::max(1.0, batch_fraction * worst);
-    std::string joint = chi2Test("D2_G", result.chi2, alpha, result.dof);
-    if (r.stop_reason != core::StopReason::kConverged)
-      joint += " (optimizer: " + core::toString(r.stop_reason) + ")";
+    const std::string joint =
+        chi2Test("D2_G", result.chi2, alpha, result.dof) + stopNote(r.stop_reason);
     std::vector<int> keep;
     for (std::size_t i = 0; i < active.size(); ++i) {
       if (index[i] >= threshold && removable(active[i])) {

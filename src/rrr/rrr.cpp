@@ -178,10 +178,8 @@ std::vector<int> Rrr::preselect(const std::vector<int>& hypotheses) {
       continue;
     }
     // Not selected: a hypothesis still; rejected for this reason if never selected again.
-    std::string why = "preselection: " + chi2Test("min D2_l", best, params_.alpha, 3);
-    if (r.stop_reason != core::StopReason::kConverged)
-      why += " (optimizer: " + core::toString(r.stop_reason) + ")";
-    clusters_[static_cast<std::size_t>(c)].reason = why;
+    clusters_[static_cast<std::size_t>(c)].reason =
+        "preselection: " + chi2Test("min D2_l", best, params_.alpha, 3) + stopNote(r.stop_reason);
   }
   return selected;
 }
@@ -235,9 +233,7 @@ bool Rrr::apply(const std::vector<int>& tested, const InterClusterResult& inter,
   last_removed_ = inter.removed;
   std::sort(last_removed_.begin(), last_removed_.end());
   bool grew = false;
-  std::string joint = chi2Test("D2_G", inter.chi2, params_.alpha, std::max(inter.dof, 1));
-  if (inter.stop != core::StopReason::kConverged)
-    joint += " (optimizer: " + core::toString(inter.stop) + ")";
+  std::string joint;  // the joint test's statistic, for the clusters that become good
   for (std::size_t i = 0; i < inter.consistent.size(); ++i) {
     const int c = inter.consistent[i];
     if (was_good(c)) {
@@ -245,6 +241,10 @@ bool Rrr::apply(const std::vector<int>& tested, const InterClusterResult& inter,
       continue;
     }
     grew = true;
+    if (joint.empty()) {
+      joint = chi2Test("D2_G", inter.chi2, params_.alpha, std::max(inter.dof, 1)) +
+              stopNote(inter.stop);
+    }
     setStatus(c, Status::kGood,
               std::string(step) + ": " + indexTest("CI", inter.consistent_index[i]) + ", " + joint);
   }

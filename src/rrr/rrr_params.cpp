@@ -14,8 +14,7 @@ const std::vector<std::string>& presetNames() {
 }
 
 void applyPreset(const std::string& name, RrrParams& params) {
-  const RrrParams defaults;
-  RrrParams p = defaults;
+  RrrParams p;
   if (name == "paper") {
     p.reduced_intra_graph = false;
     p.intra_worst_link_removal = false;

@@ -157,11 +157,10 @@ bool Rrr::recoverFar(std::vector<char>& tried) {
       consistent = indexAt(tested[i], poses) < 1.0;
     }
     if (consistent) {
-      std::string why = "far retry: " + chi2Test("D2_G", chi2, params_.alpha, dof) + ", increase " +
-                        chi2Test("D2", chi2 - good_chi2, params_.alpha, own_dof);
-      if (r.stop_reason != core::StopReason::kConverged)
-        why += " (optimizer: " + core::toString(r.stop_reason) + ")";
-      setStatus(c, Status::kGood, why);
+      setStatus(c, Status::kGood,
+                "far retry: " + chi2Test("D2_G", chi2, params_.alpha, dof) + ", increase " +
+                    chi2Test("D2", chi2 - good_chi2, params_.alpha, own_dof) +
+                    stopNote(r.stop_reason));
       base_ = poses;
       return true;
     }

@@ -37,6 +37,9 @@ LinkResiduals fullGraphResiduals(VerificationGraph& graph, const std::vector<int
 std::string chi2Test(const char* statistic, double value, double alpha, int dof);
 /// A consistency index against its limit: "CI 1.52 >= 1".
 std::string indexTest(const char* name, double index, double limit = 1.0);
+/// What a reason adds about the optimization its statistic comes from: nothing when it
+/// converged, else " (optimizer: max-iterations)" and the like.
+std::string stopNote(core::StopReason stop);
 /// Non-finite statistics count as failing every test: NaN becomes +infinity.
 inline double failIfNotFinite(double statistic) {
   return statistic == statistic ? statistic : std::numeric_limits<double>::infinity();
