@@ -17,7 +17,7 @@ LocalSlamResult LocalSlam::addScan(const RangeScan& scan, const core::Pose2& odo
   if (submap && static_cast<int>(result.points.size()) >= params_.min_points) {
     const MatchGrid& grid = submap->matchGrid();
     const core::Pose2 initial =
-        params_.use_correlative_search
+        params_.correlative.linear_window_m > 0.0
             ? realTimeCorrelativeMatch(grid, prediction, result.points, params_.correlative)
             : prediction;
     if (params_.refinement == LocalSlamParams::Refinement::kIcp && submap->grid() != nullptr) {

@@ -8,8 +8,12 @@
 
 int main(int argc, char** argv) {
   ros::init(argc, argv, "rrr_graphslam");
+  // The node handles outlive the adapter: when the last one goes, roscpp shuts down, rosconsole
+  // with it, and a start-up error (a bad parameter) would never be printed.
+  ros::NodeHandle nh;
+  ros::NodeHandle private_nh("~");
   try {
-    rrr_graphslam::ros_adapter::GraphSlamRos adapter(ros::NodeHandle(), ros::NodeHandle("~"));
+    rrr_graphslam::ros_adapter::GraphSlamRos adapter(nh, private_nh);
     ros::spin();
   } catch (const std::exception& e) {
     ROS_FATAL("%s", e.what());

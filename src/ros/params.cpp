@@ -5,6 +5,7 @@
 #include <functional>
 #include <sstream>
 #include <stdexcept>
+#include <type_traits>
 #include <vector>
 
 namespace rrr_graphslam::ros_adapter {
@@ -28,11 +29,23 @@ class ParamReader {
     }
   }
 
-  // Reads `name` if set; the type must match (a number for an int or double, true/false for a
-  // bool); the range is checked by the caller.
+  // Reads a table parameter (core/param_info.h) if set: the type must match (a number for an int
+  // or double, true/false for a bool, a choice's name for an enum, a list of 3 numbers for a
+  // vector); the range is checked by the table's validate().
   template <class T>
-  void read(const std::string& name, T& value) {
-    if (nh_.hasParam(name) && !nh_.getParam(name, value)) fail(name, "has the wrong type");
+  void read(const core::ParamInfo& info, T& value) {
+    const std::string name = info.name;
+    if (!nh_.hasParam(name)) return;
+    if constexpr (std::is_enum_v<T>) {
+      std::string text;
+      if (!nh_.getParam(name, text) || !core::parseChoice(text, value))
+        throw std::invalid_argument("parameter " + nh_.resolveName("") + ": " +
+                                    core::notAChoiceMessage(info, text, core::choiceNames<T>()));
+    } else if constexpr (std::is_same_v<T, Eigen::Vector3d>) {
+      value = numbers3(name);
+    } else if (!nh_.getParam(name, value)) {
+      fail(name, "has the wrong type");
+    }
   }
 
   void positive(const std::string& name, double& value) {
@@ -46,12 +59,31 @@ class ParamReader {
 
   void vector3(const std::string& name, Eigen::Vector3d& value) {
     if (!nh_.hasParam(name)) return;
-    std::vector<double> v;
-    if (!nh_.getParam(name, v) || v.size() != 3) fail(name, "must be a list of 3 numbers");
-    for (double x : v) {
-      if (!std::isfinite(x) || x <= 0.0) fail(name, "entries must be positive");
+    value = numbers3(name);
+    for (int k = 0; k < 3; ++k) {
+      if (!std::isfinite(value[k]) || value[k] <= 0.0) fail(name, "entries must be positive");
     }
-    value = Eigen::Vector3d(v[0], v[1], v[2]);
+  }
+
+  // A list of 3 numbers (integers allowed, as YAML writes 1 for 1.0).
+  Eigen::Vector3d numbers3(const std::string& name) const {
+    XmlRpc::XmlRpcValue list;
+    if (!nh_.getParam(name, list) || list.getType() != XmlRpc::XmlRpcValue::TypeArray ||
+        list.size() != 3) {
+      fail(name, "must be a list of 3 numbers");
+    }
+    Eigen::Vector3d v;
+    for (int k = 0; k < 3; ++k) {
+      XmlRpc::XmlRpcValue& x = list[k];
+      if (x.getType() == XmlRpc::XmlRpcValue::TypeInt) {
+        v[k] = static_cast<int>(x);
+      } else if (x.getType() == XmlRpc::XmlRpcValue::TypeDouble) {
+        v[k] = static_cast<double>(x);
+      } else {
+        fail(name, "must be a list of 3 numbers");
+      }
+    }
+    return v;
   }
 
   [[noreturn]] void fail(const std::string& name, const std::string& what) const {
@@ -94,60 +126,18 @@ NodeParams loadParams(const ros::NodeHandle& private_nh) {
       },
       "default or paper");
   rrr::applyPreset(preset, rrr);
-  rrr::forEachParam(rrr,
-                    [&](const rrr::ParamInfo& info, auto& value) { r.read(info.name, value); });
+  rrr::forEachParam(rrr, [&](const core::ParamInfo& info, auto& value) { r.read(info, value); });
+  r.read(core::ParamInfo{"max_waiting_candidates", 0, 1e9, ""}, p.rrr.max_waiting_candidates);
+
+  // Front end (slam mode): every parameter of laser_slam_params.h under its own name.
+  frontend::forEachSlamParam(p.slam,
+                             [&](const core::ParamInfo& info, auto& value) { r.read(info, value); });
   try {
-    rrr::validate(rrr);
+    rrr::validate(p.rrr);
+    frontend::validate(p.slam);
   } catch (const std::invalid_argument& e) {
     throw std::invalid_argument("parameter " + private_nh.resolveName("") + ": " + e.what());
   }
-  if (rrr.cluster_gap <= 0) {
-    r.fail("cluster_gap",
-           "must be a positive number of nodes: the node cannot derive it from candidates "
-           "that have not arrived (only rrr_offline can)");
-  }
-  r.positive("max_waiting_candidates", p.rrr.max_waiting_candidates);
-
-  // Front end (slam mode).
-  frontend::LaserSlamParams& slam = p.slam;
-  r.positive("scans_per_submap", slam.local.submap.scans_per_submap);
-  r.positive("submap_resolution", slam.local.submap.resolution_m);
-  r.positive("scan_max_range", slam.local.scan.max_range_m);
-  slam.local.submap.max_insertion_range_m = static_cast<float>(slam.local.scan.max_range_m);
-  std::string refinement = "least_squares";
-  r.read<std::string>(
-      "scan_refinement", refinement,
-      [](const std::string& m) { return m == "least_squares" || m == "icp"; },
-      "least_squares or icp");
-  slam.local.refinement = refinement == "icp"
-                              ? frontend::LocalSlamParams::Refinement::kIcp
-                              : frontend::LocalSlamParams::Refinement::kLeastSquares;
-  r.positive("scan_min_travel_m", slam.local.motion_filter.min_travel_m);
-  r.positive("scan_min_rotation_rad", slam.local.motion_filter.min_rotation_rad);
-  r.read<double>(
-      "min_score", slam.loops.min_score, [](const double& v) { return v >= 0.0 && v <= 1.0; },
-      "in [0, 1]");
-  r.positive("max_constraint_distance", slam.loops.max_constraint_distance_m);
-  r.positive("linear_search_window", slam.loops.window.linear_m);
-  r.positive("angular_search_window", slam.loops.window.angular_rad);
-  r.read<int>(
-      "branch_and_bound_depth", slam.local.submap.branch_and_bound_depth,
-      [](const int& d) { return d >= 1 && d <= 12; }, "in [1, 12]");
-  r.read<int>(
-      "search_grid_factor", slam.local.submap.search_grid_factor,
-      [](const int& f) { return f >= 1 && f <= 16; }, "in [1, 16]");
-  r.positive("min_node_separation", slam.loops.min_node_separation);
-  r.positive("loop_search_max_range", slam.loops.max_point_range_m);
-  r.positive("search_every_n_nodes", slam.loops.search_every_n_nodes);
-  r.read<int>(
-      "pause_after_match_nodes", slam.loops.pause_after_match_nodes,
-      [](const int& n) { return n >= 0; }, "non-negative");
-  r.positive("loop_search_threads", slam.loops.threads);
-  r.read<int>(
-      "loop_search_min_points", slam.loops.search_min_points, [](const int& n) { return n >= 0; },
-      "non-negative");
-  r.positive("loop_search_max_voxel", slam.loops.search_voxel_max_m);
-  r.vector3("scan_odometry_stddev", slam.odometry_stddev);
   r.positive("map_resolution", p.map_resolution);
   r.positive("map_publish_period", p.map_publish_period);
   r.positive("tf_timeout", p.tf_timeout);

@@ -33,12 +33,21 @@ OnlineRrr::OnlineRrr(const OnlineRrrParams& params)
     : params_(params),
       graph_(params.rrr.optimizer),
       incremental_(graph_, params.rrr, params.rrr.cluster_gap) {
+  validate(params_);
+}
+
+void validate(const OnlineRrrParams& params) {
+  validate(params.rrr);
   if (params.rrr.cluster_gap <= 0) {
-    throw std::invalid_argument("cluster_gap must be a positive number of nodes online, got " +
-                                std::to_string(params.rrr.cluster_gap));
+    throw std::invalid_argument(
+        "cluster_gap = " + std::to_string(params.rrr.cluster_gap) +
+        " is out of range online: must be a positive number of nodes (online the loop candidates "
+        "arrive one by one, so it cannot be derived from them)");
   }
   if (params.max_waiting_candidates < 0) {
-    throw std::invalid_argument("max_waiting_candidates must not be negative");
+    throw std::invalid_argument("max_waiting_candidates = " +
+                                std::to_string(params.max_waiting_candidates) +
+                                " is out of range: must not be negative");
   }
 }
 

@@ -1,10 +1,6 @@
 #include "rrr_graphslam/rrr/rrr_params.h"
 
-#include <cmath>
-#include <iomanip>
-#include <sstream>
 #include <stdexcept>
-#include <type_traits>
 
 namespace rrr_graphslam::rrr {
 
@@ -41,26 +37,8 @@ void applyPreset(const std::string& name, RrrParams& params) {
   params = p;
 }
 
-std::string outOfRangeMessage(const ParamInfo& info, const std::string& value) {
-  std::ostringstream what;
-  what << std::setprecision(12) << info.name << " = " << value << " is out of range: must be in ["
-       << info.low << ", " << info.high << "]";
-  return what.str();
-}
-
 void validate(const RrrParams& params) {
-  forEachParam(params, [](const ParamInfo& info, const auto& value) {
-    using T = std::decay_t<decltype(value)>;
-    if constexpr (std::is_same_v<T, bool>) {
-      return;  // any bool is valid
-    } else {
-      const auto v = static_cast<double>(value);
-      if (!std::isnan(v) && v >= info.low && v <= info.high) return;
-      std::ostringstream text;
-      text << value;
-      throw std::invalid_argument(outOfRangeMessage(info, text.str()));
-    }
-  });
+  forEachParam(params, [](const ParamInfo& info, const auto& value) { core::checkRange(info, value); });
 }
 
 }  // namespace rrr_graphslam::rrr

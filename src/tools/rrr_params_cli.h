@@ -3,24 +3,14 @@
 // (rrr_params.h) as --name-with-dashes VALUE (booleans: true or false), with the same ranges and
 // messages as the ROS parameters.
 
-#include <algorithm>
-#include <cmath>
-#include <cstdlib>
 #include <sstream>
 #include <stdexcept>
 #include <string>
-#include <type_traits>
 
-#include "command_line.h"
+#include "params_cli.h"
 #include "rrr_graphslam/rrr/rrr_params.h"
 
 namespace rrr_graphslam::tools {
-
-inline std::string flagOf(const char* name) {
-  std::string flag = std::string("--") + name;
-  for (char& c : flag) c = c == '_' ? '-' : c;
-  return flag;
-}
 
 /// Applies --preset NAME wherever it stands, so that the other flags override it.
 inline void applyPresetArgument(const CommandLine& cli, int argc, char** argv,
@@ -43,47 +33,16 @@ inline bool readRrrParam(const CommandLine& cli, int& i, char** argv, rrr::RrrPa
     cli.value(i, a);  // applied by applyPresetArgument
     return true;
   }
-  bool found = false;
-  rrr::forEachParam(params, [&](const rrr::ParamInfo& info, auto& field) {
-    if (found || a != flagOf(info.name)) return;
-    found = true;
-    const std::string text = cli.value(i, a);
-    using T = std::decay_t<decltype(field)>;
-    if constexpr (std::is_same_v<T, bool>) {
-      if (text != "true" && text != "false")
-        cli.fail(a + " must be true or false, not '" + text + "'");
-      field = text == "true";
-    } else {
-      char* end = nullptr;
-      const double v = std::strtod(text.c_str(), &end);
-      if (end == text.c_str() || *end != '\0')
-        cli.fail(a + " must be a number, not '" + text + "'");
-      if (!(v >= info.low && v <= info.high)) cli.fail(rrr::outOfRangeMessage(info, text));
-      if (std::is_integral_v<T> && v != std::floor(v))
-        cli.fail(a + " must be an integer, not '" + text + "'");
-      field = static_cast<T>(v);
-    }
-  });
-  return found;
+  return readTableParam(cli, i, argv, params,
+                        [](auto& p, auto&& f) { rrr::forEachParam(p, f); });
 }
 
-/// One usage line per RrrParams flag, with its default.
-inline std::string rrrParamsUsage() {
+/// One usage line per RrrParams flag, with its default (the tool's own defaults if given).
+inline std::string rrrParamsUsage(const rrr::RrrParams& defaults = {}) {
   std::ostringstream out;
   out << "  --preset paper|default  paper: the published RRR, every addition off; default: all "
          "on\n";
-  const rrr::RrrParams defaults;
-  rrr::forEachParam(defaults, [&](const rrr::ParamInfo& info, const auto& value) {
-    std::ostringstream v;
-    if constexpr (std::is_same_v<std::decay_t<decltype(value)>, bool>) {
-      v << (value ? "true" : "false");
-    } else {
-      v << value;
-    }
-    std::string flag = "  " + flagOf(info.name) + " V";
-    flag.resize(std::max<std::size_t>(flag.size() + 1, 36), ' ');
-    out << flag << info.doc << " (default " << v.str() << ")\n";
-  });
+  out << tableUsage(defaults, [](auto& p, auto&& f) { rrr::forEachParam(p, f); });
   return out.str();
 }
 

@@ -8,13 +8,16 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <exception>
 #include <iomanip>
 #include <iostream>
 #include <string>
+#include <type_traits>
 
-#include "command_line.h"
+#include "params_cli.h"
+#include "rrr_params_cli.h"
 #include "rrr_graphslam/core/graph_io.h"
 #include "rrr_graphslam/core/text_file.h"
 #include "rrr_graphslam/frontend/carmen_log.h"
@@ -30,60 +33,73 @@ namespace core = rrr_graphslam::core;
 namespace frontend = rrr_graphslam::frontend;
 namespace rrr = rrr_graphslam::rrr;
 
-const char* const kUsage =
-    "usage: rrr_slam_offline LOG.clf[.gz] [--output GRAPH.g2o] [--decisions DECISIONS.tsv]\n"
-    "                        [--trajectory TRAJ.txt] [--map MAP] [--map-resolution M]\n"
-    "                        [--scans-per-submap N] [--min-score S] [--max-constraint-distance M]\n"
-    "                        [--linear-window M] [--angular-window DEG] [--depth D]\n"
-    "                        [--min-node-separation N] [--search-every N] [--max-range M]\n"
-    "                        [--loop-max-range M] [--submap-resolution M] [--voxel M]\n"
-    "                        [--odometry-stddev M] [--pause-after-match N] [--threads N]\n"
-    "                        [--min-travel M] [--min-rotation DEG] [--correlative-window M]\n"
-    "                        [--correlative-translation-cost W] [--correlative-rotation-cost W]\n"
-    "                        [--local-refinement least-squares|icp]\n"
-    "                        [--translation-weight W] [--rotation-weight W]\n"
-    "                        [--search-min-points N] [--search-voxel M] [--search-grid-factor F]\n"
-    "                        [--refine-resolution M] [--alpha A] [--max-scans N]\n"
-    "                        [--quiet]\n"
-    "  LOG               CARMEN log (FLASER or ROBOTLASER1 lines; the scans carry the odometry)\n"
-    "  --output          the pose graph: nodes at their optimized poses, odometry and every loop\n"
-    "                    candidate (rrr_offline can decide it again)\n"
-    "  --decisions       TSV 'from to cluster verdict reason', one row per loop candidate\n"
-    "  --trajectory      optimized pose of every scan, TUM format 't x y z qx qy qz qw' with the\n"
-    "                    log's ipc_timestamp\n"
-    "  --map             writes MAP.pgm + MAP.yaml (map_server) and MAP.png (accepted loops\n"
-    "                    green, rejected red)\n"
-    "  --map-resolution  m per cell of the written map (default 0.05)\n"
-    "  --scans-per-submap, --min-score, --max-constraint-distance, --linear-window,\n"
-    "  --angular-window, --depth, --min-node-separation, --search-every, --max-range,\n"
-    "  --loop-max-range, --submap-resolution, --voxel (matching points' voxel size):\n"
-    "                    front-end settings (see README)\n"
-    "  --odometry-stddev M  std of one local-SLAM step between nodes: M m, M/2 rad\n"
-    "  --search-every N  a submap is searched by at most every N-th node (default 2)\n"
-    "  --pause-after-match N  nodes a submap rests after a match (default 10)\n"
-    "  --threads N       threads of the loop search (default 2)\n"
-    "  --min-travel M, --min-rotation DEG  motion filter: a scan becomes a node after this\n"
-    "                    travel or rotation (default 0.1 m, 2 deg)\n"
-    "  --correlative-window M  local SLAM's correlative search: +-M m (0 = least squares only;\n"
-    "                    default 0.15)\n"
-    "  --correlative-translation-cost WT, --correlative-rotation-cost WR  its score discount\n"
-    "                    exp(-(WT |dt|^2 + WR dtheta^2)) (defaults 0.1, 0.1)\n"
-    "  --local-refinement  what refines local SLAM's correlative match: least-squares\n"
-    "                    (default) or icp (MRPT's CICP against the submap's occupied cells)\n"
-    "  --translation-weight W, --rotation-weight W  least-squares pull toward the odometry\n"
-    "                    prediction (defaults 2, 10)\n"
-    "  --search-min-points N, --search-voxel M  branch and bound scores each scan thinned by\n"
-    "                    the coarsest voxel up to M m that leaves N points (defaults 150, 0.9;\n"
-    "                    N = 0: every point)\n"
-    "  --search-grid-factor F  branch and bound searches F x coarser cells than the submap\n"
-    "                    (max-pooled; default 2); matches are refined and checked at full "
-    "resolution\n"
-    "  --refine-resolution M  before --trajectory is written, every scan is matched once more\n"
-    "                    against the final map rendered at M m per cell (default 0.04; 0 = off:\n"
-    "                    scans follow their nodes rigidly)\n"
-    "  --alpha           confidence of RRR's chi-square tests (default 0.95)\n"
-    "  --max-scans       stop after the first N scans of the log\n"
-    "  --quiet           no progress line\n";
+// The flags this tool had before the front end's parameters got the ROS names (still accepted):
+// old flag -> table name, and whether the old flag took degrees where the table takes radians.
+struct FlagAlias {
+  const char* flag;
+  const char* name;
+  bool degrees;
+};
+constexpr bool kDegree = true;
+constexpr FlagAlias kAliases[] = {
+    {"--linear-window", "linear_search_window", false},
+    {"--angular-window", "angular_search_window", kDegree},
+    {"--depth", "branch_and_bound_depth", false},
+    {"--search-every", "search_every_n_nodes", false},
+    {"--max-range", "scan_max_range", false},
+    {"--loop-max-range", "loop_search_max_range", false},
+    {"--voxel", "scan_voxel_size", false},
+    {"--pause-after-match", "pause_after_match_nodes", false},
+    {"--threads", "loop_search_threads", false},
+    {"--min-travel", "scan_min_travel_m", false},
+    {"--min-rotation", "scan_min_rotation_rad", kDegree},
+    {"--correlative-window", "correlative_search_window", false},
+    {"--translation-weight", "scan_translation_weight", false},
+    {"--rotation-weight", "scan_rotation_weight", false},
+    {"--search-min-points", "loop_search_min_points", false},
+    {"--search-voxel", "loop_search_max_voxel", false},
+};
+
+auto slamTable = [](auto& p, auto&& f) { frontend::forEachSlamParam(p, f); };
+
+std::string aliasUsage() {
+  std::string text;
+  for (const FlagAlias& alias : kAliases) {
+    text += std::string("  ") + alias.flag + " V = " + tools::flagOf(alias.name) +
+            (alias.degrees ? " V*pi/180 (V in degrees)" : " V") + "\n";
+  }
+  return text;
+}
+
+const std::string& usage() {
+  static const std::string text =
+      "usage: rrr_slam_offline LOG.clf[.gz] [--output GRAPH.g2o] [--decisions DECISIONS.tsv]\n"
+      "                        [--trajectory TRAJ.txt] [--map MAP] [--map-resolution M]\n"
+      "                        [--refine-resolution M] [--max-scans N] [--quiet]\n"
+      "                        [--preset paper|default] [--PARAMETER V ...]\n"
+      "  LOG               CARMEN log (FLASER or ROBOTLASER1 lines; the scans carry the odometry)\n"
+      "  --output          the pose graph: nodes at their optimized poses, odometry and every loop\n"
+      "                    candidate (rrr_offline can decide it again)\n"
+      "  --decisions       TSV 'from to cluster verdict reason', one row per loop candidate\n"
+      "  --trajectory      optimized pose of every scan, TUM format 't x y z qx qy qz qw' with the\n"
+      "                    log's ipc_timestamp\n"
+      "  --map             writes MAP.pgm + MAP.yaml (map_server) and MAP.png (accepted loops\n"
+      "                    green, rejected red)\n"
+      "  --map-resolution  m per cell of the written map (default 0.05)\n"
+      "  --refine-resolution M  before --trajectory is written, every scan is matched once more\n"
+      "                    against the final map rendered at M m per cell (default 0.04; 0 = off:\n"
+      "                    scans follow their nodes rigidly)\n"
+      "  --max-scans       stop after the first N scans of the log\n"
+      "  --quiet           no progress line\n"
+      "The front end's parameters (the same names and units as the ROS parameters, with dashes):\n" +
+      tools::tableUsage(frontend::LaserSlamParams{}, slamTable) +
+      "RRR's parameters (the same names as the ROS parameters, with dashes):\n" +
+      tools::rrrParamsUsage(rrr::OnlineRrrParams{}.rrr) +
+      "Older flags, still accepted:\n" + aliasUsage() +
+      "  --odometry-stddev M = --scan-odometry-stddev M,M,M/2\n"
+      "  --local-refinement least-squares|icp = --scan-refinement least_squares|icp\n";
+  return text;
+}
 
 struct Arguments {
   std::string log;
@@ -98,15 +114,52 @@ struct Arguments {
   frontend::LaserSlamParams params;
 };
 
+// If argv[i] is one of kAliases, reads its value into the table's field (advancing i).
+bool readAlias(const tools::CommandLine& cli, int& i, char** argv, frontend::LaserSlamParams& p) {
+  const std::string a = argv[i];
+  for (const FlagAlias& alias : kAliases) {
+    if (a != alias.flag) continue;
+    const std::string text = cli.value(i, a);
+    slamTable(p, [&](const core::ParamInfo& info, auto& field) {
+      using T = std::decay_t<decltype(field)>;
+      if constexpr (std::is_arithmetic_v<T>) {
+        if (std::string(info.name) != alias.name) return;
+        const double scale = alias.degrees ? 180.0 / M_PI : 1.0;
+        const core::ParamInfo in_flag_units{alias.flag, info.low * scale, info.high * scale,
+                                            info.doc};
+        const double v = tools::parseNumber(cli, a, text);
+        if (!(v >= in_flag_units.low && v <= in_flag_units.high))
+          cli.fail(core::outOfRangeMessage(in_flag_units, text));
+        if (std::is_integral_v<T> && v != std::floor(v))
+          cli.fail(a + " must be an integer, not '" + text + "'");
+        field = static_cast<T>(alias.degrees ? v * M_PI / 180.0 : v);
+      }
+    });
+    return true;
+  }
+  if (a == "--odometry-stddev") {
+    const double xy = cli.number(a, cli.value(i, a), 1e-6, 10.0);
+    p.odometry_stddev = Eigen::Vector3d(xy, xy, xy / 2.0);
+    return true;
+  }
+  if (a == "--local-refinement") {
+    const std::string v = cli.value(i, a);
+    if (v != "least-squares" && v != "icp")
+      cli.fail("--local-refinement must be least-squares or icp, not '" + v + "'");
+    p.local.refinement = v == "icp" ? frontend::LocalSlamParams::Refinement::kIcp
+                                    : frontend::LocalSlamParams::Refinement::kLeastSquares;
+    return true;
+  }
+  return false;
+}
+
 Arguments parseArguments(int argc, char** argv) {
-  const tools::CommandLine cli(argc, argv, "rrr_slam_offline", kUsage);
+  const tools::CommandLine cli(argc, argv, "rrr_slam_offline", usage().c_str());
   Arguments args;
   auto& p = args.params;
+  tools::applyPresetArgument(cli, argc, argv, p.rrr.rrr);
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
-    auto number = [&](double low, double high) {
-      return cli.number(a, cli.value(i, a), low, high);
-    };
     if (a == "--output" || a == "-o") {
       args.output = cli.value(i, a);
     } else if (a == "--decisions") {
@@ -116,82 +169,26 @@ Arguments parseArguments(int argc, char** argv) {
     } else if (a == "--map") {
       args.map = cli.value(i, a);
     } else if (a == "--map-resolution") {
-      args.map_resolution = number(0.005, 10.0);
-    } else if (a == "--scans-per-submap") {
-      p.local.submap.scans_per_submap = static_cast<int>(number(2, 1e6));
-    } else if (a == "--min-score") {
-      p.loops.min_score = number(0.0, 1.0);
-    } else if (a == "--max-constraint-distance") {
-      p.loops.max_constraint_distance_m = number(0.0, 1e6);
-    } else if (a == "--linear-window") {
-      p.loops.window.linear_m = number(0.0, 1e3);
-    } else if (a == "--angular-window") {
-      p.loops.window.angular_rad = number(0.0, 180.0) * M_PI / 180.0;
-    } else if (a == "--search-grid-factor") {
-      p.local.submap.search_grid_factor = static_cast<int>(number(1, 16));
-    } else if (a == "--depth") {
-      p.local.submap.branch_and_bound_depth = static_cast<int>(number(1, 12));
-    } else if (a == "--min-node-separation") {
-      p.loops.min_node_separation = static_cast<int>(number(1, 1e9));
-    } else if (a == "--submap-resolution") {
-      p.local.submap.resolution_m = number(0.005, 1.0);
-    } else if (a == "--voxel") {
-      p.local.scan.voxel_size_m = number(0.001, 1.0);
-    } else if (a == "--odometry-stddev") {
-      const double xy = number(1e-6, 10.0);
-      p.odometry_stddev = Eigen::Vector3d(xy, xy, xy / 2.0);
-    } else if (a == "--loop-max-range") {
-      p.loops.max_point_range_m = number(0.1, 1e3);
-    } else if (a == "--min-travel") {
-      p.local.motion_filter.min_travel_m = number(1e-6, 1e3);
-    } else if (a == "--min-rotation") {
-      p.local.motion_filter.min_rotation_rad = number(1e-6, 180.0) * M_PI / 180.0;
-    } else if (a == "--pause-after-match") {
-      p.loops.pause_after_match_nodes = static_cast<int>(number(0, 1e9));
-    } else if (a == "--threads") {
-      p.loops.threads = static_cast<int>(number(1, 256));
-    } else if (a == "--search-every") {
-      p.loops.search_every_n_nodes = static_cast<int>(number(1, 1e6));
-    } else if (a == "--max-range") {
-      p.local.scan.max_range_m = number(0.1, 1e3);
-      p.local.submap.max_insertion_range_m = static_cast<float>(p.local.scan.max_range_m);
-    } else if (a == "--correlative-window") {
-      p.local.correlative.linear_window_m = number(0.0, 10.0);
-      p.local.use_correlative_search = p.local.correlative.linear_window_m > 0.0;
-    } else if (a == "--correlative-translation-cost") {
-      p.local.correlative.translation_delta_cost_weight = number(0.0, 1e6);
-    } else if (a == "--correlative-rotation-cost") {
-      p.local.correlative.rotation_delta_cost_weight = number(0.0, 1e6);
-    } else if (a == "--local-refinement") {
-      const std::string v = cli.value(i, a);
-      if (v == "least-squares") {
-        p.local.refinement = frontend::LocalSlamParams::Refinement::kLeastSquares;
-      } else if (v == "icp") {
-        p.local.refinement = frontend::LocalSlamParams::Refinement::kIcp;
-      } else {
-        cli.fail("--local-refinement must be least-squares or icp, not '" + v + "'");
-      }
-    } else if (a == "--translation-weight") {
-      p.local.least_squares.translation_weight = number(0.0, 1e6);
-    } else if (a == "--rotation-weight") {
-      p.local.least_squares.rotation_weight = number(0.0, 1e6);
-    } else if (a == "--search-min-points") {
-      p.loops.search_min_points = static_cast<int>(number(0, 1e6));
-    } else if (a == "--search-voxel") {
-      p.loops.search_voxel_max_m = number(0.001, 100.0);
+      args.map_resolution = cli.number(a, cli.value(i, a), 0.005, 10.0);
     } else if (a == "--refine-resolution") {
-      args.refinement.resolution_m = number(0.0, 10.0);
-    } else if (a == "--alpha") {
-      p.rrr.rrr.alpha = number(1e-6, 1.0 - 1e-9);
+      args.refinement.resolution_m = cli.number(a, cli.value(i, a), 0.0, 10.0);
     } else if (a == "--max-scans") {
-      args.max_scans = static_cast<std::size_t>(number(1, 1e12));
+      args.max_scans = static_cast<std::size_t>(cli.number(a, cli.value(i, a), 1, 1e12));
     } else if (a == "--quiet") {
       args.quiet = true;
+    } else if (tools::readTableParam(cli, i, argv, p, slamTable) ||
+               tools::readRrrParam(cli, i, argv, p.rrr.rrr) || readAlias(cli, i, argv, p)) {
+      continue;
     } else {
       cli.positional(a, args.log);
     }
   }
   if (args.log.empty()) cli.fail("no log file given");
+  try {
+    rrr::validate(p.rrr);
+  } catch (const std::invalid_argument& e) {
+    cli.fail(e.what());
+  }
   return args;
 }
 

@@ -3,6 +3,7 @@
 The build passes the binaries' paths (RRR_OFFLINE, RRR_OPTIMIZE); run by hand without them,
 these tests are skipped.
 """
+import math
 import os
 import subprocess
 
@@ -206,3 +207,32 @@ def test_slam_offline_rejects_a_malformed_log_with_file_and_line(tmp_path):
     assert f"{bad}:2" in result.stderr and "not a number" in result.stderr
     result = run(SLAM_OFFLINE, "--depth", 0, bad)
     assert result.returncode == 2 and "--depth" in result.stderr
+
+
+@needs_slam
+def test_slam_offline_takes_the_ros_parameter_names_and_its_older_flags(tmp_path):
+    """--name-with-dashes of every ROS parameter, in its units; the older flags (degrees) agree."""
+    def trajectory(name, *flags):
+        path = tmp_path / f"{name}.txt"
+        result = run(SLAM_OFFLINE, ACES_HEAD, "--trajectory", path, "--refine-resolution", 0,
+                     "--quiet", *flags)
+        assert result.returncode == 0, result.stderr
+        return path.read_text()
+    old = trajectory("old", "--min-rotation", 5, "--min-travel", 0.2, "--voxel", 0.08,
+                     "--odometry-stddev", 0.02, "--local-refinement", "least-squares")
+    new = trajectory("new", "--scan-min-rotation-rad", repr(5 * math.pi / 180),
+                     "--scan-min-travel-m", 0.2, "--scan-voxel-size", 0.08,
+                     "--scan-odometry-stddev", "0.02,0.02,0.01", "--scan-refinement", "least_squares")
+    assert old == new
+    assert old != trajectory("default")
+    # The same messages as the ROS parameters: name, value and range.
+    result = run(SLAM_OFFLINE, ACES_HEAD, "--min-score", 1.5)
+    assert result.returncode == 2 and "min_score = 1.5 is out of range: must be in [0, 1]" in result.stderr
+    result = run(SLAM_OFFLINE, ACES_HEAD, "--angular-window", 200)
+    assert result.returncode == 2 and "--angular-window = 200 is out of range: must be in [0, 180]" in result.stderr
+    result = run(SLAM_OFFLINE, ACES_HEAD, "--scan-refinement", "icp2")
+    assert result.returncode == 2 and "scan_refinement must be least_squares or icp, not 'icp2'" in result.stderr
+    result = run(SLAM_OFFLINE, ACES_HEAD, "--scan-odometry-stddev", "0.1,0.1")
+    assert result.returncode == 2 and "three comma-separated numbers" in result.stderr
+    result = run(SLAM_OFFLINE, ACES_HEAD, "--cluster-gap", 0)
+    assert result.returncode == 2 and "cluster_gap = 0 is out of range online" in result.stderr

@@ -13,20 +13,13 @@
 
 #include <mrpt/maps/COccupancyGridMap2D.h>
 
+#include "rrr_graphslam/frontend/laser_slam_params.h"
 #include "rrr_graphslam/frontend/local_slam.h"
 #include "rrr_graphslam/frontend/loop_search.h"
 #include "rrr_graphslam/frontend/map_render.h"
 #include "rrr_graphslam/rrr/online_rrr.h"
 
 namespace rrr_graphslam::frontend {
-
-struct LaserSlamParams {
-  LocalSlamParams local;
-  LoopSearchParams loops;
-  rrr::OnlineRrrParams rrr;
-  /// Standard deviations (m, m, rad) of the local-SLAM step between consecutive nodes.
-  Eigen::Vector3d odometry_stddev{0.01, 0.01, 0.005};
-};
 
 /// Counters for progress lines and benchmarks.
 struct LaserSlamStats {

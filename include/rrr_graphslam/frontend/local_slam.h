@@ -19,7 +19,7 @@ namespace rrr_graphslam::frontend {
 struct LocalSlamParams {
   RangeScanParams scan;
   SubmapParams submap;
-  bool use_correlative_search = true;
+  /// Real-time correlative search before the refinement; a linear window of 0 switches it off.
   CorrelativeParams correlative;
   /// What refines the correlative pose: Gauss-Newton on the interpolated probabilities (default)
   /// or MRPT's ICP against the submap's occupied cells.

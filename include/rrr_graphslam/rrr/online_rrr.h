@@ -41,6 +41,9 @@ struct OnlineRrrParams {
   int max_waiting_candidates = 10000;
 };
 
+/// rrr::validate, and cluster_gap > 0 and max_waiting_candidates >= 0 (std::invalid_argument).
+void validate(const OnlineRrrParams& params);
+
 /// One verdict that changed (or a candidate that arrived: previous == verdict == kPending).
 struct DecisionChange {
   int candidate;  ///< arrival index

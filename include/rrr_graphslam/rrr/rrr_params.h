@@ -1,7 +1,7 @@
 #pragma once
 // RRR's parameters: one definition of each (name, default, range, doc line) in forEachParam(),
 // which rrr_offline (--name-with-dashes), the ROS nodelet (~name) and config/rrr_graphslam.yaml
-// all follow, and one validate() whose message every entry point prints.
+// all follow, and one validate() whose message every entry point prints (core/param_info.h).
 //
 // The published algorithm (Latif, Cadena, Neira, IJRR 2013) is the `paper` preset: every addition
 // below switched off. `default` switches them on; doc/rrr_extensions.md gives, for each, the
@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "rrr_graphslam/core/optimizer.h"
+#include "rrr_graphslam/core/param_info.h"
 
 namespace rrr_graphslam::rrr {
 
@@ -102,14 +103,8 @@ const std::vector<std::string>& presetNames();
 /// max_rounds and the optimizer as they are. Throws std::invalid_argument for another name.
 void applyPreset(const std::string& name, RrrParams& params);
 
-/// One parameter's definition: its name (a ROS parameter and YAML key; the command-line flag is
-/// the name with dashes), the closed range of valid values, and what it is.
-struct ParamInfo {
-  const char* name;
-  double low;
-  double high;
-  const char* doc;
-};
+using core::ParamInfo;
+using core::outOfRangeMessage;
 
 /// Calls f(info, field) for every parameter of `p` (RrrParams or const RrrParams), field being a
 /// double&, int& or bool& (const for const p), in a fixed order.
@@ -173,11 +168,7 @@ void forEachParam(Params& p, F&& f) {
 }
 
 /// Throws std::invalid_argument "NAME = VALUE is out of range: must be in [LOW, HIGH]" for the
-/// first parameter out of its range (or not finite where the range is).
+/// first parameter out of its range (or NaN).
 void validate(const RrrParams& params);
-
-/// The message validate() gives for `name` = `value` against `info` (for entry points that read
-/// a value before it reaches RrrParams, e.g. a negative number for an int).
-std::string outOfRangeMessage(const ParamInfo& info, const std::string& value);
 
 }  // namespace rrr_graphslam::rrr
