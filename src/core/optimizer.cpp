@@ -311,6 +311,19 @@ OptimizationResult Optimizer::optimize() {
   return result;
 }
 
+OptimizationResult Optimizer::optimize(const OptimizationRequest& request) {
+  if (request.start != nullptr) setPoses(*request.start);
+  struct Restore {
+    OptimizerParams& params;
+    OptimizerParams saved;
+    ~Restore() { params = saved; }
+  } restore{params_, params_};
+  if (request.method) params_.method = *request.method;
+  if (request.max_iterations) params_.max_iterations = *request.max_iterations;
+  if (request.relative_tolerance) params_.relative_tolerance = *request.relative_tolerance;
+  return optimize();
+}
+
 Optimizer makeOptimizer(const PoseGraph& graph, const OptimizerParams& params) {
   Optimizer optimizer(params);
   std::unordered_map<PoseGraph::NodeId, int> index_of;

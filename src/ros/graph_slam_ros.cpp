@@ -40,6 +40,7 @@ GraphSlamRos::GraphSlamRos(ros::NodeHandle nh, ros::NodeHandle private_nh)
       private_nh_(private_nh),
       graph_(std::make_unique<rrr::OnlineRrr>(params_.rrr)),
       keyframes_(params_.keyframes) {
+  graph_->setCancelFlag(&cancel_);
   decisions_pub_ = private_nh_.advertise<LoopClosureDecision>("decisions", 1000);
   markers_pub_ = private_nh_.advertise<visualization_msgs::MarkerArray>(
       "markers", 1,
@@ -120,6 +121,7 @@ GraphSlamRos::GraphSlamRos(ros::NodeHandle nh, ros::NodeHandle private_nh)
 }
 
 GraphSlamRos::~GraphSlamRos() {
+  cancel_ = true;
   {
     std::lock_guard<std::mutex> lock(queue_mutex_);
     stop_ = true;
@@ -416,6 +418,7 @@ void GraphSlamRos::startSlam() {
   frontend::LaserSlamParams p = params_.slam;
   p.rrr = params_.rrr;
   slam_ = std::make_unique<frontend::LaserSlam>(p);
+  slam_->rrr().setCancelFlag(&cancel_);
   node_odom_poses_.clear();
   last_scan_stamp_ = ros::Time();
   map_dirty_ = true;
@@ -435,6 +438,9 @@ void GraphSlamRos::publishChanges() {
     ++malformed_;
     ROS_ERROR("%s: %s", nh_.resolveName(kCandidatesTopic).c_str(), dropped.c_str());
   }
+  // Verdicts reached while a reset cancels the optimizations are not published: that graph is
+  // about to go.
+  if (cancel_) return;
   const std::vector<rrr::DecisionChange> changes = graph().takeChanges();
   if (changes.empty()) return;
   dirty_ = true;

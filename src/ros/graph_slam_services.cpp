@@ -44,6 +44,7 @@ void GraphSlamRos::replaceGraph(std::unique_ptr<rrr::OnlineRrr> replacement) {
     startSlam();  // a fresh front end (its graph holds no scans to go on from a loaded one)
   } else {
     graph_ = std::move(replacement);
+    graph_->setCancelFlag(&cancel_);
   }
   owner_ = Owner::kNone;
   keyframes_.reset();
@@ -109,8 +110,11 @@ bool GraphSlamRos::load(LoadGraph::Request& req, LoadGraph::Response& res) {
 }
 
 bool GraphSlamRos::reset(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res) {
+  // Whatever the worker is deciding now belongs to the graph being cleared: cut it short.
+  cancel_ = true;
   res.success = runInWorker(
       [&]() -> std::string {
+        cancel_ = false;
         replaceGraph(std::make_unique<rrr::OnlineRrr>(params_.rrr));
         received_ = processed_ = malformed_ = ignored_ = 0;
         decisions_published_ = 0;

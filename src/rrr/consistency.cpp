@@ -74,11 +74,9 @@ LinkResiduals reducedGraphResiduals(const VerificationGraph& graph, const std::v
 }
 
 LinkResiduals fullGraphResiduals(VerificationGraph& graph, const std::vector<int>& links) {
-  graph.activateOnly(links);
-  core::Optimizer& opt = graph.optimizer();
-  opt.setPoses(graph.initialPoses());
   LinkResiduals out;
-  out.total_chi2 = opt.optimize().final_chi2;
+  out.total_chi2 = graph.optimize(links, core::startFrom(graph.initialPoses())).final_chi2;
+  const core::Optimizer& opt = graph.optimizer();
   for (int k : links) out.link_chi2.push_back(opt.constraintChi2(graph.candidate(k).constraint));
   return out;
 }
@@ -152,8 +150,7 @@ InterClusterResult interClusterConsistency(VerificationGraph& graph,
                                            const std::vector<int>& kept_anyway) {
   InterClusterResult result;
   std::vector<int> active = clusters;
-  core::Optimizer& opt = graph.optimizer();
-  opt.setPoses(start);
+  const core::Optimizer& opt = graph.optimizer();
   auto removable = [&](int c) {
     return !std::binary_search(kept_anyway.begin(), kept_anyway.end(), c);
   };
@@ -164,12 +161,12 @@ InterClusterResult interClusterConsistency(VerificationGraph& graph,
       const auto& l = cluster_links[static_cast<std::size_t>(c)];
       links.insert(links.end(), l.begin(), l.end());
     }
-    graph.activateOnly(links);
     // Online, `start` is the good set's map and a single new outlier bends the solution far
     // (tens of damped iterations to come back), so rounds restart from it. In batch the
     // previous round's solution is closer, as the clusters removed together pull many ways.
-    if (restart && result.optimizations > 0) opt.setPoses(start);
-    const core::OptimizationResult r = opt.optimize();
+    const bool from_start = result.optimizations == 0 || restart;
+    const core::OptimizationResult r = graph.optimize(
+        links, from_start ? core::startFrom(start) : core::OptimizationRequest{});
     ++result.optimizations;
     result.stop = r.stop_reason;
     result.chi2 = failIfNotFinite(opt.chi2());
@@ -238,8 +235,8 @@ std::vector<core::Pose2> robustMap(VerificationGraph& graph, const std::vector<i
   // local minima on the way (ringCity + 100 random-grouped: recall 0.94 -> 1.00; City10000 +
   // 1000 random-grouped: 40 -> 25 s).
   if (core::farFromMinimum(opt)) opt.setPoses(core::lagoInitialization(opt));
-  const int saved_iterations = opt.params().max_iterations;
-  opt.params().max_iterations = 3;  // a few steps per reweighting, so the map keeps up with phi
+  core::OptimizationRequest few_steps;
+  few_steps.max_iterations = 3;  // a few steps per reweighting, so the map keeps up with phi
   // Graduated non-convexity: begin with phi above every residual (all weights ~1, plain least
   // squares, which closes loops however far odometry drifted), then shrink it to `phi`.
   double largest = 0.0;
@@ -258,7 +255,7 @@ std::vector<core::Pose2> robustMap(VerificationGraph& graph, const std::vector<i
       // again as soon as its weight rises.
       opt.setActive(c, weight >= kNegligibleWeight);
     }
-    const core::OptimizationResult r = opt.optimize();
+    const core::OptimizationResult r = opt.optimize(few_steps);
     ++optimizations;
     // The map only orders RRR's tests, so 1% is settled enough once phi has reached its value.
     const bool settled =
@@ -268,7 +265,6 @@ std::vector<core::Pose2> robustMap(VerificationGraph& graph, const std::vector<i
     if (settled) break;
     current_phi = std::max(phi, current_phi / kAnnealing);
   }
-  opt.params().max_iterations = saved_iterations;
   for (int k : links) opt.setWeight(graph.candidate(k).constraint, 1.0);
   graph.activateOnly(links);
   return opt.poses();

@@ -161,11 +161,9 @@ std::vector<int> Rrr::preselect(const std::vector<int>& hypotheses) {
     const auto& kept = kept_links_[static_cast<std::size_t>(c)];
     links.insert(links.end(), kept.begin(), kept.end());
   }
-  graph_.activateOnly(links);
-  core::Optimizer& opt = graph_.optimizer();
-  opt.setPoses(graph_.initialPoses());
-  const core::OptimizationResult r = opt.optimize();
+  const core::OptimizationResult r = graph_.optimize(links, core::startFrom(graph_.initialPoses()));
   ++optimizations_;
+  const core::Optimizer& opt = graph_.optimizer();
   const double threshold = core::chi2Quantile(params_.alpha, 3);
   std::vector<int> selected;
   for (int c : hypotheses) {

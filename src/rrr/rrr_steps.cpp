@@ -98,8 +98,8 @@ void Rrr::settleGoodMap() {
   graph_.activateOnly(acceptedCandidates());
   opt.setPoses(base_);
   const double current = opt.chi2();
-  opt.setPoses(core::lagoInitialization(opt));
-  const core::OptimizationResult r = opt.optimize();
+  const std::vector<core::Pose2> lago = core::lagoInitialization(opt);
+  const core::OptimizationResult r = opt.optimize(core::startFrom(lago));
   ++optimizations_;
   // Lower by more than one link's test threshold: a better minimum, not the same one reached to
   // another tolerance (which could move a session only its weak prior holds). A lower chi2 is a
@@ -140,9 +140,7 @@ bool Rrr::recoverFar(std::vector<char>& tried) {
     std::vector<int> links = acceptedCandidates();
     const auto& own = kept_links_[static_cast<std::size_t>(c)];
     links.insert(links.end(), own.begin(), own.end());
-    graph_.activateOnly(links);
-    opt.setPoses(base_);
-    const core::OptimizationResult r = opt.optimize();
+    const core::OptimizationResult r = graph_.optimize(links, core::startFrom(base_));
     ++optimizations_;
     const std::vector<core::Pose2>& poses = opt.poses();
     // Accepted only as is: the joint test passes, no cluster, good or new, had to go, and the
@@ -291,12 +289,9 @@ double Rrr::indexAt(int cluster, const std::vector<core::Pose2>& poses) const {
 }
 
 void Rrr::optimizeGoodMap() {
-  core::Optimizer& opt = graph_.optimizer();
-  graph_.activateOnly(acceptedCandidates());
-  opt.setPoses(base_);
-  opt.optimize();
+  graph_.optimize(acceptedCandidates(), core::startFrom(base_));
   ++optimizations_;
-  base_ = opt.poses();
+  base_ = graph_.optimizer().poses();
 }
 
 void Rrr::factorGoodMap() {

@@ -94,4 +94,10 @@ void VerificationGraph::activateOnly(const std::vector<int>& candidates) {
   for (int k : candidates) optimizer_.setActive(candidate(k).constraint, true);
 }
 
+core::OptimizationResult VerificationGraph::optimize(const std::vector<int>& candidates,
+                                                     const core::OptimizationRequest& request) {
+  activateOnly(candidates);
+  return optimizer_.optimize(request);
+}
+
 }  // namespace rrr_graphslam::rrr

@@ -108,6 +108,32 @@ TEST(Optimizer, ConvergesFromPerturbedStartGnAndLm) {
   }
 }
 
+TEST(Optimizer, RequestSetsStartMethodAndLimitsForOneCallOnly) {
+  std::vector<Pose2> truth;
+  Optimizer opt = squareLoop(10, truth, 3, 0.3);
+  const std::vector<Pose2> start = opt.poses();
+  // One step of Levenberg-Marquardt from the start: not converged, the settings untouched.
+  OptimizationRequest one_lm_step = startFrom(start);
+  one_lm_step.method = OptimizerParams::Method::kLevenbergMarquardt;
+  one_lm_step.max_iterations = 1;
+  const OptimizationResult first = opt.optimize(one_lm_step);
+  EXPECT_EQ(first.stop_reason, StopReason::kMaxIterations);
+  EXPECT_EQ(first.iterations, 1);
+  EXPECT_EQ(opt.params().method, OptimizerParams::Method::kGaussNewton);
+  EXPECT_EQ(opt.params().max_iterations, OptimizerParams{}.max_iterations);
+  // A default request warm-starts from where that step ended and converges with params().
+  const OptimizationResult rest = opt.optimize(OptimizationRequest{});
+  EXPECT_EQ(rest.stop_reason, StopReason::kConverged);
+  EXPECT_DOUBLE_EQ(rest.initial_chi2, first.final_chi2);
+  EXPECT_LT(rest.final_chi2, 1e-12);
+  // The same start again gives the same first step.
+  EXPECT_DOUBLE_EQ(opt.optimize(one_lm_step).final_chi2, first.final_chi2);
+  // A start of the wrong size is refused before anything changes.
+  const std::vector<Pose2> short_start(3, Pose2::Zero());
+  EXPECT_THROW(opt.optimize(startFrom(short_start)), std::invalid_argument);
+  EXPECT_EQ(opt.params().max_iterations, OptimizerParams{}.max_iterations);
+}
+
 TEST(Optimizer, SwitchingEdgesOffKeepsTheOrderingAndWarmStartMatchesColdStart) {
   PoseGraph graph = readPoseGraph(kData + "/intel.g2o.gz");
   Optimizer opt = makeOptimizer(graph);

@@ -4,6 +4,8 @@
 
 #include <gtest/gtest.h>
 
+#include <atomic>
+
 #include <cmath>
 #include <map>
 #include <set>
@@ -150,6 +152,24 @@ TEST_P(OnlineRrrStreaming, DecidesLikeBatchAndReportsEveryChange) {
 
 INSTANTIATE_TEST_SUITE_P(CandidatesAtNewestOrOldestEnd, OnlineRrrStreaming,
                          ::testing::Values(false, true));
+
+TEST(OnlineRrr, ARaisedCancelFlagCutsEveryOptimizationShort) {
+  // What ~reset does to the graph it is about to throw away: every joint test stops at once, the
+  // run still ends with every candidate decided, and the reasons say the optimizer was cancelled.
+  const core::PoseGraph input = intelWithOutliers(60, 1, 3);
+  const std::atomic<bool> cancel{true};
+  OnlineRrr online(paramsWithGap(5));
+  online.setCancelFlag(&cancel);
+  stream(input, online, false);
+  const OnlineRrrStatus s = online.status();
+  EXPECT_EQ(s.pending, 0);
+  EXPECT_EQ(s.accepted + s.rejected, s.candidates);
+  int cancelled = 0;
+  for (const DecisionChange& change : online.takeChanges()) {
+    cancelled += change.reason.find("(optimizer: cancelled)") != std::string::npos;
+  }
+  EXPECT_GT(cancelled, 0);
+}
 
 TEST(OnlineRrr, SavedGraphLoadsBackToTheSameDecisions) {
   const core::PoseGraph input = intelWithOutliers(40, 4, 5);

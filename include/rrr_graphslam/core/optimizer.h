@@ -20,6 +20,7 @@
 #include <atomic>
 #include <chrono>
 #include <limits>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -82,6 +83,23 @@ enum class StopReason {
 };
 
 std::string toString(StopReason reason);
+
+/// What one optimize() call works on besides the active constraints: where it starts and, for this
+/// call only, the method and limits (unset: params()'s).
+struct OptimizationRequest {
+  /// One pose per node; nullptr: the current poses (a warm start).
+  const std::vector<Pose2>* start = nullptr;
+  std::optional<OptimizerParams::Method> method;
+  std::optional<int> max_iterations;
+  std::optional<double> relative_tolerance;
+};
+
+/// A request to start from `poses` (which must outlive it), with params()'s method and limits.
+inline OptimizationRequest startFrom(const std::vector<Pose2>& poses) {
+  OptimizationRequest request;
+  request.start = &poses;
+  return request;
+}
 
 struct OptimizationResult {
   int iterations = 0;      ///< accepted steps
@@ -160,6 +178,8 @@ class Optimizer {
   /// Iterates from the current poses and leaves the result in poses() (the last poses with a
   /// finite chi2: a step that makes it NaN is not taken).
   OptimizationResult optimize();
+  /// The same, from the request's start with its method and limits.
+  OptimizationResult optimize(const OptimizationRequest& request);
   /// optimize() checks `*flag` before each step and stops with kCancelled when it is set (from
   /// another thread); nullptr (default) disables. The flag must outlive its use.
   void setCancelFlag(const std::atomic<bool>* flag) { cancel_ = flag; }

@@ -143,6 +143,9 @@ class GraphSlamRos {
   std::deque<Input> queue_;
   bool stop_ = false;
   bool markers_requested_ = false;
+  // Raised by ~reset (until its turn in the worker) and at shutdown: the graph's optimizations
+  // stop within a step, so a long decision does not hold the reset or the shutdown up.
+  std::atomic<bool> cancel_{false};
   std::atomic<std::uint64_t> received_{0}, processed_{0}, malformed_{0}, ignored_{0};
   std::uint64_t decisions_published_ = 0, services_handled_ = 0;  // worker only
 

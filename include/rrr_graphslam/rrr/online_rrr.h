@@ -13,6 +13,7 @@
 // Bad input throws std::invalid_argument naming the field (from_id, to_id, measurement.x, ...,
 // information) and leaves the graph as it was. Not thread-safe: one thread owns an OnlineRrr.
 
+#include <atomic>
 #include <cstddef>
 #include <deque>
 #include <map>
@@ -97,6 +98,11 @@ class OnlineRrr {
   /// duplicates (same ends and measurement as an earlier candidate).
   CandidateStatus addCandidate(NodeId from, NodeId to, const core::Pose2& measurement,
                                const Eigen::Matrix3d& information);
+
+  /// Every optimization checks `*flag` and stops (kCancelled) once it is raised, so that a long
+  /// decision ends within a step; the verdicts reached meanwhile are not to be trusted: raise it
+  /// only to throw this graph away (a reset, a shutdown). nullptr (default): never cancelled.
+  void setCancelFlag(const std::atomic<bool>* flag) { graph_.optimizer().setCancelFlag(flag); }
 
   /// Closes every open cluster and decides all clusters from scratch (end of a run).
   void finish();

@@ -57,6 +57,10 @@ class VerificationGraph {
 
   /// Switches on exactly the given candidates (all others off).
   void activateOnly(const std::vector<int>& candidates);
+  /// One optimization of the odometry with exactly `candidates` switched on, as `request` says
+  /// (from where, how, how long); the optimizer keeps that active set and the poses reached.
+  core::OptimizationResult optimize(const std::vector<int>& candidates,
+                                    const core::OptimizationRequest& request = {});
 
  private:
   std::vector<core::PoseGraph::NodeId> node_ids_;
