@@ -81,15 +81,6 @@ void IncrementalRrr::finish() {
   rrr_.decideFromScratch();
 }
 
-std::vector<std::vector<int>> byNewestEnd(int num_nodes, const std::vector<CandidateEnds>& ends) {
-  std::vector<std::vector<int>> at(static_cast<std::size_t>(num_nodes));
-  for (std::size_t k = 0; k < ends.size(); ++k) {
-    const int newest = std::max(ends[k].first, ends[k].second);
-    at[static_cast<std::size_t>(newest)].push_back(static_cast<int>(k));
-  }
-  return at;
-}
-
 RrrSummary runIncrementalRrr(VerificationGraph& graph, const RrrParams& params,
                              std::vector<Verdict>& verdicts, std::vector<int>& cluster_of,
                              const ProgressFunction& progress, std::vector<double>* latencies_sec,
@@ -102,21 +93,16 @@ RrrSummary runIncrementalRrr(VerificationGraph& graph, const RrrParams& params,
   summary.cluster_gap = clusterGapFor(params, ends);
 
   // What arrives with each node: its odometry (the optimizer's constraints that are not
-  // candidates) and the candidates whose newest end it is, in input order.
+  // candidates), then the candidates whose newest end it is.
   const auto nodes = static_cast<std::size_t>(graph.numNodes());
   const core::Optimizer& full = graph.optimizer();
-  std::vector<char> is_candidate(static_cast<std::size_t>(full.numConstraints()), 0);
+  std::vector<int> candidate_of(static_cast<std::size_t>(full.numConstraints()), -1);
   for (int k = 0; k < graph.numCandidates(); ++k)
-    is_candidate[static_cast<std::size_t>(graph.candidate(k).constraint)] = 1;
-  std::vector<int> odometry;
-  std::vector<CandidateEnds> odometry_ends;
-  for (int c = 0; c < full.numConstraints(); ++c) {
-    if (is_candidate[static_cast<std::size_t>(c)]) continue;
-    odometry.push_back(c);
-    odometry_ends.emplace_back(full.from(c), full.to(c));
-  }
-  const auto odometry_at = byNewestEnd(graph.numNodes(), odometry_ends);
-  const auto candidates_at = byNewestEnd(graph.numNodes(), ends);
+    candidate_of[static_cast<std::size_t>(graph.candidate(k).constraint)] = k;
+  std::vector<ReplayEdge> edges;
+  for (int c = 0; c < full.numConstraints(); ++c)
+    edges.push_back({full.from(c), full.to(c), candidate_of[static_cast<std::size_t>(c)] < 0});
+  const std::vector<NodeArrivals> arrivals = arrivalsByNode(graph.numNodes(), edges);
 
   // The robot's view: the graph holds the nodes that have arrived, not the whole run, so each
   // decision costs what it would cost on the robot at that point.
@@ -127,11 +113,11 @@ RrrSummary runIncrementalRrr(VerificationGraph& graph, const RrrParams& params,
   if (latencies_sec) latencies_sec->clear();
   for (std::size_t n = 0; n < nodes; ++n) {
     robot.addNode(graph.nodeIds()[n], graph.initialPoses()[n]);
-    for (int i : odometry_at[n]) {
-      const int c = odometry[static_cast<std::size_t>(i)];
+    for (int c : arrivals[n].odometry) {
       robot.addOdometry(full.from(c), full.to(c), full.measurement(c), full.information(c));
     }
-    for (int k : candidates_at[n]) {
+    for (int constraint : arrivals[n].candidates) {
+      const int k = candidate_of[static_cast<std::size_t>(constraint)];
       const LoopCandidate& c = graph.candidate(k);
       const auto t0 = std::chrono::steady_clock::now();
       incremental.addCandidate(

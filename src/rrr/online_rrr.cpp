@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <stdexcept>
 #include <string>
-#include <unordered_map>
 
 #include "rrr_graphslam/core/constraint_check.h"
 
@@ -267,39 +266,30 @@ std::unique_ptr<OnlineRrr> OnlineRrr::fromPoseGraph(const core::PoseGraph& graph
                                                     const OnlineRrrParams& params) {
   auto online = std::make_unique<OnlineRrr>(params);
   const std::vector<NodeId> ids = graph.nodeIds();
-  std::unordered_map<NodeId, int> index_of;
-  for (std::size_t i = 0; i < ids.size(); ++i) index_of.emplace(ids[i], static_cast<int>(i));
-
-  // Odometry into each node, and candidates by their newest end (stable: input order within).
-  std::vector<std::size_t> odometry, candidates;  // edges
-  std::vector<CandidateEnds> odometry_ends, candidate_ends;
-  for (std::size_t e = 0; e < graph.numEdges(); ++e) {
-    const auto& edge = graph.edge(e);
-    const int a = index_of.at(edge.from), b = index_of.at(edge.to);
-    const bool is_odometry = edge.kind == core::EdgeKind::kOdometry;
-    if (is_odometry && std::abs(a - b) != 1) {
-      throw std::invalid_argument("odometry edge " + std::to_string(edge.from) + " -> " +
-                                  std::to_string(edge.to) + " does not join consecutive nodes");
+  const std::vector<ReplayEdge> edges = replayEdges(graph);
+  for (std::size_t e = 0; e < edges.size(); ++e) {
+    if (edges[e].odometry && std::abs(edges[e].from - edges[e].to) != 1) {
+      throw std::invalid_argument("odometry edge " + std::to_string(graph.edge(e).from) + " -> " +
+                                  std::to_string(graph.edge(e).to) +
+                                  " does not join consecutive nodes");
     }
-    (is_odometry ? odometry : candidates).push_back(e);
-    (is_odometry ? odometry_ends : candidate_ends).emplace_back(a, b);
   }
-  const auto num_nodes = static_cast<int>(ids.size());
-  const auto odometry_into = byNewestEnd(num_nodes, odometry_ends);
-  const auto candidates_at = byNewestEnd(num_nodes, candidate_ends);
+  const std::vector<NodeArrivals> arrivals =
+      arrivalsByNode(static_cast<int>(ids.size()), edges);
   for (std::size_t k = 0; k < ids.size(); ++k) {
     const int n = online->appendNode(ids[k], graph.pose(ids[k]));
-    for (int i : odometry_into[k]) {
-      const std::size_t e = odometry[static_cast<std::size_t>(i)];
-      const auto [a, b] = odometry_ends[static_cast<std::size_t>(i)];
-      online->graph_.addOdometry(a, b, graph.measurement(e), graph.information(e));
-      online->odometry_.push_back({a, b, graph.measurement(e), graph.information(e)});
+    for (int i : arrivals[k].odometry) {
+      const auto e = static_cast<std::size_t>(i);
+      const ReplayEdge& edge = edges[e];
+      online->graph_.addOdometry(edge.from, edge.to, graph.measurement(e), graph.information(e));
+      online->odometry_.push_back(
+          {edge.from, edge.to, graph.measurement(e), graph.information(e)});
     }
     online->incremental_.advanceTo(n);
-    for (int i : candidates_at[k]) {
-      const std::size_t e = candidates[static_cast<std::size_t>(i)];
-      const auto [a, b] = candidate_ends[static_cast<std::size_t>(i)];
-      online->insertCandidate(a, b, graph.measurement(e), graph.information(e));
+    for (int i : arrivals[k].candidates) {
+      const auto e = static_cast<std::size_t>(i);
+      online->insertCandidate(edges[e].from, edges[e].to, graph.measurement(e),
+                              graph.information(e));
     }
   }
   online->finish();

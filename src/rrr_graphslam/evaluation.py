@@ -16,7 +16,7 @@ from typing import Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from .graph_io import GraphFileError, Pose, open_text, read_graph, tagged_lines
+from .graph_io import GraphFileError, Pose, open_text, read_graph, tagged_lines, write_text_atomically
 
 DECISION_HEADER = ["from", "to", "cluster", "verdict"]
 # The fifth column, the step of RRR that decided and its statistic; files written before it
@@ -77,6 +77,12 @@ def read_decisions(path: str) -> List[Decision]:
                 raise GraphFileError(path, number, f"verdict must be one of {', '.join(VERDICTS)}")
             decisions.append(d)
     return decisions
+
+
+def write_decisions(path: str, decisions: Sequence[Decision]) -> None:
+    """DECISIONS.tsv as the C++ tools write it (header with the reason column), atomically."""
+    rows = "".join(f"{d.source}\t{d.target}\t{d.cluster}\t{d.verdict}\t{d.reason}\n" for d in decisions)
+    write_text_atomically(path, "\t".join(DECISION_HEADER + [REASON_COLUMN]) + "\n" + rows)
 
 
 def read_truth(path: str, decisions: Sequence[Decision]) -> List[Optional[bool]]:

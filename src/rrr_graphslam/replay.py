@@ -13,6 +13,7 @@ from typing import Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
+from .evaluation import Decision
 from .graph_io import Edge, PoseGraph, information_matrix, inverse
 
 
@@ -95,14 +96,15 @@ def plan_replay(graph: PoseGraph) -> Plan:
     return Plan(steps, candidates, skipped)
 
 
-def decisions_in_file_order(plan: Plan, final: Dict[Tuple[int, int], List[Tuple[int, str, int]]]):
-    """Rows (from, to, cluster, verdict) per file candidate. `final` maps (from, to) to the node's
-    final (arrival index, verdict, cluster) of each candidate on that pair; candidates of one pair
+def decisions_in_file_order(plan: Plan,
+                            final: Dict[Tuple[int, int], List[Tuple[int, str, int, str]]]) -> List[Decision]:
+    """One Decision per file candidate, in file order. `final` maps (from, to) to the node's final
+    (arrival index, verdict, cluster, reason) of each candidate on that pair; candidates of one pair
     arrive in file order, so the k-th sent one is the k-th by arrival index. Duplicates, which the
-    node refuses, share their twin's verdict; a candidate without an answer stays pending."""
+    node refuses, share their twin's decision; a candidate without an answer stays pending."""
     by_pair = {pair: sorted(items) for pair, items in final.items()}
     used: Dict[Tuple[int, int], int] = {}
-    answer: Dict[int, Tuple[int, str]] = {}
+    answer: Dict[int, Tuple[int, str, str]] = {}
     for cand in plan.candidates:
         if cand.duplicate_of is not None:
             continue
@@ -110,11 +112,14 @@ def decisions_in_file_order(plan: Plan, final: Dict[Tuple[int, int], List[Tuple[
         k = used.get(pair, 0)
         items = by_pair.get(pair, [])
         if k < len(items):
-            answer[cand.index] = (items[k][2], items[k][1])
+            _, verdict, cluster, reason = items[k]
+            answer[cand.index] = (cluster, verdict, reason)
             used[pair] = k + 1
     rows = []
     for cand in plan.candidates:
-        cluster, verdict = answer.get(cand.index if cand.duplicate_of is None else cand.duplicate_of,
-                                      (-1, "pending"))
-        rows.append((cand.edge.source, cand.edge.target, cluster, verdict))
+        twin = cand.index if cand.duplicate_of is None else cand.duplicate_of
+        cluster, verdict, reason = answer.get(twin, (-1, "pending", "no decision received from the node"))
+        if cand.duplicate_of is not None:
+            reason = f"duplicate of file candidate {twin} (not sent): {reason}"
+        rows.append(Decision(cand.edge.source, cand.edge.target, cluster, verdict, reason))
     return rows

@@ -36,7 +36,8 @@ class PoseGraphReplay:
         self.candidates_pub = rospy.Publisher(candidates_topic, LoopCandidate, queue_size=100000)
         self.clock_pub = rospy.Publisher("/clock", Clock, queue_size=10) if publish_clock else None
         self.status: Optional[RrrStatus] = None
-        self.final: Dict[int, Tuple[int, int, str, int]] = {}  # arrival index -> (from, to, verdict, cluster)
+        # arrival index -> (from, to, verdict, cluster, reason)
+        self.final: Dict[int, Tuple[int, int, str, int, str]] = {}
         self.decision_messages = 0
         rospy.Subscriber(self.node + "/status", RrrStatus, self._on_status, queue_size=100)
         rospy.Subscriber(self.node + "/decisions", LoopClosureDecision, self._on_decision, queue_size=100000)
@@ -47,7 +48,8 @@ class PoseGraphReplay:
 
     def _on_decision(self, msg: LoopClosureDecision) -> None:
         self.decision_messages += 1
-        self.final[msg.candidate] = (msg.from_id, msg.to_id, VERDICT_NAMES.get(msg.verdict, "pending"), msg.cluster)
+        self.final[msg.candidate] = (msg.from_id, msg.to_id, VERDICT_NAMES.get(msg.verdict, "pending"),
+                                     msg.cluster, msg.reason)
 
     def _wait(self, condition, what: str) -> None:
         deadline = time.monotonic() + self.timeout
@@ -138,8 +140,8 @@ class PoseGraphReplay:
         """Waits until every decision the node reported in its status has arrived."""
         self._wait(lambda: self.decision_messages >= self.status.decisions_published, "the decisions")
 
-    def final_by_pair(self) -> Dict[Tuple[int, int], List[Tuple[int, str, int]]]:
+    def final_by_pair(self) -> Dict[Tuple[int, int], List[Tuple[int, str, int, str]]]:
         by_pair = defaultdict(list)
-        for index, (a, b, verdict, cluster) in self.final.items():
-            by_pair[(a, b)].append((index, verdict, cluster))
+        for index, (a, b, verdict, cluster, reason) in self.final.items():
+            by_pair[(a, b)].append((index, verdict, cluster, reason))
         return dict(by_pair)

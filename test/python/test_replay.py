@@ -6,6 +6,7 @@ import random
 import numpy as np
 from conftest import DATA
 from rrr_graphslam.graph_io import Edge, PoseGraph, between, compose, read_graph
+from rrr_graphslam.evaluation import Decision, read_decisions, write_decisions
 from rrr_graphslam.replay import decisions_in_file_order, information_row_major, inverted_edge, plan_replay
 
 
@@ -65,11 +66,23 @@ def test_answers_map_back_to_file_order_and_duplicates_share_the_verdict():
                     (2, 0, (2, 0, 0)), (3, 0, (-2.9, 0, 0)), (2, 0, (2, 0, 0))], 4)
     plan = plan_replay(g)
     # Arrival order: (2,0) first, then the two (3,0) ones; the duplicate (2,0) is never answered.
-    final = {(2, 0): [(0, "accepted", 4)], (3, 0): [(1, "rejected", 5), (2, "accepted", 5)]}
+    final = {(2, 0): [(0, "accepted", 4, "realize: a")],
+             (3, 0): [(1, "rejected", 5, "intra: b"), (2, "accepted", 5, "realize: c")]}
     rows = decisions_in_file_order(plan, final)
-    assert rows == [(3, 0, 5, "rejected"), (2, 0, 4, "accepted"), (3, 0, 5, "accepted"),
-                    (2, 0, 4, "accepted")]
-    assert decisions_in_file_order(plan, {})[0] == (3, 0, -1, "pending")
+    assert [(d.source, d.target, d.cluster, d.verdict, d.reason) for d in rows] == [
+        (3, 0, 5, "rejected", "intra: b"), (2, 0, 4, "accepted", "realize: a"),
+        (3, 0, 5, "accepted", "realize: c"),
+        (2, 0, 4, "accepted", "duplicate of file candidate 1 (not sent): realize: a")]
+    pending = decisions_in_file_order(plan, {})[0]
+    assert (pending.cluster, pending.verdict, pending.reason) == (-1, "pending", "no decision received from the node")
+
+
+def test_decisions_written_with_reasons_read_back(tmp_path):
+    rows = [Decision(3, 0, 5, "rejected", "intra: D2 12.1 >= 7.81"), Decision(2, 0, -1, "pending", "")]
+    path = tmp_path / "d.tsv"
+    write_decisions(str(path), rows)
+    assert path.read_text().startswith("from\tto\tcluster\tverdict\treason\n")
+    assert read_decisions(str(path)) == rows
 
 
 def test_bundled_graph_plans_every_candidate():

@@ -17,7 +17,7 @@ from std_srvs.srv import Trigger
 from tf2_msgs.msg import TFMessage
 from visualization_msgs.msg import MarkerArray
 
-from rrr_graphslam.evaluation import Decision, read_decisions, score  # noqa: E402
+from rrr_graphslam.evaluation import read_decisions, score  # noqa: E402
 from rrr_graphslam.graph_io import read_graph  # noqa: E402
 from rrr_graphslam.msg import LoopCandidate, PoseGraphEdge  # noqa: E402
 from rrr_graphslam.outliers import add_outliers  # noqa: E402
@@ -60,7 +60,9 @@ class RrrGraphSlamRos(unittest.TestCase):
         return self.replay.status
 
     def test_1_rejects_every_outlier_and_keeps_true_loops(self):
-        decisions = [Decision(*row) for row in self.rows]
+        decisions = self.rows
+        # Every decided candidate says which step of RRR decided it.
+        self.assertFalse([d for d in decisions if d.verdict != "pending" and not d.reason])
         truth = [label == 1 for _, _, label in self.labels]
         s = score(decisions, truth)
         print(f"precision {s.precision:.4f} recall {s.recall:.4f} (tp {s.tp} fp {s.fp} fn {s.fn})")

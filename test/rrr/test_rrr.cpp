@@ -15,16 +15,6 @@ namespace {
 const std::string kData = RRR_TEST_DATA_DIR;
 
 // Each edge's ends as node indices (k-th smallest id).
-std::vector<CandidateEnds> edgeEnds(const core::PoseGraph& graph) {
-  const auto ids = graph.nodeIds();
-  std::map<core::PoseGraph::NodeId, int> index;
-  for (std::size_t n = 0; n < ids.size(); ++n) index[ids[n]] = static_cast<int>(n);
-  std::vector<CandidateEnds> ends;
-  for (std::size_t k = 0; k < graph.numEdges(); ++k)
-    ends.emplace_back(index[graph.edge(k).from], index[graph.edge(k).to]);
-  return ends;
-}
-
 struct Counts {
   int tp = 0, fp = 0, fn = 0;
   double precision() const { return tp + fp ? double(tp) / (tp + fp) : 1.0; }
@@ -189,8 +179,8 @@ TEST(Rrr, RebatchDecidesTheClosedClustersFromScratch) {
   IncrementalRrr ia(a, rebatching, 3), ib(b, never, 3);
 
   const auto ids = input.graph.nodeIds();
-  const std::vector<CandidateEnds> ends = edgeEnds(input.graph);
-  const auto arriving = byNewestEnd(static_cast<int>(ids.size()), ends);
+  const std::vector<ReplayEdge> edges = replayEdges(input.graph);
+  const std::vector<NodeArrivals> arriving = arrivalsByNode(static_cast<int>(ids.size()), edges);
   auto distance = [&] {
     double d = 0.0;
     for (int n = 0; n < a.numNodes(); ++n) {
@@ -203,38 +193,43 @@ TEST(Rrr, RebatchDecidesTheClosedClustersFromScratch) {
   bool compared = false;
   for (std::size_t n = 0; n < ids.size() && !compared; ++n) {
     for (VerificationGraph* g : {&a, &b}) g->addNode(ids[n], input.graph.pose(ids[n]));
-    for (const bool odometry : {true, false}) {
-      for (int i : arriving[n]) {
-        const auto k = static_cast<std::size_t>(i);
-        if ((input.graph.edge(k).kind == core::EdgeKind::kOdometry) != odometry) continue;
-        const auto [from, to] = ends[k];
-        const core::Pose2& z = input.graph.measurement(k);
-        const Eigen::Matrix3d& info = input.graph.information(k);
-        if (odometry) {
-          a.addOdometry(from, to, z, info);
-          b.addOdometry(from, to, z, info);
-          continue;
-        }
-        const bool closed = ia.addCandidate(a.addCandidate(from, to, z, info, k));
-        ASSERT_EQ(ib.addCandidate(b.addCandidate(from, to, z, info, k)), closed);
-        if (!closed || ia.currentNode() < 400 || compared) continue;
-        // The first decision past node 400: from scratch in `a`, incremental in `b`.
-        EXPECT_GT(distance(), 1e-6) << "the incremental map differs from the batch one";
-        ib.decideClosedFromScratch();
-        for (int c = 0; c < a.numCandidates(); ++c)
-          EXPECT_EQ(ia.rrr().verdict(c), ib.rrr().verdict(c)) << "candidate " << c;
-        EXPECT_LT(distance(), 1e-6);
-        compared = true;
+    for (int i : arriving[n].odometry) {
+      const auto k = static_cast<std::size_t>(i);
+      for (VerificationGraph* g : {&a, &b}) {
+        g->addOdometry(edges[k].from, edges[k].to, input.graph.measurement(k),
+                       input.graph.information(k));
       }
+    }
+    for (int i : arriving[n].candidates) {
+      const auto k = static_cast<std::size_t>(i);
+      const core::Pose2& z = input.graph.measurement(k);
+      const Eigen::Matrix3d& info = input.graph.information(k);
+      const bool closed = ia.addCandidate(a.addCandidate(edges[k].from, edges[k].to, z, info, k));
+      ASSERT_EQ(ib.addCandidate(b.addCandidate(edges[k].from, edges[k].to, z, info, k)), closed);
+      if (!closed || ia.currentNode() < 400 || compared) continue;
+      // The first decision past node 400: from scratch in `a`, incremental in `b`.
+      EXPECT_GT(distance(), 1e-6) << "the incremental map differs from the batch one";
+      ib.decideClosedFromScratch();
+      for (int c = 0; c < a.numCandidates(); ++c)
+        EXPECT_EQ(ia.rrr().verdict(c), ib.rrr().verdict(c)) << "candidate " << c;
+      EXPECT_LT(distance(), 1e-6);
+      compared = true;
     }
   }
   EXPECT_TRUE(compared);
 }
 
-TEST(Rrr, ByNewestEndSaysWhatArrivesWithEachNode) {
-  const std::vector<CandidateEnds> ends{{0, 1}, {3, 1}, {2, 3}, {1, 0}, {0, 3}};
-  const std::vector<std::vector<int>> expected{{}, {0, 3}, {}, {1, 2, 4}, {}};
-  EXPECT_EQ(byNewestEnd(5, ends), expected);
+TEST(Rrr, ArrivalsByNodeSayWhatArrivesWithEachNode) {
+  const std::vector<ReplayEdge> edges{
+      {0, 1, true}, {3, 1, false}, {2, 3, true}, {1, 0, false}, {0, 3, false}, {3, 4, true}};
+  const std::vector<NodeArrivals> at = arrivalsByNode(5, edges);
+  ASSERT_EQ(at.size(), 5u);
+  const std::vector<std::vector<int>> odometry{{}, {0}, {}, {2}, {5}}, candidates{{}, {3}, {}, {1, 4}, {}};
+  for (std::size_t n = 0; n < 5; ++n) {
+    EXPECT_EQ(at[n].odometry, odometry[n]) << n;
+    EXPECT_EQ(at[n].candidates, candidates[n]) << n;
+  }
+  EXPECT_THROW(arrivalsByNode(4, edges), std::invalid_argument);  // edge 5 ends at node 4
 }
 
 TEST(Rrr, GrowingGraphReachesTheBatchDecisions) {
@@ -251,25 +246,23 @@ TEST(Rrr, GrowingGraphReachesTheBatchDecisions) {
   }
 
   const auto ids = input.graph.nodeIds();
-  const std::vector<CandidateEnds> ends = edgeEnds(input.graph);
-  const auto arriving = byNewestEnd(static_cast<int>(ids.size()), ends);  // edges by node
+  const std::vector<ReplayEdge> edges = replayEdges(input.graph);
+  const std::vector<NodeArrivals> arriving = arrivalsByNode(static_cast<int>(ids.size()), edges);
   VerificationGraph online(params.optimizer);
   IncrementalRrr incremental(online, params, params.cluster_gap);
   int accepted_on_the_way = 0;
   for (std::size_t n = 0; n < ids.size(); ++n) {
     online.addNode(ids[n], input.graph.pose(ids[n]));
-    for (const bool odometry : {true, false}) {  // odometry first, then the candidates
-      for (int i : arriving[n]) {
-        const auto k = static_cast<std::size_t>(i);
-        if ((input.graph.edge(k).kind == core::EdgeKind::kOdometry) != odometry) continue;
-        const auto [a, b] = ends[k];
-        if (odometry) {
-          online.addOdometry(a, b, input.graph.measurement(k), input.graph.information(k));
-        } else {
-          incremental.addCandidate(
-              online.addCandidate(a, b, input.graph.measurement(k), input.graph.information(k), k));
-        }
-      }
+    for (int i : arriving[n].odometry) {  // odometry first, then the candidates
+      const auto k = static_cast<std::size_t>(i);
+      online.addOdometry(edges[k].from, edges[k].to, input.graph.measurement(k),
+                         input.graph.information(k));
+    }
+    for (int i : arriving[n].candidates) {
+      const auto k = static_cast<std::size_t>(i);
+      incremental.addCandidate(online.addCandidate(edges[k].from, edges[k].to,
+                                                   input.graph.measurement(k),
+                                                   input.graph.information(k), k));
     }
     if (n == ids.size() / 2 || n + 1 == ids.size()) {
       accepted_on_the_way = 0;

@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "rrr_graphslam/rrr/replay_plan.h"
 #include "rrr_graphslam/rrr/rrr.h"
 
 namespace rrr_graphslam::rrr {
@@ -54,13 +55,8 @@ class IncrementalRrr {
   std::vector<OpenCluster> open_;
 };
 
-/// What arrives with each node of a growing graph: the indices k of `ends` (item k joins nodes
-/// ends[k].first and ends[k].second, 0 <= both < num_nodes) bucketed by their newest end, in
-/// input order within a node.
-std::vector<std::vector<int>> byNewestEnd(int num_nodes, const std::vector<CandidateEnds>& ends);
-
-/// Replays `graph` as a robot builds it: nodes arrive in order with their odometry, each
-/// candidate right after its newest end (input order among them), and IncrementalRrr works on a
+/// Replays `graph` as a robot builds it (replay_plan.h: nodes in order with their odometry, each
+/// candidate right after its newest end), and IncrementalRrr works on a
 /// graph holding only what has arrived, so each decision costs what it would on the robot at
 /// that point. Records the time each candidate's call takes; verdicts, cluster_of and the
 /// graph's optimizer afterwards as in runBatchRrr.

@@ -1,0 +1,32 @@
+#pragma once
+// The order in which a robot would have built a stored graph: nodes in id order, each with the
+// odometry edges into it, then the loop candidates whose newest end it is (input order within a
+// node). rrr_offline --mode incremental, OnlineRrr::fromPoseGraph (~load) and the tests replay
+// graphs in this one order; the Python module's plan_replay does the same for ROS replays.
+
+#include <vector>
+
+#include "rrr_graphslam/core/pose_graph.h"
+
+namespace rrr_graphslam::rrr {
+
+/// An edge by its dense node indices (k-th smallest id = k) and kind.
+struct ReplayEdge {
+  int from;
+  int to;
+  bool odometry;
+};
+
+/// What arrives with one node: indices into the edge list.
+struct NodeArrivals {
+  std::vector<int> odometry;    ///< odometry edges whose newest end the node is
+  std::vector<int> candidates;  ///< then the loop candidates whose newest end it is
+};
+
+/// One entry per node; edges must join nodes in [0, num_nodes) (std::invalid_argument otherwise).
+std::vector<NodeArrivals> arrivalsByNode(int num_nodes, const std::vector<ReplayEdge>& edges);
+
+/// A PoseGraph's edges in edge order, by dense node index and kind.
+std::vector<ReplayEdge> replayEdges(const core::PoseGraph& graph);
+
+}  // namespace rrr_graphslam::rrr

@@ -1,0 +1,39 @@
+#include "rrr_graphslam/rrr/replay_plan.h"
+
+#include <algorithm>
+#include <stdexcept>
+#include <string>
+#include <unordered_map>
+
+namespace rrr_graphslam::rrr {
+
+std::vector<NodeArrivals> arrivalsByNode(int num_nodes, const std::vector<ReplayEdge>& edges) {
+  std::vector<NodeArrivals> at(static_cast<std::size_t>(std::max(num_nodes, 0)));
+  for (std::size_t k = 0; k < edges.size(); ++k) {
+    const ReplayEdge& e = edges[k];
+    if (std::min(e.from, e.to) < 0 || std::max(e.from, e.to) >= num_nodes) {
+      throw std::invalid_argument("arrivalsByNode: edge " + std::to_string(k) + " joins " +
+                                  std::to_string(e.from) + " and " + std::to_string(e.to) +
+                                  ", outside the " + std::to_string(num_nodes) + " nodes");
+    }
+    NodeArrivals& node = at[static_cast<std::size_t>(std::max(e.from, e.to))];
+    (e.odometry ? node.odometry : node.candidates).push_back(static_cast<int>(k));
+  }
+  return at;
+}
+
+std::vector<ReplayEdge> replayEdges(const core::PoseGraph& graph) {
+  std::unordered_map<core::PoseGraph::NodeId, int> index_of;
+  const auto ids = graph.nodeIds();
+  for (std::size_t i = 0; i < ids.size(); ++i) index_of.emplace(ids[i], static_cast<int>(i));
+  std::vector<ReplayEdge> edges;
+  edges.reserve(graph.numEdges());
+  for (std::size_t e = 0; e < graph.numEdges(); ++e) {
+    const auto& edge = graph.edge(e);
+    edges.push_back({index_of.at(edge.from), index_of.at(edge.to),
+                     edge.kind == core::EdgeKind::kOdometry});
+  }
+  return edges;
+}
+
+}  // namespace rrr_graphslam::rrr
