@@ -3,8 +3,9 @@
 namespace rrr_graphslam::frontend {
 
 void validate(const LaserSlamParams& params) {
-  forEachSlamParam(params,
-                   [](const core::ParamInfo& info, const auto& value) { core::checkRange(info, value); });
+  forEachSlamParam(params, [](const core::ParamInfo& info, const auto& value) {
+    core::checkRange(info, value);
+  });
 }
 
 }  // namespace rrr_graphslam::frontend

@@ -130,8 +130,8 @@ NodeParams loadParams(const ros::NodeHandle& private_nh) {
   r.read(core::ParamInfo{"max_waiting_candidates", 0, 1e9, ""}, p.rrr.max_waiting_candidates);
 
   // Front end (slam mode): every parameter of laser_slam_params.h under its own name.
-  frontend::forEachSlamParam(p.slam,
-                             [&](const core::ParamInfo& info, auto& value) { r.read(info, value); });
+  frontend::forEachSlamParam(
+      p.slam, [&](const core::ParamInfo& info, auto& value) { r.read(info, value); });
   try {
     rrr::validate(p.rrr);
     frontend::validate(p.slam);

@@ -165,8 +165,8 @@ InterClusterResult interClusterConsistency(VerificationGraph& graph,
     // (tens of damped iterations to come back), so rounds restart from it. In batch the
     // previous round's solution is closer, as the clusters removed together pull many ways.
     const bool from_start = result.optimizations == 0 || restart;
-    const core::OptimizationResult r = graph.optimize(
-        links, from_start ? core::startFrom(start) : core::OptimizationRequest{});
+    const core::OptimizationResult r =
+        graph.optimize(links, from_start ? core::startFrom(start) : core::OptimizationRequest{});
     ++result.optimizations;
     result.stop = r.stop_reason;
     result.chi2 = failIfNotFinite(opt.chi2());

@@ -44,9 +44,9 @@ void validate(const OnlineRrrParams& params) {
         "arrive one by one, so it cannot be derived from them)");
   }
   if (params.max_waiting_candidates < 0) {
-    throw std::invalid_argument("max_waiting_candidates = " +
-                                std::to_string(params.max_waiting_candidates) +
-                                " is out of range: must not be negative");
+    throw std::invalid_argument(
+        "max_waiting_candidates = " + std::to_string(params.max_waiting_candidates) +
+        " is out of range: must not be negative");
   }
 }
 
@@ -274,16 +274,14 @@ std::unique_ptr<OnlineRrr> OnlineRrr::fromPoseGraph(const core::PoseGraph& graph
                                   " does not join consecutive nodes");
     }
   }
-  const std::vector<NodeArrivals> arrivals =
-      arrivalsByNode(static_cast<int>(ids.size()), edges);
+  const std::vector<NodeArrivals> arrivals = arrivalsByNode(static_cast<int>(ids.size()), edges);
   for (std::size_t k = 0; k < ids.size(); ++k) {
     const int n = online->appendNode(ids[k], graph.pose(ids[k]));
     for (int i : arrivals[k].odometry) {
       const auto e = static_cast<std::size_t>(i);
       const ReplayEdge& edge = edges[e];
       online->graph_.addOdometry(edge.from, edge.to, graph.measurement(e), graph.information(e));
-      online->odometry_.push_back(
-          {edge.from, edge.to, graph.measurement(e), graph.information(e)});
+      online->odometry_.push_back({edge.from, edge.to, graph.measurement(e), graph.information(e)});
     }
     online->incremental_.advanceTo(n);
     for (int i : arrivals[k].candidates) {

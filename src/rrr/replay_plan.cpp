@@ -30,8 +30,8 @@ std::vector<ReplayEdge> replayEdges(const core::PoseGraph& graph) {
   edges.reserve(graph.numEdges());
   for (std::size_t e = 0; e < graph.numEdges(); ++e) {
     const auto& edge = graph.edge(e);
-    edges.push_back({index_of.at(edge.from), index_of.at(edge.to),
-                     edge.kind == core::EdgeKind::kOdometry});
+    edges.push_back(
+        {index_of.at(edge.from), index_of.at(edge.to), edge.kind == core::EdgeKind::kOdometry});
   }
   return edges;
 }

@@ -38,7 +38,8 @@ void applyPreset(const std::string& name, RrrParams& params) {
 }
 
 void validate(const RrrParams& params) {
-  forEachParam(params, [](const ParamInfo& info, const auto& value) { core::checkRange(info, value); });
+  forEachParam(params,
+               [](const ParamInfo& info, const auto& value) { core::checkRange(info, value); });
 }
 
 }  // namespace rrr_graphslam::rrr

@@ -23,7 +23,8 @@ inline std::string flagOf(const char* name) {
 }
 
 /// `text` as a number, or a usage error naming `flag`.
-inline double parseNumber(const CommandLine& cli, const std::string& flag, const std::string& text) {
+inline double parseNumber(const CommandLine& cli, const std::string& flag,
+                          const std::string& text) {
   char* end = nullptr;
   const double v = std::strtod(text.c_str(), &end);
   if (end == text.c_str() || *end != '\0') cli.fail(flag + " must be a number, not '" + text + "'");
@@ -89,8 +90,8 @@ std::string tableUsage(const Params& defaults, ForEach&& forEach) {
   std::ostringstream out;
   forEach(defaults, [&](const core::ParamInfo& info, const auto& value) {
     using T = std::decay_t<decltype(value)>;
-    std::string flag = "  " + flagOf(info.name) +
-                       (std::is_same_v<T, Eigen::Vector3d> ? " X,Y,Z" : " V");
+    std::string flag =
+        "  " + flagOf(info.name) + (std::is_same_v<T, Eigen::Vector3d> ? " X,Y,Z" : " V");
     flag.resize(std::max<std::size_t>(flag.size() + 1, 36), ' ');
     out << flag << info.doc << " (default " << core::formatParam(value) << ")\n";
   });

@@ -33,8 +33,7 @@ inline bool readRrrParam(const CommandLine& cli, int& i, char** argv, rrr::RrrPa
     cli.value(i, a);  // applied by applyPresetArgument
     return true;
   }
-  return readTableParam(cli, i, argv, params,
-                        [](auto& p, auto&& f) { rrr::forEachParam(p, f); });
+  return readTableParam(cli, i, argv, params, [](auto& p, auto&& f) { rrr::forEachParam(p, f); });
 }
 
 /// One usage line per RrrParams flag, with its default (the tool's own defaults if given).

@@ -17,7 +17,6 @@
 #include <type_traits>
 
 #include "params_cli.h"
-#include "rrr_params_cli.h"
 #include "rrr_graphslam/core/graph_io.h"
 #include "rrr_graphslam/core/text_file.h"
 #include "rrr_graphslam/frontend/carmen_log.h"
@@ -25,6 +24,7 @@
 #include "rrr_graphslam/frontend/map_io.h"
 #include "rrr_graphslam/frontend/trajectory_refinement.h"
 #include "rrr_graphslam/rrr/decisions_io.h"
+#include "rrr_params_cli.h"
 
 namespace {
 
@@ -78,10 +78,12 @@ const std::string& usage() {
       "                        [--refine-resolution M] [--max-scans N] [--quiet]\n"
       "                        [--preset paper|default] [--PARAMETER V ...]\n"
       "  LOG               CARMEN log (FLASER or ROBOTLASER1 lines; the scans carry the odometry)\n"
-      "  --output          the pose graph: nodes at their optimized poses, odometry and every loop\n"
+      "  --output          the pose graph: nodes at their optimized poses, odometry and every "
+      "loop\n"
       "                    candidate (rrr_offline can decide it again)\n"
       "  --decisions       TSV 'from to cluster verdict reason', one row per loop candidate\n"
-      "  --trajectory      optimized pose of every scan, TUM format 't x y z qx qy qz qw' with the\n"
+      "  --trajectory      optimized pose of every scan, TUM format 't x y z qx qy qz qw' with "
+      "the\n"
       "                    log's ipc_timestamp\n"
       "  --map             writes MAP.pgm + MAP.yaml (map_server) and MAP.png (accepted loops\n"
       "                    green, rejected red)\n"
@@ -91,11 +93,12 @@ const std::string& usage() {
       "                    scans follow their nodes rigidly)\n"
       "  --max-scans       stop after the first N scans of the log\n"
       "  --quiet           no progress line\n"
-      "The front end's parameters (the same names and units as the ROS parameters, with dashes):\n" +
+      "The front end's parameters (the same names and units as the ROS parameters, with "
+      "dashes):\n" +
       tools::tableUsage(frontend::LaserSlamParams{}, slamTable) +
       "RRR's parameters (the same names as the ROS parameters, with dashes):\n" +
-      tools::rrrParamsUsage(rrr::OnlineRrrParams{}.rrr) +
-      "Older flags, still accepted:\n" + aliasUsage() +
+      tools::rrrParamsUsage(rrr::OnlineRrrParams{}.rrr) + "Older flags, still accepted:\n" +
+      aliasUsage() +
       "  --odometry-stddev M = --scan-odometry-stddev M,M,M/2\n"
       "  --local-refinement least-squares|icp = --scan-refinement least_squares|icp\n";
   return text;

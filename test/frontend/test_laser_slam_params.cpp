@@ -25,9 +25,8 @@ TEST(LaserSlamParams, DefaultsAreValidAndNamesUniqueAcrossBothTables) {
   const LaserSlamParams p;
   EXPECT_NO_THROW(validate(p));
   std::set<std::string> names;
-  rrr::forEachParam(p.rrr.rrr, [&](const core::ParamInfo& info, const auto&) {
-    names.insert(info.name);
-  });
+  rrr::forEachParam(p.rrr.rrr,
+                    [&](const core::ParamInfo& info, const auto&) { names.insert(info.name); });
   int visited = 0;
   forEachSlamParam(p, [&](const core::ParamInfo& info, const auto& value) {
     ++visited;
@@ -55,9 +54,9 @@ TEST(LaserSlamParams, ValidateNamesTheParameterAndItsRange) {
     validate(p);
     FAIL() << "a NaN stddev accepted";
   } catch (const std::invalid_argument& e) {
-    EXPECT_EQ(std::string(e.what()).rfind("scan_odometry_stddev = [0.01, 0.01, nan] is out of range",
-                                          0),
-              0u)
+    EXPECT_EQ(
+        std::string(e.what()).rfind("scan_odometry_stddev = [0.01, 0.01, nan] is out of range", 0),
+        0u)
         << e.what();
   }
   p = LaserSlamParams{};

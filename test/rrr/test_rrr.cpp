@@ -220,11 +220,12 @@ TEST(Rrr, RebatchDecidesTheClosedClustersFromScratch) {
 }
 
 TEST(Rrr, ArrivalsByNodeSayWhatArrivesWithEachNode) {
-  const std::vector<ReplayEdge> edges{
-      {0, 1, true}, {3, 1, false}, {2, 3, true}, {1, 0, false}, {0, 3, false}, {3, 4, true}};
+  const std::vector<ReplayEdge> edges{{0, 1, true},  {3, 1, false}, {2, 3, true},
+                                      {1, 0, false}, {0, 3, false}, {3, 4, true}};
   const std::vector<NodeArrivals> at = arrivalsByNode(5, edges);
   ASSERT_EQ(at.size(), 5u);
-  const std::vector<std::vector<int>> odometry{{}, {0}, {}, {2}, {5}}, candidates{{}, {3}, {}, {1, 4}, {}};
+  const std::vector<std::vector<int>> odometry{{}, {0}, {}, {2}, {5}},
+      candidates{{}, {3}, {}, {1, 4}, {}};
   for (std::size_t n = 0; n < 5; ++n) {
     EXPECT_EQ(at[n].odometry, odometry[n]) << n;
     EXPECT_EQ(at[n].candidates, candidates[n]) << n;
@@ -260,9 +261,8 @@ TEST(Rrr, GrowingGraphReachesTheBatchDecisions) {
     }
     for (int i : arriving[n].candidates) {
       const auto k = static_cast<std::size_t>(i);
-      incremental.addCandidate(online.addCandidate(edges[k].from, edges[k].to,
-                                                   input.graph.measurement(k),
-                                                   input.graph.information(k), k));
+      incremental.addCandidate(online.addCandidate(
+          edges[k].from, edges[k].to, input.graph.measurement(k), input.graph.information(k), k));
     }
     if (n == ids.size() / 2 || n + 1 == ids.size()) {
       accepted_on_the_way = 0;

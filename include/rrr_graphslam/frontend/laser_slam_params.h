@@ -37,7 +37,8 @@ void forEachSlamParam(Params& p, F&& f) {
   auto& local = p.local;
   auto& loops = p.loops;
   // Submaps and scans.
-  f(core::ParamInfo{"scans_per_submap", 2, 1e6, "scans inserted per submap; a new one starts at half"},
+  f(core::ParamInfo{"scans_per_submap", 2, 1e6,
+                    "scans inserted per submap; a new one starts at half"},
     local.submap.scans_per_submap);
   f(core::ParamInfo{"submap_resolution", 0.005, 1.0, "m per submap cell"},
     local.submap.resolution_m);
@@ -93,7 +94,8 @@ void forEachSlamParam(Params& p, F&& f) {
   f(core::ParamInfo{"search_every_n_nodes", 1, 1e6,
                     "a submap is searched by at most every N-th node"},
     loops.search_every_n_nodes);
-  f(core::ParamInfo{"pause_after_match_nodes", 0, 1e9, "a submap rests this many nodes after a match"},
+  f(core::ParamInfo{"pause_after_match_nodes", 0, 1e9,
+                    "a submap rests this many nodes after a match"},
     loops.pause_after_match_nodes);
   f(core::ParamInfo{"loop_search_threads", 1, 256, "threads matching a node against its submaps"},
     loops.threads);

@@ -103,8 +103,8 @@ const std::vector<std::string>& presetNames();
 /// max_rounds and the optimizer as they are. Throws std::invalid_argument for another name.
 void applyPreset(const std::string& name, RrrParams& params);
 
-using core::ParamInfo;
 using core::outOfRangeMessage;
+using core::ParamInfo;
 
 /// Calls f(info, field) for every parameter of `p` (RrrParams or const RrrParams), field being a
 /// double&, int& or bool& (const for const p), in a fixed order.
