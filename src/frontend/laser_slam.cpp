@@ -26,7 +26,13 @@ LaserSlam::LaserSlam(const LaserSlamParams& params)
 
 std::optional<int> LaserSlam::addScan(const RangeScan& scan, const core::Pose2& odom_pose) {
   auto start = std::chrono::steady_clock::now();
-  LocalSlamResult result = local_.addScan(scan, odom_pose);
+  LocalSlamResult result;
+  try {
+    result = local_.addScan(scan, odom_pose);
+  } catch (const ScanRefused&) {
+    ++stats_.refused_scans;
+    throw;
+  }
   stats_.local_slam_seconds += secondsSince(start);
   ++stats_.scans;
   stats_.matched_scans += result.matched ? 1 : 0;

@@ -1,11 +1,52 @@
 #include "rrr_graphslam/frontend/local_slam.h"
 
+#include <cstdio>
+#include <string>
+
 namespace rrr_graphslam::frontend {
 
 LocalSlam::LocalSlam(const LocalSlamParams& params)
     : params_(params), submaps_(params.submap), motion_filter_(params.motion_filter) {}
 
+namespace {
+
+// Beyond these a pose cannot be a robot's (single-precision grid coordinates lose centimetres
+// beyond 1e5-1e6 m): refused before MRPT's grids would try to grow to it.
+constexpr double kMaxCoordinate = 1e6;
+constexpr double kMaxLaserOffset = 100.0;
+
+std::string format(const core::Pose2& p) {
+  char text[96];
+  std::snprintf(text, sizeof text, "(%.6g, %.6g, %.6g)", p.x(), p.y(), p.z());
+  return text;
+}
+
+}  // namespace
+
+void LocalSlam::checkPlausible(const RangeScan& scan, const core::Pose2& odom_pose) {
+  if (!odom_pose.allFinite() || odom_pose.head<2>().cwiseAbs().maxCoeff() > kMaxCoordinate) {
+    throw ScanRefused("odometry pose " + format(odom_pose) + " is not finite or beyond " +
+                      std::to_string(static_cast<int>(kMaxCoordinate)) + " m");
+  }
+  if (!scan.laser_in_robot.allFinite() || scan.laser_in_robot.head<2>().norm() > kMaxLaserOffset) {
+    throw ScanRefused("laser pose in the robot frame " + format(scan.laser_in_robot) +
+                      " is not finite or more than 100 m from the robot");
+  }
+  if (!started_) return;
+  const double jump = (odom_pose.head<2>() - last_odom_.head<2>()).norm();
+  if (jump > params_.max_odometry_jump_m) {
+    last_odom_ = odom_pose;  // re-anchored: the next scans are tracked from here
+    char text[160];
+    std::snprintf(text, sizeof text,
+                  "odometry moved %.6g m since the previous scan (scan_max_odometry_jump %.6g m): "
+                  "scan refused, odometry re-anchored at it",
+                  jump, params_.max_odometry_jump_m);
+    throw ScanRefused(text);
+  }
+}
+
 LocalSlamResult LocalSlam::addScan(const RangeScan& scan, const core::Pose2& odom_pose) {
+  checkPlausible(scan, odom_pose);
   LocalSlamResult result;
   const core::Pose2 prediction =
       started_ ? core::compose(last_local_, core::between(last_odom_, odom_pose)) : odom_pose;

@@ -63,6 +63,15 @@ frontend::RangeScan toRangeScan(const sensor_msgs::LaserScan& msg,
     throw std::invalid_argument("range_max must be positive, got " + std::to_string(msg.range_max));
   }
   if (!std::isfinite(msg.angle_min)) throw std::invalid_argument("angle_min is not finite");
+  // One reading per angle_increment from angle_min to angle_max; drivers differ by one at the end.
+  const double span = (static_cast<double>(msg.angle_max) - msg.angle_min) / msg.angle_increment;
+  const auto count = static_cast<double>(msg.ranges.size());
+  if (!std::isfinite(span) || std::abs(span + 1.0 - count) > 1.5) {
+    throw std::invalid_argument(
+        "ranges holds " + std::to_string(msg.ranges.size()) + " readings, but angle_min " +
+        std::to_string(msg.angle_min) + " to angle_max " + std::to_string(msg.angle_max) + " at " +
+        std::to_string(msg.angle_increment) + " rad spans " + std::to_string(span + 1.0));
+  }
   frontend::RangeScan scan;
   scan.timestamp = msg.header.stamp.toSec();
   scan.angle_min = msg.angle_min;

@@ -110,6 +110,8 @@ GraphSlamRos::GraphSlamRos(ros::NodeHandle nh, ros::NodeHandle private_nh)
         nh_.createTimer(ros::Duration(params_.tf_publish_period), &GraphSlamRos::broadcastTf, this);
   }
   if (slam_) {
+    scan_expiry_timer_ = nh_.createWallTimer(ros::WallDuration(params_.tf_timeout / 2.0),
+                                             &GraphSlamRos::expireScans, this);
     ROS_INFO("rrr_graphslam: slam mode: scans on %s placed by tf %s -> %s; map on %s",
              nh_.resolveName(kScanTopic).c_str(), params_.odom_frame.c_str(),
              params_.base_frame.c_str(), nh_.resolveName("map").c_str());
@@ -130,6 +132,7 @@ GraphSlamRos::~GraphSlamRos() {
   if (worker_.joinable()) worker_.join();
   service_spinner_->stop();
   tf_timer_.stop();
+  scan_expiry_timer_.stop();
 }
 
 // ---- Subscriber threads ------------------------------------------------------------------------
@@ -167,32 +170,56 @@ void GraphSlamRos::scanCallback(const sensor_msgs::LaserScanConstPtr& msg) {
 
 void GraphSlamRos::scanArrived(const sensor_msgs::LaserScanConstPtr& msg) {
   std::lock_guard<std::mutex> lock(scan_order_mutex_);
-  scans_in_filter_.push_back(msg.get());
+  scan_order_.arrived(msg.get(), ros::WallTime::now().toSec());
 }
 
-void GraphSlamRos::scanSettled(const sensor_msgs::LaserScan* msg, std::optional<ScanInput> input) {
+bool GraphSlamRos::scanSettled(const sensor_msgs::LaserScan* msg, std::optional<ScanInput> input) {
   std::lock_guard<std::mutex> lock(scan_order_mutex_);
-  scans_settled_[msg] = std::move(input);
-  while (!scans_in_filter_.empty()) {
-    const auto it = scans_settled_.find(scans_in_filter_.front());
-    if (it == scans_settled_.end()) break;  // an earlier scan still waits for its transforms
-    if (it->second) enqueue(std::move(*it->second), kScanTopic);
-    scans_settled_.erase(it);
-    scans_in_filter_.pop_front();
+  if (!scan_order_.settle(msg, std::move(input))) return false;
+  for (ScanInput& ready : scan_order_.release()) enqueue(std::move(ready), kScanTopic);
+  return true;
+}
+
+void GraphSlamRos::expireScans(const ros::WallTimerEvent&) {
+  std::vector<std::pair<const sensor_msgs::LaserScan*, double>> expired;
+  {
+    std::lock_guard<std::mutex> lock(scan_order_mutex_);
+    expired = scan_order_.expire(ros::WallTime::now().toSec(), params_.tf_timeout);
+    for (ScanInput& ready : scan_order_.release()) enqueue(std::move(ready), kScanTopic);
+  }
+  for (const auto& [msg, arrival] : expired) {
+    (void)arrival;
+    ++received_;
+    ++malformed_;
+    ++processed_;
+    // The scan may be gone already (its pointer is only a key): nothing of it is read here.
+    logInputError(kScanTopic, "scan dropped: its transforms " + params_.odom_frame + " -> " +
+                                  params_.base_frame +
+                                  " -> header.frame_id did not arrive "
+                                  "within tf_timeout (" +
+                                  std::to_string(params_.tf_timeout) +
+                                  " s; unknown frame, or a stamp ahead of tf)");
   }
 }
 
 void GraphSlamRos::dropScan(const sensor_msgs::LaserScan& msg, const std::string& why) {
-  scanSettled(&msg, std::nullopt);
+  if (!scanSettled(&msg, std::nullopt)) return;  // given up already, and counted then
   ++received_;
   ++malformed_;
   ++processed_;
-  ROS_ERROR_THROTTLE(1.0,
-                     "%s: scan at header.stamp %.6f (header.frame_id '%s') dropped: no usable "
-                     "transform %s -> %s -> scan: %s",
-                     nh_.resolveName(kScanTopic).c_str(), msg.header.stamp.toSec(),
-                     msg.header.frame_id.c_str(), params_.odom_frame.c_str(),
-                     params_.base_frame.c_str(), why.c_str());
+  logInputError(kScanTopic, "header.frame_id '" + msg.header.frame_id + "' at header.stamp " +
+                                std::to_string(msg.header.stamp.toSec()) +
+                                ": scan dropped, no usable transform " + params_.odom_frame +
+                                " -> " + params_.base_frame + " -> scan: " + why);
+}
+
+void GraphSlamRos::logInputError(const char* topic, const std::string& what) {
+  std::optional<std::string> line;
+  {
+    std::lock_guard<std::mutex> lock(input_errors_mutex_);
+    line = input_errors_.line(nh_.resolveName(topic), what, ros::WallTime::now().toSec());
+  }
+  if (line) ROS_ERROR("%s", line->c_str());
 }
 
 bool GraphSlamRos::runInWorker(const std::function<std::string()>& job, std::string& message) {
@@ -290,11 +317,10 @@ void GraphSlamRos::process(const Input& input) {
     }
   } catch (const std::invalid_argument& e) {
     ++malformed_;
-    ROS_ERROR("%s: %s; message dropped", nh_.resolveName(topic).c_str(), e.what());
+    logInputError(topic, std::string(e.what()) + "; message dropped");
   } catch (const std::exception& e) {
     ++malformed_;
-    ROS_ERROR("%s: processing failed: %s; message dropped", nh_.resolveName(topic).c_str(),
-              e.what());
+    logInputError(topic, std::string("processing failed: ") + e.what() + "; message dropped");
   }
   publishChanges();
 }
@@ -436,7 +462,7 @@ void GraphSlamRos::offerMap() {
 void GraphSlamRos::publishChanges() {
   for (const std::string& dropped : graph().takeDroppedCandidates()) {
     ++malformed_;
-    ROS_ERROR("%s: %s", nh_.resolveName(kCandidatesTopic).c_str(), dropped.c_str());
+    logInputError(kCandidatesTopic, dropped);
   }
   // Verdicts reached while a reset cancels the optimizations are not published: that graph is
   // about to go.
@@ -504,6 +530,10 @@ void GraphSlamRos::publishStatus() {
   {
     std::lock_guard<std::mutex> lock(queue_mutex_);
     msg.backlog = static_cast<std::uint32_t>(queue_.size());
+  }
+  {
+    std::lock_guard<std::mutex> lock(scan_order_mutex_);
+    msg.backlog += static_cast<std::uint32_t>(scan_order_.waiting());
   }
   msg.last_update_sec = last_update_sec_;
   status_pub_.publish(msg);

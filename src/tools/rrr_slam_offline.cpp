@@ -208,19 +208,21 @@ void writeTrajectory(const std::string& path, const std::vector<double>& stamps,
   });
 }
 
-// The optimized pose of each of the first n scans, refined against the final map (see
-// trajectory_refinement.h) unless refinement is off.
+// The optimized pose of each placed scan (`placed`: their indices in the log), refined against the
+// final map (see trajectory_refinement.h) unless refinement is off.
 std::vector<core::Pose2> refinedTrajectory(const frontend::LaserSlam& slam,
-                                           const frontend::CarmenLog& log, std::size_t n,
+                                           const frontend::CarmenLog& log,
+                                           const std::vector<std::size_t>& placed,
                                            const frontend::TrajectoryRefinementParams& params) {
   std::vector<core::Pose2> poses = slam.scanMapPoses();
   if (params.resolution_m <= 0.0) return poses;
   const auto map = frontend::MatchGrid::fromOccupancyGrid(slam.renderMap(params.resolution_m),
                                                           slam.params().local.submap.unknown_value);
-  std::vector<frontend::PointCloud> points(n);
-  for (std::size_t k = 0; k < n; ++k) {
-    points[k] = frontend::matchingPoints(frontend::RangeScan::fromCarmen(log.scans[k]),
-                                         slam.params().local.scan);
+  std::vector<frontend::PointCloud> points;
+  points.reserve(placed.size());
+  for (std::size_t k : placed) {
+    points.push_back(frontend::matchingPoints(frontend::RangeScan::fromCarmen(log.scans[k]),
+                                              slam.params().local.scan));
   }
   return frontend::refineTrajectory(map, points, poses, params);
 }
@@ -247,9 +249,23 @@ int main(int argc, char** argv) {
     const bool progress = !args.quiet && isatty(STDERR_FILENO);
     const std::size_t n =
         args.max_scans > 0 ? std::min(args.max_scans, log.scans.size()) : log.scans.size();
+    std::vector<std::size_t> placed;  // log indices of the scans the front end placed
+    placed.reserve(n);
+    constexpr int kRefusalsShown = 10;
     for (std::size_t k = 0; k < n; ++k) {
       const auto& record = log.scans[k];
-      slam.addScan(frontend::RangeScan::fromCarmen(record), record.odom_pose);
+      try {
+        slam.addScan(frontend::RangeScan::fromCarmen(record), record.odom_pose);
+        placed.push_back(k);
+      } catch (const frontend::ScanRefused& e) {
+        if (slam.stats().refused_scans <= kRefusalsShown) {
+          std::fprintf(
+              stderr, "%s%s:%zu: scan %zu (ipc_timestamp %.6f) refused: %s%s\n",
+              progress ? "\n" : "", args.log.c_str(), record.line, k + 1, record.timestamp,
+              e.what(),
+              slam.stats().refused_scans == kRefusalsShown ? " (further ones counted)" : "");
+        }
+      }
       if (progress && (k % 100 == 0 || k + 1 == n)) {
         const auto status = slam.rrr().status();
         std::fprintf(
@@ -266,6 +282,10 @@ int main(int argc, char** argv) {
     const double duration = log.scans[n - 1].timestamp - log.scans.front().timestamp;
 
     std::printf("log            %s: %zu scans, %.1f s\n", args.log.c_str(), n, duration);
+    if (stats.refused_scans > 0) {
+      std::printf("refused        %d scans (not placed; not in --trajectory)\n",
+                  stats.refused_scans);
+    }
     std::printf("nodes          %d in %d submaps\n", stats.nodes, stats.submaps);
     std::printf("loop search    %lld node-submap pairs, %.2f ms each (%.2f s on %d threads)\n",
                 stats.loop_searches,
@@ -292,7 +312,7 @@ int main(int argc, char** argv) {
     if (!args.trajectory.empty()) {
       const auto refine_start = std::chrono::steady_clock::now();
       writeTrajectory(args.trajectory, slam.scanTimestamps(),
-                      refinedTrajectory(slam, log, n, args.refinement));
+                      refinedTrajectory(slam, log, placed, args.refinement));
       if (args.refinement.resolution_m > 0.0) {
         std::printf(
             "trajectory     %s (refined against the final map in %.2f s)\n",

@@ -174,6 +174,55 @@ TEST_P(LocalSlamTest, TracksARobotDrivingThroughTheRoomDespiteBiasedOdometry) {
   EXPECT_GE(slam.submaps().numSubmaps(), 3);
 }
 
+TEST(LocalSlam, RefusesImplausibleScansAndTracksOnAfterAnOdometryJump) {
+  LocalSlamParams params;
+  params.submap.scans_per_submap = 10;
+  LocalSlam slam(params);
+  core::Pose2 odom = core::Pose2::Zero();
+  auto truthAt = [](int k) { return core::Pose2(2.0 + 0.1 * k, 2.0 + 0.04 * k, 0.01 * k); };
+  core::Pose2 last_truth = truthAt(0), first_local = core::Pose2::Zero();
+  for (int k = 0; k < 40; ++k) {
+    const core::Pose2 truth = truthAt(k);
+    odom = core::compose(odom, core::between(last_truth, truth));
+    last_truth = truth;
+    if (k == 20) {
+      // A wheel slip of 1 km: refused, and the odometry goes on from there.
+      odom.x() += 1000.0;
+      EXPECT_THROW(slam.addScan(castScan(room(), truth), odom), ScanRefused);
+      continue;
+    }
+    if (k == 25) {
+      // Nonsense that must never reach MRPT's grids: each refused, nothing changes.
+      const int nodes = slam.numNodes();
+      for (const core::Pose2& bad :
+           {core::Pose2(1e300, 0.0, 0.0), core::Pose2(NAN, 0.0, 0.0), core::Pose2(2e6, 0.0, 0.0)}) {
+        EXPECT_THROW(slam.addScan(castScan(room(), truth), bad), ScanRefused);
+      }
+      RangeScan far_laser = castScan(room(), truth);
+      far_laser.laser_in_robot = core::Pose2(1e7, 0.0, 0.0);
+      EXPECT_THROW(slam.addScan(far_laser, odom), ScanRefused);
+      EXPECT_EQ(slam.numNodes(), nodes);
+    }
+    const LocalSlamResult r = slam.addScan(castScan(room(), truth), odom);
+    if (k == 0) first_local = r.local_pose;
+    const core::Pose2 expected = core::compose(first_local, core::between(truthAt(0), truth));
+    // The step across the jump is lost and found again by matching, at some centimetres' cost.
+    const double tolerance = k < 20 ? 0.05 : 0.1;
+    EXPECT_LT((r.local_pose.head<2>() - expected.head<2>()).norm(), tolerance) << "scan " << k;
+  }
+  try {
+    LocalSlam fresh(params);
+    fresh.addScan(castScan(room(), truthAt(0)), core::Pose2::Zero());
+    fresh.addScan(castScan(room(), truthAt(1)), core::Pose2(6.0, 0.0, 0.0));
+    FAIL() << "a 6 m step accepted";
+  } catch (const ScanRefused& e) {
+    EXPECT_NE(std::string(e.what()).find("odometry moved 6 m since the previous scan "
+                                         "(scan_max_odometry_jump 5 m)"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
 INSTANTIATE_TEST_SUITE_P(Refinements, LocalSlamTest,
                          ::testing::Values(LocalSlamParams::Refinement::kLeastSquares,
                                            LocalSlamParams::Refinement::kIcp),

@@ -97,6 +97,7 @@ sensor_msgs::LaserScan scanMsg() {
   s.range_min = 0.1F;
   s.range_max = 10.0F;
   s.ranges = {1.0F, std::nanf(""), 0.05F, 20.0F, std::numeric_limits<float>::infinity()};
+  s.angle_max = static_cast<float>(s.angle_min + 4 * s.angle_increment);
   return s;
 }
 
@@ -134,6 +135,16 @@ TEST(Conversions, LaserScanRefusesBadHeadersNamingTheField) {
   s = scanMsg();
   s.angle_min = std::numeric_limits<float>::infinity();
   refuses(s, "angle_min");
+  // The readings must fill angle_min..angle_max (one more or less at the end is accepted).
+  s = scanMsg();
+  s.ranges.resize(17, 1.0F);
+  refuses(s, "ranges holds 17 readings, but angle_min");
+  s = scanMsg();
+  s.angle_max = std::nanf("");
+  refuses(s, "ranges holds 5 readings");
+  s = scanMsg();
+  s.ranges.push_back(1.0F);
+  EXPECT_NO_THROW(toRangeScan(s, core::Pose2::Zero()));
 }
 
 TEST(Conversions, DecisionFieldsAndIdsTheMessageCannotCarry) {

@@ -25,6 +25,7 @@ namespace rrr_graphslam::frontend {
 struct LaserSlamStats {
   int scans = 0;
   int matched_scans = 0;
+  int refused_scans = 0;  ///< ScanRefused (not counted in scans)
   int nodes = 0;
   int submaps = 0;
   int finished_submaps = 0;
@@ -41,6 +42,7 @@ class LaserSlam {
   explicit LaserSlam(const LaserSlamParams& params = {});
 
   /// One scan with the robot's odometry pose at its time. Returns the node it became, if any.
+  /// Throws ScanRefused (local_slam.h) for a scan it cannot place; the run goes on.
   std::optional<int> addScan(const RangeScan& scan, const core::Pose2& odom_pose);
   /// End of the run: RRR decides every cluster from scratch.
   void finish();

@@ -70,6 +70,9 @@ void forEachSlamParam(Params& p, F&& f) {
     local.motion_filter.min_travel_m);
   f(core::ParamInfo{"scan_min_rotation_rad", 1e-6, M_PI, "... or this rotation (rad)"},
     local.motion_filter.min_rotation_rad);
+  f(core::ParamInfo{"scan_max_odometry_jump", 0.01, 1e3,
+                    "m; a scan whose odometry moved more is refused (odometry re-anchored)"},
+    local.max_odometry_jump_m);
   f(core::ParamInfo{"scan_odometry_stddev", 1e-6, 10.0,
                     "m, m, rad of one local-SLAM step between nodes"},
     p.odometry_stddev);

@@ -1,12 +1,14 @@
 #pragma once
 // Local SLAM (Cartographer's LocalTrajectoryBuilder2D): every scan is matched against the active
 // submap, starting from the odometry prediction (correlative search, then least squares or MRPT's
-// ICP); scans
-// that moved far enough since the last inserted one (the motion filter) become nodes and are
-// inserted into both active submaps.
+// ICP); scans that moved far enough since the last inserted one (the motion filter) become nodes
+// and are inserted into both active submaps. A scan that cannot be placed (non-finite or absurd
+// odometry, an odometry jump, a laser mounted far from the robot) is refused (ScanRefused), so a
+// wheel slip or a tf glitch never reaches the grids.
 
 #include <memory>
 #include <optional>
+#include <stdexcept>
 
 #include "rrr_graphslam/core/keyframe_selector.h"
 #include "rrr_graphslam/frontend/icp_refinement.h"
@@ -31,6 +33,16 @@ struct LocalSlamParams {
   core::KeyframeParams motion_filter{0.1, 2.0 * M_PI / 180};
   /// Scans with fewer matching points are not matched (the prediction is kept).
   int min_points = 20;
+  /// A scan whose odometry moved more than this (m) since the previous scan is refused, and the
+  /// odometry is re-anchored at it: the scans after it are tracked from there as if the robot had
+  /// stood still across the jump (a wheel slip, an odometry reset). Default 5 m.
+  double max_odometry_jump_m = 5.0;
+};
+
+/// Why LocalSlam (and LaserSlam) refused a scan; the message names the value and the limit.
+class ScanRefused : public std::invalid_argument {
+ public:
+  using std::invalid_argument::invalid_argument;
 };
 
 struct LocalSlamResult {
@@ -49,7 +61,9 @@ class LocalSlam {
   explicit LocalSlam(const LocalSlamParams& params);
 
   /// A scan with the robot's odometry pose at its time. The local frame starts at the first
-  /// scan's odometry pose.
+  /// scan's odometry pose. Throws ScanRefused, leaving the state as it was (but for the odometry
+  /// re-anchored after a jump), for odometry that is not finite or beyond 1e6 m, an odometry step
+  /// above max_odometry_jump_m, or a laser more than 100 m from the robot.
   LocalSlamResult addScan(const RangeScan& scan, const core::Pose2& odom_pose);
 
   const ActiveSubmaps& submaps() const { return submaps_; }
@@ -57,6 +71,8 @@ class LocalSlam {
   const LocalSlamParams& params() const { return params_; }
 
  private:
+  void checkPlausible(const RangeScan& scan, const core::Pose2& odom_pose);
+
   LocalSlamParams params_;
   ActiveSubmaps submaps_;
   core::KeyframeSelector motion_filter_;

@@ -46,6 +46,8 @@
 #include "rrr_graphslam/SaveGraph.h"
 #include "rrr_graphslam/core/keyframe_selector.h"
 #include "rrr_graphslam/frontend/laser_slam.h"
+#include "rrr_graphslam/ros/arrival_order.h"
+#include "rrr_graphslam/ros/input_error_log.h"
 #include "rrr_graphslam/ros/map_publisher.h"
 #include "rrr_graphslam/ros/params.h"
 #include "rrr_graphslam/rrr/online_rrr.h"
@@ -78,9 +80,14 @@ class GraphSlamRos {
   void dropScan(const sensor_msgs::LaserScan& msg, const std::string& why);
   /// The tf filter releases scans when their transforms arrive, which can reorder them; scans go
   /// on to the worker in the order they arrived (a released or dropped scan waits for the ones
-  /// that arrived before it).
+  /// that arrived before it, at most tf_timeout: see expireScans).
   void scanArrived(const sensor_msgs::LaserScanConstPtr& msg);
-  void scanSettled(const sensor_msgs::LaserScan* msg, std::optional<ScanInput> input);
+  /// False if the scan no longer waits (given up by expireScans): it is then neither forwarded
+  /// nor counted again.
+  bool scanSettled(const sensor_msgs::LaserScan* msg, std::optional<ScanInput> input);
+  /// Gives up scans that waited for their transforms longer than tf_timeout (each counted and
+  /// reported), so that the scans after them go on.
+  void expireScans(const ros::WallTimerEvent&);
   /// Runs `job` in the worker and waits for it; false (with the reason) if it threw.
   bool runInWorker(const std::function<std::string()>& job, std::string& message);
 
@@ -94,6 +101,8 @@ class GraphSlamRos {
   void handleEdge(const PoseGraphEdge& msg);
   void handleCandidate(const LoopCandidate& msg);
   void handleScan(const ScanInput& input);
+  /// Logs an error about `topic`'s input through input_errors_ (throttled, quoted short).
+  void logInputError(const char* topic, const std::string& what);
   /// The graph RRR decides: the front end's in slam mode, else the node's own.
   rrr::OnlineRrr& graph() { return slam_ ? slam_->rrr() : *graph_; }
   /// Slam mode: a fresh front end (start, ~reset).
@@ -146,6 +155,9 @@ class GraphSlamRos {
   // Raised by ~reset (until its turn in the worker) and at shutdown: the graph's optimizations
   // stop within a step, so a long decision does not hold the reset or the shutdown up.
   std::atomic<bool> cancel_{false};
+  // Input errors, throttled per topic and field (worker and tf filter threads).
+  std::mutex input_errors_mutex_;
+  InputErrorLog input_errors_;
   std::atomic<std::uint64_t> received_{0}, processed_{0}, malformed_{0}, ignored_{0};
   std::uint64_t decisions_published_ = 0, services_handled_ = 0;  // worker only
 
@@ -162,8 +174,8 @@ class GraphSlamRos {
   std::unique_ptr<message_filters::Subscriber<sensor_msgs::LaserScan>> scan_sub_;
   std::unique_ptr<tf2_ros::MessageFilter<sensor_msgs::LaserScan>> scan_filter_;
   std::mutex scan_order_mutex_;
-  std::deque<const sensor_msgs::LaserScan*> scans_in_filter_;  // arrival order
-  std::map<const sensor_msgs::LaserScan*, std::optional<ScanInput>> scans_settled_;
+  ArrivalOrder<const sensor_msgs::LaserScan*, ScanInput> scan_order_;  // waiting for tf
+  ros::WallTimer scan_expiry_timer_;
   std::vector<ros::Subscriber> subscribers_;
   ros::CallbackQueue service_queue_;
   std::vector<ros::ServiceServer> services_;
