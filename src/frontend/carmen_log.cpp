@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <string>
 #include <string_view>
 
 #include "rrr_graphslam/core/input_error.h"
@@ -13,12 +15,30 @@ namespace {
 
 using core::LineParser;
 
-// The scan count in field k, which must leave room for `after` more fields.
-std::size_t readingCount(const LineParser& parse, std::size_t k, std::size_t after) {
-  const auto n = parse.unsignedInteger(k, "a reading count");
-  if (n < 2) parse.fail("a scan needs at least 2 readings, found " + std::to_string(n));
-  parse.expectAtLeast(k + n + after, "with " + std::to_string(n) + " readings");
+// Fields of the line after field k.
+std::size_t fieldsAfter(const LineParser& parse, std::size_t k) {
+  return parse.size() > k + 1 ? parse.size() - k - 1 : 0;
+}
+
+// The count in field k of items that follow it, which must leave room for at least `after` more
+// fields (compared without overflow: a count near 2^64 is an error, not a wrapped index).
+std::size_t itemCount(const LineParser& parse, std::size_t k, const char* what, std::size_t after) {
+  const std::uint64_t n = parse.unsignedInteger(k, what);
+  const std::size_t available = fieldsAfter(parse, k);
+  if (available < after || n > available - after) {
+    parse.fail(std::string(what) + " of " + std::to_string(n) + " (field " + std::to_string(k) +
+               ") leaves " + std::to_string(available < after ? 0 : available - after) +
+               " fields for the items: the line holds " + std::to_string(parse.size() - 1) +
+               " fields after the tag");
+  }
   return static_cast<std::size_t>(n);
+}
+
+// The scan's reading count in field k, followed by its readings and `after` more fields.
+std::size_t readingCount(const LineParser& parse, std::size_t k, std::size_t after) {
+  const std::size_t n = itemCount(parse, k, "a reading count", after);
+  if (n < 2) parse.fail("a scan needs at least 2 readings, found " + std::to_string(n));
+  return n;
 }
 
 std::vector<float> readRanges(const LineParser& parse, std::size_t first, std::size_t n) {
@@ -34,7 +54,9 @@ std::vector<float> readRanges(const LineParser& parse, std::size_t first, std::s
 // FLASER n r1..rn x y theta odom_x odom_y odom_theta ipc_timestamp ipc_hostname logger_timestamp
 LaserRecord parseFlaser(const LineParser& parse) {
   LaserRecord r;
-  const std::size_t n = readingCount(parse, 1, 7);
+  const std::size_t n = readingCount(parse, 1, 9);
+  // Exactly: a count one off would read every field after the readings one place off.
+  parse.expectCount(n + 10);
   r.ranges = readRanges(parse, 2, n);
   r.laser_pose = parse.pose(2 + n);
   r.odom_pose = parse.pose(5 + n);
@@ -55,13 +77,13 @@ LaserRecord parseRobotLaser(const LineParser& parse) {
   r.max_range = parse.number(5);
   if (r.angle_increment <= 0.0) parse.fail("the angular resolution (field 4) must be positive");
   if (r.max_range <= 0.0) parse.fail("the maximum range (field 5) must be positive");
-  const std::size_t n = readingCount(parse, 8, 1);
+  const std::size_t n = readingCount(parse, 8, 1 + 14);
   r.ranges = readRanges(parse, 9, n);
   const std::size_t k_rem = 9 + n;
-  const auto n_rem = static_cast<std::size_t>(parse.unsignedInteger(k_rem, "a remission count"));
+  const std::size_t n_rem = itemCount(parse, k_rem, "a remission count", 14);
   const std::size_t k = k_rem + 1 + n_rem;
-  parse.expectAtLeast(k + 13, "with " + std::to_string(n) + " readings and " +
-                                  std::to_string(n_rem) + " remissions");
+  // Exactly: laser pose, robot pose, tv, rv, forward and side safety, turn axis, timestamps, host.
+  parse.expectCount(k + 13);
   r.laser_pose = parse.pose(k);
   r.odom_pose = parse.pose(k + 3);
   r.timestamp = parse.number(k + 11);

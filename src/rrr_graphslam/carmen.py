@@ -100,8 +100,9 @@ def _parse(tag: str, f: List[str], line: int):
         return OdomRecord(float(f[7]), (x, y, t), tv, rv, line)
     if tag == "FLASER":
         n = int(f[1])
-        if n < 2 or len(f) < 2 + n + 7:
-            raise ValueError(f"{n} readings need {2 + n + 7} fields, found {len(f)}")
+        # Exactly: a count one off would read every later field one place off.
+        if n < 2 or len(f) != n + 11:
+            raise ValueError(f"{n} readings need {n + 11} fields, found {len(f)}")
         ranges = _finite([float(v) for v in f[2:2 + n]], "a range")
         x, y, t, ox, oy, ot = _finite([float(v) for v in f[2 + n:8 + n]], "a pose")
         return LaserRecord(float(f[8 + n]), -math.pi / 2, flaser_increment(n), math.nan, ranges,
@@ -111,9 +112,11 @@ def _parse(tag: str, f: List[str], line: int):
     start, fov, resolution, max_range = (float(v) for v in f[2:6])
     n = int(f[8])
     k = 9 + n
+    if n < 2 or k >= len(f):
+        raise ValueError(f"a reading count of {n} does not fit the line's {len(f)} fields")
     n_rem = int(f[k])
     k += 1 + n_rem
-    if n < 1 or len(f) < k + 14:
+    if n_rem < 0 or len(f) != k + 14:
         raise ValueError(f"expected {k + 14} fields, found {len(f)}")
     ranges = _finite([float(v) for v in f[9:9 + n]], "a range")
     lx, ly, lt, rx, ry, rt = _finite([float(v) for v in f[k:k + 6]], "a pose")

@@ -69,7 +69,21 @@ TEST(CarmenLog, BadLinesNameFileLineAndField) {
   };
   const Case cases[] = {
       {"FLASER 3 1 2 3 0 0 0 0 0 0 1 h 1\nFLASER 3 1 x 3 0 0 0 0 0 0 2 h 2\n", ":2: field 3"},
-      {"FLASER 3 1 2 3 0 0 0\n", "needs at least 11 fields after the tag, found 7"},
+      {"FLASER 3 1 2 3 0 0 0\n", "a reading count of 3 (field 1) leaves 0 fields"},
+      // A count one too small or too large: every later field would be read one place off.
+      {"FLASER 2 1 2 3 0 0 0 0 0 0 1 h 1\n", "expects 12 fields after the tag, found 13"},
+      {"FLASER 4 1 2 3 0 0 0 0 0 0 1 h 1\n", "a reading count of 4 (field 1) leaves 3 fields"},
+      {"FLASER 18446744073709551615 1 2 3 0 0 0 0 0 0 1 h 1\n",
+       "a reading count of 18446744073709551615"},
+      {"ROBOTLASER1 0 -1.5 3.0 0.5 20.0 0.1 0 4 1.0 2.0 3.0 4.0 18446744073709551614 "
+       "0.1 0.2 0.3 0.0 0.0 0.0 0 0 0 0 0 12.5 host 12.6\n",
+       "a remission count of 18446744073709551614"},
+      {"ROBOTLASER1 0 -1.5 3.0 0.5 20.0 0.1 0 4 1.0 2.0 3.0 4.0 0 "
+       "0.1 0.2 0.3 0.0 0.0 0.0 0 0 0 0 0 12.5 host\n",
+       "a reading count of 4 (field 8) leaves 3 fields"},
+      {"ROBOTLASER1 0 -1.5 3.0 0.5 20.0 0.1 0 4 1.0 2.0 3.0 4.0 1 5 "
+       "0.1 0.2 0.3 0.0 0.0 0.0 0 0 0 0 0 12.5 host 12.6 extra\n",
+       "expects 28 fields after the tag, found 29"},
       {"FLASER 3 1 nan 3 0 0 0 0 0 0 1 h 1\n", "not finite"},
       {"FLASER 3 1 -2 3 0 0 0 0 0 0 1 h 1\n", "negative"},
       {"FLASER 1 1 0 0 0 0 0 0 1 h 1\n", "at least 2 readings"},

@@ -46,6 +46,12 @@ def test_reads_every_message_type_in_log_order(tmp_path):
     ("FLASER 2 1 nan 0 0 0 0 0 0 1 h 0\n", "not finite"),
     ("ODOM 1 2 x 0 0 0 1 h 0\n", "could not convert"),
     ("ODOM 1 2\n", "at least 8 fields"),
+    # A reading count one off would shift every later field: refused, as the C++ reader does.
+    ("FLASER 2 1 2 3 0 0 0 0 0 0 1 h 1\n", "2 readings need 13 fields, found 14"),
+    ("FLASER 4 1 2 3 0 0 0 0 0 0 1 h 1\n", "4 readings need 15 fields, found 14"),
+    ("ROBOTLASER1 0 -1.5 3.0 0.5 20.0 0.1 0 4 1 2 3 4 99999999999999999999 0 0 0 0 0 0 0 0 0 0 0 1 h 1\n",
+     "expected"),
+    ("ROBOTLASER1 0 -1.5 3.0 0.5 20.0 0.1 0 99999999999999999999 1 2\n", "does not fit"),
 ])
 def test_malformed_lines_name_file_and_line(tmp_path, line, words):
     path = write(tmp_path, "ODOM 0 0 0 0 0 0 1 h 0\n" + line)
