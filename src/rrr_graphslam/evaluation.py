@@ -3,9 +3,11 @@ trajectory error (ATE) after the SE(2) alignment that minimizes it (Umeyama with
 
 Truth files, either
   labels:  one line 'from to label' per loop edge of the graph, in the graph's order
-           (label 1 = true loop, 0 = false), as written by add_outliers and vertigo's sets;
+           (label 1 = true loop, 0 = false, -1 = unknown), as written by add_outliers and
+           vertigo's sets;
   pairs:   one line 'i j' per true loop, any order (KITTI's *_GT_LC.txt); every candidate not
            listed is false.
+A file is one or the other: rows of two and three columns together are an error.
 Decisions: the TSV of rrr_offline / replay_posegraph with header 'from to cluster verdict' (+ 'reason', written by the C++ tools and the node).
 """
 
@@ -16,7 +18,7 @@ from typing import Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from .graph_io import GraphFileError, Pose, open_text, read_graph, tagged_lines, write_text_atomically
+from .graph_io import GraphFileError, Pose, read_graph, tagged_lines, text_lines, write_text_atomically
 
 DECISION_HEADER = ["from", "to", "cluster", "verdict"]
 # The fifth column, the step of RRR that decided and its statistic; files written before it
@@ -57,25 +59,25 @@ class Score:
 
 def read_decisions(path: str) -> List[Decision]:
     decisions = []
-    with open_text(path) as f:
-        header = f.readline().rstrip("\n").split("\t")
-        if header not in (DECISION_HEADER, DECISION_HEADER + [REASON_COLUMN]):
-            raise GraphFileError(path, 1, f"header must be '{chr(9).join(DECISION_HEADER)}' "
-                                          f"(+ '{chr(9)}{REASON_COLUMN}')")
-        columns = len(header)
-        for number, line in enumerate(f, start=2):
-            fields = line.rstrip("\n").split("\t")
-            if len(fields) != columns:
-                raise GraphFileError(path, number,
-                                     f"expected {columns} tab-separated fields, found {len(fields)}")
-            try:
-                d = Decision(int(fields[0]), int(fields[1]), int(fields[2]), fields[3],
-                             fields[4] if columns == 5 else "")
-            except ValueError:
-                raise GraphFileError(path, number, "from, to and cluster must be integers") from None
-            if d.verdict not in VERDICTS:
-                raise GraphFileError(path, number, f"verdict must be one of {', '.join(VERDICTS)}")
-            decisions.append(d)
+    lines = text_lines(path)
+    header = next(lines, (1, ""))[1].split("\t")
+    if header not in (DECISION_HEADER, DECISION_HEADER + [REASON_COLUMN]):
+        raise GraphFileError(path, 1, f"header must be '{chr(9).join(DECISION_HEADER)}' "
+                                      f"(+ '{chr(9)}{REASON_COLUMN}')")
+    columns = len(header)
+    for number, line in lines:
+        fields = line.split("\t")
+        if len(fields) != columns:
+            raise GraphFileError(path, number,
+                                 f"expected {columns} tab-separated fields, found {len(fields)}")
+        try:
+            d = Decision(int(fields[0]), int(fields[1]), int(fields[2]), fields[3],
+                         fields[4] if columns == 5 else "")
+        except ValueError:
+            raise GraphFileError(path, number, "from, to and cluster must be integers") from None
+        if d.verdict not in VERDICTS:
+            raise GraphFileError(path, number, f"verdict must be one of {', '.join(VERDICTS)}")
+        decisions.append(d)
     return decisions
 
 
@@ -86,11 +88,19 @@ def write_decisions(path: str, decisions: Sequence[Decision]) -> None:
 
 
 def read_truth(path: str, decisions: Sequence[Decision]) -> List[Optional[bool]]:
-    """One truth value per decision (same order); None where a label is -1 (unknown)."""
+    """One truth value per decision (same order); None where a label is -1 (unknown). Every row
+    of a file has the columns of its first: a 'from to label' file with an 'i j' row (or the
+    reverse) is an error, not a list of true pairs."""
     rows = []
     for number, fields in tagged_lines(path):
         if len(fields) not in (2, 3) or not all(re.fullmatch("-?[0-9]+", x) for x in fields):
             raise GraphFileError(path, number, "expected 'from to label' (label 1, 0 or -1) or 'i j'")
+        if rows and len(fields) != len(rows[0][1]):
+            first = "'from to label'" if len(rows[0][1]) == 3 else "'i j'"
+            raise GraphFileError(path, number, f"{len(fields)} columns, but line {rows[0][0]} has "
+                                               f"{len(rows[0][1])}: every row must be {first}")
+        if len(fields) == 3 and int(fields[2]) not in (1, 0, -1):
+            raise GraphFileError(path, number, f"label must be 1, 0 or -1, found {fields[2]}")
         rows.append((number, [int(x) for x in fields]))
     if rows and len(rows[0][1]) == 3:
         if len(rows) != len(decisions):
@@ -160,6 +170,8 @@ def read_ground_truth_poses(path: str) -> Dict[int, Pose]:
             values = [float(x) for x in fields]
         except ValueError:
             raise GraphFileError(path, number, "expected numbers") from None
+        if not all(math.isfinite(v) for v in values):
+            raise GraphFileError(path, number, "expected finite numbers")
         if len(values) == 4:
             poses[int(values[0])] = tuple(values[1:4])
         elif len(values) == 3:

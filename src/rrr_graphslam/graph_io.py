@@ -13,6 +13,7 @@ integers; vertex angles are normalized like measurement angles.
 """
 
 import gzip
+import io
 import math
 import os
 import re
@@ -110,6 +111,7 @@ _NOT_C_SPACE = re.compile(rb"[\x1c-\x1f\x85\xa0]")
 _DECIMAL = re.compile(r"-?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")
 _NON_FINITE = re.compile(r"-?(?:inf(?:inity)?|nan(?:\([0-9A-Za-z_]*\))?)", re.IGNORECASE)
 _NODE_ID = re.compile(r"[0-9]+")
+_LINE_END = re.compile(rb"\r\n?|\n")
 
 
 def parse_number(text: str) -> Tuple[float, str]:
@@ -183,6 +185,38 @@ def tagged_lines(path: str) -> Iterator[Tuple[int, List[str]]]:
             fields = raw.decode("latin-1").split()
         if fields and not fields[0].startswith("#"):
             yield number, fields
+
+
+def text_lines(path: str) -> Iterator[Tuple[int, str]]:
+    """(line number, text without its line end) of every line of a UTF-8 text file, plain or gzip
+    (told by its first bytes), split as Python's text mode splits them (at '\\n', '\\r\\n' or
+    '\\r'). A damaged gzip stream, a NUL byte and bytes that are not UTF-8 raise GraphFileError
+    naming the line, before any line is returned."""
+    raw: List[bytes] = []
+    lines = _raw_lines(path)
+    while True:
+        try:
+            raw.append(next(lines))
+        except StopIteration:
+            break
+        except _ReadError as e:
+            raise GraphFileError(path, len(raw) + 1, f"read error: {e}") from None
+    data = b"\n".join(raw)
+
+    def fail(offset: int, what: str):
+        ends = list(_LINE_END.finditer(data, 0, offset))
+        column = offset - (ends[-1].end() if ends else 0) + 1
+        raise GraphFileError(path, len(ends) + 1, what.format(column=column) + ": not a text file")
+
+    nul = data.find(b"\0")
+    if nul >= 0:
+        fail(nul, "NUL byte at column {column}")
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as e:
+        fail(e.start, f"byte 0x{data[e.start]:02x} at column {{column}} is not UTF-8")
+    for number, line in enumerate(io.StringIO(text, newline=None), start=1):
+        yield number, line[:-1] if line.endswith("\n") else line
 
 
 class _Line:

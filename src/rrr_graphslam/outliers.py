@@ -18,7 +18,8 @@ On manhattanOlson3500, where the robot often stands where it stood a few nodes e
 
 import math
 import random
-from typing import Dict, List, Optional, Tuple
+from collections import defaultdict
+from typing import Dict, Iterator, List, Optional, Set, Tuple
 
 import numpy as np
 from scipy.stats import chi2
@@ -26,6 +27,9 @@ from scipy.stats import chi2
 from .graph_io import Edge, Pose, PoseGraph, between, information_matrix
 
 KINDS = ("random", "local", "random-grouped", "local-grouped")
+# Failed draws in a row after which add_outliers checks whether any place is left for the next
+# group (random groups can leave only gaps shorter than a group long before the graph is full).
+_DRAWS_BEFORE_ROOM_CHECK = 10000
 
 
 def chi2_against(reference: Dict[int, Pose], source: int, target: int, measurement: Pose,
@@ -41,41 +45,110 @@ def gate(alpha: float, dof: int = 3) -> float:
     return float(chi2.ppf(alpha, dof))
 
 
+def missing_nodes(graph: PoseGraph, reference: Dict[int, Pose]) -> str:
+    """'' when `reference` has a pose for every node of `graph`, else e.g. 'node 2 and 5 more'."""
+    missing = [i for i in sorted(graph.poses) if i not in reference]
+    if not missing:
+        return ""
+    return f"node {missing[0]}" + (f" and {len(missing) - 1} more" if len(missing) > 1 else "")
+
+
+def _diagonals(graph: PoseGraph, ids: List[int]) -> Dict[int, Set[int]]:
+    """The graph's edges in the index space outliers are drawn in: for an edge between the nodes
+    at sorted positions p < q, position p on diagonal q - p."""
+    index = {i: k for k, i in enumerate(ids)}
+    taken: Dict[int, Set[int]] = defaultdict(set)
+    for e in graph.edges:
+        if e.source in index and e.target in index:
+            p, q = sorted((index[e.source], index[e.target]))
+            taken[q - p].add(p)
+    return taken
+
+
+def _free_runs(n: int, kind: str, size: int, local_window: int,
+               taken: Dict[int, Set[int]]) -> Iterator[Tuple[int, int, int]]:
+    """(first, length, last_start) of every maximal run of link positions not taken, on every
+    diagonal add_outliers draws from: a group of `size` links starting at position a of diagonal
+    d links nodes a + k and a + d + k, with a <= last_start = n - 1 - size - d."""
+    top = n - 1 - size
+    if kind.startswith("local"):
+        top = min(top, local_window)
+    for d in range(2, top + 1):
+        last_start = n - 1 - size - d
+        end = last_start + size - 1
+        first = 0
+        for p in sorted(p for p in taken.get(d, ()) if p <= end) + [end + 1]:
+            if p > first:
+                yield first, p - first, last_start
+            first = p + 1
+
+
+def outlier_room(graph: PoseGraph, kind: str, group_size: int = 10, local_window: int = 20) -> int:
+    """The most outliers of `kind` that add_outliers could place in `graph`: links between
+    nodes that are no edge yet, packed as tightly as groups of `group_size` allow (the last group
+    of a request may be shorter). Drawn at random, groups leave gaps and may fit fewer."""
+    ids = sorted(graph.poses)
+    size = group_size if kind.endswith("grouped") else 1
+    full = partial = 0
+    for first, length, last_start in _free_runs(len(ids), kind, size, local_window, _diagonals(graph, ids)):
+        full += length // size
+        if first <= last_start:
+            partial = max(partial, length % size)
+    return full * size + partial
+
+
 def add_outliers(graph: PoseGraph, kind: str, count: int, seed: int = 1, group_size: int = 10,
                  local_window: int = 20, reference: Optional[Dict[int, Pose]] = None,
                  alpha: float = 0.95) -> Tuple[PoseGraph, List[Tuple[int, int, int]]]:
     """Returns the corrupted graph and labels (from, to, 1 = original loop / 0 = outlier) for
     every loop edge in output order. With `reference`, no outlier's measurement lies inside the
-    chi2(alpha, 3) gate of the reference relative pose. Raises ValueError for impossible requests."""
+    chi2(alpha, 3) gate of the reference relative pose. Raises ValueError for impossible requests,
+    before drawing when the graph has no edge or no room for `count`, and as soon as the groups
+    drawn leave no room for the next one."""
     if kind not in KINDS:
         raise ValueError(f"unknown outlier kind '{kind}' (expected one of {', '.join(KINDS)})")
     if count < 0 or group_size < 1 or local_window < 2:
         raise ValueError("count must be >= 0, group_size >= 1 and local_window >= 2")
     ids = sorted(graph.poses)
     n = len(ids)
-    if reference is not None:
-        missing = [i for i in ids if i not in reference]
-        if missing:
-            more = f" and {len(missing) - 1} more" if len(missing) > 1 else ""
-            raise ValueError(f"reference poses lack node {missing[0]}{more}")
+    missing = missing_nodes(graph, reference) if reference is not None else ""
+    if missing:
+        raise ValueError(f"reference poses lack {missing}")
     grouped = kind.endswith("grouped")
     size = group_size if grouped else 1
     if n < size + 3:
         raise ValueError(f"graph has {n} nodes, too few for outliers in groups of {size}")
+    if count and not graph.edges:
+        raise ValueError("graph has no edges, none whose information matrix the outliers could copy")
+    room = outlier_room(graph, kind, group_size, local_window)
+    if count > room:
+        groups = f" in groups of {size}" if grouped else ""
+        raise ValueError(f"room for at most {room} {kind} outliers{groups} "
+                         f"(links between nodes that are no edge yet), not {count}")
     loops = graph.loops()
-    info = (loops[0] if loops else graph.edges[0]).information
+    info = (loops[0] if loops else graph.edges[0]).information if count else None
     if reference is not None and not 0.0 < alpha < 1.0:
         raise ValueError(f"alpha must be in (0, 1), got {alpha}")
     threshold = gate(alpha) if reference is not None else math.inf
     rng = random.Random(seed)
     existing = {(e.source, e.target) for e in graph.edges} | {(e.target, e.source) for e in graph.edges}
+    taken = _diagonals(graph, ids)
 
     added: List[Edge] = []
-    attempts = 0
+    attempts = failures = 0
     while len(added) < count:
         attempts += 1
         if attempts > 1000 * (count + 10):
-            raise ValueError(f"could not place {count} outliers of kind {kind} in this graph")
+            raise ValueError(f"could not place {count} outliers of kind {kind} in this graph "
+                             f"(placed {len(added)} in {attempts - 1} draws)")
+        failures += 1
+        if failures % _DRAWS_BEFORE_ROOM_CHECK == 0:
+            next_size = min(size, count - len(added))
+            if not any(length >= next_size and first <= last_start
+                       for first, length, last_start in _free_runs(n, kind, size, local_window, taken)):
+                raise ValueError(f"no room left for a group of {next_size} after placing {len(added)} of "
+                                 f"{count} {kind} outliers: groups drawn at random leave gaps (at most "
+                                 f"{room} fit when packed tightly)")
         a = rng.randint(0, n - 1 - size)
         if kind.startswith("random"):
             b = rng.randint(0, n - 1 - size)
@@ -93,6 +166,8 @@ def add_outliers(graph: PoseGraph, kind: str, count: int, seed: int = 1, group_s
         if reference is not None and any(
                 chi2_against(reference, i, j, z, info) < threshold for i, j in group):
             continue
+        failures = 0
+        taken[b - a].update(range(a, a + len(group)))
         for p in group:
             existing.add(p)
             existing.add((p[1], p[0]))

@@ -1,16 +1,18 @@
 """Outlier injection, truth files, scoring and the ATE alignment."""
+import gzip
 import math
 import os
 import random
 import subprocess
 import sys
+import time
 
 import pytest
 from conftest import DATA, SCRIPTS
 from rrr_graphslam.evaluation import (Decision, absolute_trajectory_error, align_se2, read_decisions,
                                       read_truth, score)
-from rrr_graphslam.graph_io import GraphFileError, PoseGraph, between, read_graph, write_graph
-from rrr_graphslam.outliers import KINDS, add_outliers, chi2_against, gate
+from rrr_graphslam.graph_io import Edge, GraphFileError, PoseGraph, between, read_graph, write_graph
+from rrr_graphslam.outliers import KINDS, add_outliers, chi2_against, gate, outlier_room
 
 
 @pytest.mark.parametrize("kind", KINDS)
@@ -114,11 +116,13 @@ def test_add_outliers_command_gates_on_a_reference_file(tmp_path):
     assert [line.split()[2] for line in labels[-40:]] == ["0"] * 40
 
     bad = run("--reference", ring, "--alpha", "1.5")
-    assert bad.returncode == 1 and "--alpha must be in (0, 1)" in bad.stderr
+    assert bad.returncode == 2 and "--alpha must be in (0, 1)" in bad.stderr  # a usage error
     partial = tmp_path / "partial.g2o"
     partial.write_text("VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0\nEDGE_SE2 0 1 1 0 0 1 0 0 1 0 1\n")
     missing = run("--reference", str(partial))
-    assert missing.returncode == 1 and "reference poses lack node 2" in missing.stderr
+    assert missing.returncode == 1
+    assert missing.stderr == (f"add_outliers: {partial}: reference poses lack node 2 "
+                              f"and {len(graph.poses) - 3} more of {ring}\n")
 
 
 def test_scoring_with_labels_and_pairs(tmp_path):
@@ -216,3 +220,133 @@ def test_labels_from_a_ground_truth_trajectory():
     truth = [None if label < 0 else label == 1 for _, _, label in labels]
     s = score(decisions, truth)
     assert (s.tp, s.fp, s.fn, s.tn) == (1, 1, 0, 0)  # unknowns are not scored
+
+
+def chain(n, extra=()):
+    """Nodes 0..n-1 on a line, odometry between neighbours, plus the edges `extra`."""
+    edges = [(i, i + 1) for i in range(n - 1)] + list(extra)
+    return PoseGraph({i: (float(i), 0.0, 0.0) for i in range(n)},
+                     [Edge(a, b, (1.0, 0.0, 0.0), (1, 0, 0, 1, 0, 1)) for a, b in edges])
+
+
+def room_by_search(graph, kind, size, window):
+    """The most links add_outliers could place, by trying every set of disjoint groups it can
+    draw (a, b in [0, n - 1 - size], b - a >= 2, b - a <= window for the local kinds) plus the
+    longest shorter last group that still fits."""
+    ids = sorted(graph.poses)
+    n = len(ids)
+    existing = {frozenset((e.source, e.target)) for e in graph.edges}
+
+    def groups(length):
+        found = []
+        for a in range(n - size):
+            for b in range(a + 2, n - size):
+                if kind.startswith("local") and b - a > window:
+                    continue
+                links = frozenset(frozenset((ids[a + k], ids[b + k])) for k in range(length))
+                if not links & existing:
+                    found.append(links)
+        return found
+
+    full = groups(size)
+    if size == 1:
+        return len(full)
+    shorter = {r: groups(r) for r in range(1, size)}
+    best = 0
+
+    def search(start, used, placed):
+        nonlocal best
+        last = max((r for r in shorter if any(not g & used for g in shorter[r])), default=0)
+        best = max(best, placed * size + last)
+        for k in range(start, len(full)):
+            if not full[k] & used:
+                search(k + 1, used | full[k], placed + 1)
+
+    search(0, frozenset(), 0)
+    return best
+
+
+def test_outlier_room_is_the_most_an_exhaustive_search_places():
+    rng = random.Random(11)
+    for _ in range(60):
+        n = rng.randint(5, 10)
+        extra = [tuple(rng.sample(range(n), 2)) for _ in range(rng.randint(0, 5))]
+        graph = chain(n, extra)
+        kind = rng.choice(KINDS)
+        size = rng.randint(2, 3) if kind.endswith("grouped") else 1
+        window = rng.randint(2, 5)
+        assert outlier_room(graph, kind, size, window) == room_by_search(graph, kind, size, window), \
+            (n, extra, kind, size, window)
+
+
+@pytest.mark.parametrize("kind", ["random", "local"])
+def test_single_outliers_fill_the_room_and_not_one_more(kind):
+    graph = chain(12, [(0, 5), (3, 9)])
+    room = outlier_room(graph, kind, 1, 4)
+    for seed in range(5):
+        added = add_outliers(graph, kind, room, seed, local_window=4)[0].loops()[2:]
+        assert len({frozenset((e.source, e.target)) for e in added}) == room
+    with pytest.raises(ValueError, match=f"room for at most {room} {kind} outliers"):
+        add_outliers(graph, kind, room + 1, local_window=4)
+
+
+def test_outliers_on_a_graph_without_edges_are_refused():
+    graph = PoseGraph({i: (float(i), 0.0, 0.0) for i in range(8)}, [])
+    with pytest.raises(ValueError, match="no edges"):
+        add_outliers(graph, "random", 1)
+    assert add_outliers(graph, "random", 0) == (graph, [])
+
+
+def test_groups_that_leave_only_gaps_stop_the_drawing_at_once():
+    # Room for 45 groups of 5 when packed end to end; drawn at random they leave gaps of fewer
+    # than 5 links long before that (without the check: 1000 draws per outlier, then a failure).
+    graph = chain(80)
+    room = outlier_room(graph, "local-grouped", 5, 4)
+    assert room == 3 * 15 * 5 + 2
+    start = time.monotonic()
+    with pytest.raises(ValueError, match=r"no room left for a group of 5 after placing \d+ of 227"):
+        add_outliers(graph, "local-grouped", room, seed=1, group_size=5, local_window=4)
+    assert time.monotonic() - start < 2.0
+
+
+def test_truth_rows_of_two_and_three_columns_together_are_an_error(tmp_path):
+    decisions = [Decision(10, 1, 0, "accepted"), Decision(20, 2, 0, "rejected"),
+                 Decision(30, 3, 1, "accepted")]
+    path = tmp_path / "truth"
+    # A labels file whose first row lost its label: read as pairs, its label-0 rows became true loops.
+    path.write_text("10 1\n20 2 1\n30 3 0\n")
+    with pytest.raises(GraphFileError) as error:
+        read_truth(str(path), decisions)
+    assert error.value.line == 2 and "line 1 has 2" in error.value.what
+    path.write_text("# comment\n10 1 1\n20 2 1\n30 3\n")
+    with pytest.raises(GraphFileError) as error:
+        read_truth(str(path), decisions)
+    assert error.value.line == 4 and "line 2 has 3" in error.value.what
+    path.write_text("10 1 1\n20 2 1\n30 3 2\n")
+    with pytest.raises(GraphFileError, match="label must be 1, 0 or -1") as error:
+        read_truth(str(path), decisions)
+    assert error.value.line == 3
+    path.write_text("10 1 0\n20 2 -1\n30 3 1\n")
+    assert read_truth(str(path), decisions) == [False, None, True]
+
+
+def test_decisions_that_are_no_text_name_the_file_and_line(tmp_path):
+    text = "from\tto\tcluster\tverdict\n1\t5\t0\taccepted\n2\t6\t0\trejected\n"
+    path = tmp_path / "d.tsv"
+    path.write_bytes(text.encode() + b"\xff\xfe3\t7\t0\taccepted\n")
+    with pytest.raises(GraphFileError, match=r"d.tsv:4: byte 0xff at column 1 is not UTF-8"):
+        read_decisions(str(path))
+    path.write_bytes(text.encode().replace(b"2\t6", b"2\t\x006"))
+    with pytest.raises(GraphFileError, match=r"d.tsv:3: NUL byte at column 3"):
+        read_decisions(str(path))
+    packed = gzip.compress(text.encode() * 50)
+    path.write_bytes(packed[:len(packed) // 2])  # whatever its name: gzip is told by its first bytes
+    with pytest.raises(GraphFileError, match=r"d.tsv:\d+: read error"):
+        read_decisions(str(path))
+    # Still read as before: gzip by name, CRLF line ends, the reason column's text.
+    gz = tmp_path / "d.tsv.gz"
+    gz.write_bytes(gzip.compress(text.replace("\n", "\r\n").encode()))
+    rows = read_decisions(str(gz))
+    assert [(d.source, d.verdict) for d in rows] == [(1, "accepted"), (2, "rejected")]
+    path.write_text("from\tto\tcluster\tverdict\treason\n1\t5\t0\taccepted\tD2_l 9.12 ≥ 7.815\n")
+    assert read_decisions(str(path))[0].reason == "D2_l 9.12 ≥ 7.815"
