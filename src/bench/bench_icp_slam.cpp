@@ -19,6 +19,7 @@
 #include <mrpt/poses/CPose3DPDF.h>
 #include <mrpt/slam/CMetricMapBuilderICP.h>
 
+#include "rrr_graphslam/core/atomic_file.h"
 #include "rrr_graphslam/core/text_file.h"
 #include "rrr_graphslam/frontend/carmen_log.h"
 

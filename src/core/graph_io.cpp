@@ -1,4 +1,5 @@
 #include "rrr_graphslam/core/graph_io.h"
+#include "rrr_graphslam/core/atomic_file.h"
 
 #include <algorithm>
 #include <charconv>
@@ -186,25 +187,27 @@ PoseGraph readPoseGraph(const std::string& path, const GraphReadOptions& options
   return graph;
 }
 
-void writePoseGraph(const PoseGraph& graph, const std::string& path, GraphFormat format) {
+void writePoseGraph(const PoseGraph& graph, std::ostream& out, GraphFormat format) {
   const bool g2o = format == GraphFormat::kG2o;
-  writeFileAtomically(path, [&](std::ostream& out) {
-    for (NodeId id : graph.nodeIds()) {
-      const Pose2 p = graph.pose(id);
-      out << (g2o ? "VERTEX_SE2 " : "VERTEX2 ") << id << ' ' << formatNumber(p.x()) << ' '
-          << formatNumber(p.y()) << ' ' << formatNumber(p.z()) << '\n';
-    }
-    const auto& order = g2o ? kG2oOrder : kToroOrder;
-    for (std::size_t k = 0; k < graph.numEdges(); ++k) {
-      const auto& e = graph.edge(k);
-      const Pose2 z = graph.measurement(k);
-      const Eigen::Matrix3d info = graph.information(k);
-      out << (g2o ? "EDGE_SE2 " : "EDGE2 ") << e.from << ' ' << e.to << ' ' << formatNumber(z.x())
-          << ' ' << formatNumber(z.y()) << ' ' << formatNumber(z.z());
-      for (const auto& rc : order) out << ' ' << formatNumber(info(rc[0], rc[1]));
-      out << '\n';
-    }
-  });
+  for (NodeId id : graph.nodeIds()) {
+    const Pose2 p = graph.pose(id);
+    out << (g2o ? "VERTEX_SE2 " : "VERTEX2 ") << id << ' ' << formatNumber(p.x()) << ' '
+        << formatNumber(p.y()) << ' ' << formatNumber(p.z()) << '\n';
+  }
+  const auto& order = g2o ? kG2oOrder : kToroOrder;
+  for (std::size_t k = 0; k < graph.numEdges(); ++k) {
+    const auto& e = graph.edge(k);
+    const Pose2 z = graph.measurement(k);
+    const Eigen::Matrix3d info = graph.information(k);
+    out << (g2o ? "EDGE_SE2 " : "EDGE2 ") << e.from << ' ' << e.to << ' ' << formatNumber(z.x())
+        << ' ' << formatNumber(z.y()) << ' ' << formatNumber(z.z());
+    for (const auto& rc : order) out << ' ' << formatNumber(info(rc[0], rc[1]));
+    out << '\n';
+  }
+}
+
+void writePoseGraph(const PoseGraph& graph, const std::string& path, GraphFormat format) {
+  writeFileAtomically(path, [&](std::ostream& out) { writePoseGraph(graph, out, format); });
 }
 
 void writePoseGraph(const PoseGraph& graph, const std::string& path) {

@@ -1,8 +1,5 @@
 #include "rrr_graphslam/core/text_file.h"
 
-#include <fcntl.h>
-#include <sys/stat.h>
-#include <unistd.h>
 #include <zlib.h>
 
 #include <algorithm>
@@ -66,51 +63,6 @@ bool LineReader::next(std::string& line) {
   }
   while (!line.empty() && (line.back() == '\n' || line.back() == '\r')) line.pop_back();
   return true;
-}
-
-void writeFileAtomically(const std::string& path, const std::function<void(std::ostream&)>& write) {
-  std::ostringstream content;
-  write(content);
-  const std::string data = content.str();
-
-  std::vector<char> temp_name(path.begin(), path.end());
-  const std::string suffix = ".tmp.XXXXXX";
-  temp_name.insert(temp_name.end(), suffix.begin(), suffix.end());
-  temp_name.push_back('\0');
-  const int fd = mkstemp(temp_name.data());
-  if (fd < 0) {
-    throw std::runtime_error(path + ": cannot create temporary file: " + std::strerror(errno));
-  }
-  const std::string temp_path(temp_name.data());
-  auto fail = [&](const std::string& what) {
-    const std::string reason = std::strerror(errno);
-    ::close(fd);
-    std::remove(temp_path.c_str());
-    throw std::runtime_error(path + ": " + what + ": " + reason);
-  };
-  std::size_t written = 0;
-  while (written < data.size()) {
-    const ssize_t n = ::write(fd, data.data() + written, data.size() - written);
-    if (n < 0) {
-      if (errno == EINTR) continue;
-      fail("write failed");
-    }
-    written += static_cast<std::size_t>(n);
-  }
-  // mkstemp creates 0600; a saved graph should be as readable as any file the user writes.
-  const mode_t mask = umask(0);
-  umask(mask);
-  if (::fchmod(fd, 0666 & ~mask) != 0) fail("chmod failed");
-  if (::fsync(fd) != 0) fail("fsync failed");
-  if (::close(fd) != 0) {
-    std::remove(temp_path.c_str());
-    throw std::runtime_error(path + ": close failed: " + std::strerror(errno));
-  }
-  if (std::rename(temp_path.c_str(), path.c_str()) != 0) {
-    const std::string reason = std::strerror(errno);
-    std::remove(temp_path.c_str());
-    throw std::runtime_error(path + ": rename failed: " + reason);
-  }
 }
 
 }  // namespace rrr_graphslam::core

@@ -1,4 +1,5 @@
 #include "rrr_graphslam/frontend/map_io.h"
+#include "rrr_graphslam/core/atomic_file.h"
 
 #include <cstdio>
 #include <filesystem>

@@ -7,6 +7,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "rrr_graphslam/core/atomic_file.h"
 #include "rrr_graphslam/core/graph_io.h"
 #include "rrr_graphslam/core/stopwatch.h"
 #include "rrr_graphslam/ros/graph_slam_ros.h"
@@ -64,12 +65,24 @@ bool GraphSlamRos::save(SaveGraph::Request& req, SaveGraph::Response& res) {
         if (req.path.empty()) throw std::invalid_argument("path is empty");
         const std::string decisions =
             req.decisions_path.empty() ? defaultDecisionsPath(req.path) : req.decisions_path;
-        core::writePoseGraph(graph().toPoseGraph(), req.path);
-        rrr::writeDecisions(decisions, graph().decisionRows());
-        std::string written = req.path + " and " + decisions;
+        // One set: every file is written to a temporary before any replaces its path, so a
+        // failure (or a kill) while writing leaves the previous save whole.
+        core::AtomicFileSet files;
+        const core::PoseGraph input = graph().toPoseGraph();
+        files.add(req.path, [&](std::ostream& out) {
+          core::writePoseGraph(input, out, core::formatFromPath(req.path));
+        });
+        files.add(decisions,
+                  [&](std::ostream& out) { rrr::writeDecisions(out, graph().decisionRows()); });
         if (!req.optimized_path.empty()) {
-          core::writePoseGraph(graph().optimizedPoseGraph(), req.optimized_path);
-          written += " and " + req.optimized_path;
+          const core::PoseGraph optimized = graph().optimizedPoseGraph();
+          files.add(req.optimized_path, [&](std::ostream& out) {
+            core::writePoseGraph(optimized, out, core::formatFromPath(req.optimized_path));
+          });
+        }
+        std::string written;
+        for (const std::string& path : files.commit()) {
+          written += (written.empty() ? "" : ", ") + path;
         }
         return "saved " + std::to_string(graph().numNodes()) + " nodes and " +
                std::to_string(graph().numCandidates()) + " candidates to " + written;

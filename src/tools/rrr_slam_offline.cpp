@@ -17,6 +17,7 @@
 #include <type_traits>
 
 #include "params_cli.h"
+#include "rrr_graphslam/core/atomic_file.h"
 #include "rrr_graphslam/core/graph_io.h"
 #include "rrr_graphslam/core/text_file.h"
 #include "rrr_graphslam/frontend/carmen_log.h"

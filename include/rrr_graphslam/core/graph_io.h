@@ -13,6 +13,7 @@
 // duplicate vertex id, self-loop; a disconnected graph is reported with its components.
 // A file without VERTEX lines gets initial poses by chaining its odometry edges.
 
+#include <ostream>
 #include <string>
 
 #include "rrr_graphslam/core/pose_graph.h"
@@ -35,6 +36,8 @@ GraphFormat formatFromPath(const std::string& path);
 /// Writes nodes in id order and edges in insertion order, atomically. Numbers are written in
 /// their shortest exact form, so reading the file back gives the same graph bit for bit.
 void writePoseGraph(const PoseGraph& graph, const std::string& path, GraphFormat format);
+/// The graph's text, for a file written with others (AtomicFileSet).
+void writePoseGraph(const PoseGraph& graph, std::ostream& out, GraphFormat format);
 void writePoseGraph(const PoseGraph& graph, const std::string& path);  ///< format from path
 
 /// Human-readable list of components, e.g. "2 components: {0..99} (100 nodes), {100..149} ...".

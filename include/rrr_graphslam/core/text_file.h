@@ -1,10 +1,8 @@
 #pragma once
 // Line-by-line reading of text files that may be gzip-compressed (zlib reads plain files
-// transparently), and atomic whole-file writes (temp file in the same directory + rename),
-// so a reader never sees a half-written graph, decision table or map.
+// transparently). Writing them: atomic_file.h.
 
 #include <cstddef>
-#include <functional>
 #include <ostream>
 #include <string>
 
@@ -37,10 +35,5 @@ class LineReader {
   std::size_t start_ = 0;
   bool at_end_ = false;
 };
-
-/// Writes `path` atomically: `write` fills a temporary file next to it, which is flushed,
-/// synced and renamed over `path`. Throws std::runtime_error naming the path on failure;
-/// the previous file is then left untouched.
-void writeFileAtomically(const std::string& path, const std::function<void(std::ostream&)>& write);
 
 }  // namespace rrr_graphslam::core

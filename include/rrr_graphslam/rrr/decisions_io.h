@@ -6,6 +6,7 @@
 // threshold, without tabs). Readers take the first four columns; the fifth may be absent in
 // files written before it existed.
 
+#include <ostream>
 #include <string>
 #include <vector>
 
@@ -24,5 +25,7 @@ struct DecisionRow {
 
 /// Writes the table atomically (temp file + rename); throws std::runtime_error naming the path.
 void writeDecisions(const std::string& path, const std::vector<DecisionRow>& rows);
+/// The table's text (header and rows), for a file written with others (core::AtomicFileSet).
+void writeDecisions(std::ostream& out, const std::vector<DecisionRow>& rows);
 
 }  // namespace rrr_graphslam::rrr
