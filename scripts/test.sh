@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # Installs what is missing, checks formatting, builds, and runs every test: the gtests and pytest,
-# and the gtests again built with AddressSanitizer + UndefinedBehaviorSanitizer in a second
-# workspace.
+# the gtests again built with AddressSanitizer + UndefinedBehaviorSanitizer in a second
+# workspace, and the file readers' fuzz targets for a bounded time (scripts/fuzz).
 # The last line is catkin_test_results' summary of the normal build.
 # Usage: scripts/test.sh [--no-sanitize]
+# Environment: RRR_FUZZ_SECONDS, seconds of fuzzing per target (default 60; 0 skips it).
 source "$(dirname "$0")/common.sh"
 rrr_install_missing
 
@@ -44,6 +45,22 @@ if [[ $sanitize == 1 ]]; then
     rrr_run_tests >sanitizer_tests.log 2>&1 || { tail -n 80 sanitizer_tests.log; exit 1; }
     tail -n 1 sanitizer_tests.log
   ) || { echo "[rrr] sanitizer tests failed"; exit 1; }
+fi
+
+# Before the normal build's tests, so that their summary stays the last line. scripts/fuzz exits
+# 1 on a finding (after printing its input and the reproducer), 2 when it cannot build or run.
+fuzz_seconds=${RRR_FUZZ_SECONDS:-60}
+if [[ "${fuzz_seconds}" != 0 ]]; then
+  echo "[rrr] fuzzing each file reader for ${fuzz_seconds} s (libFuzzer, ASan + UBSan)"
+  fuzz_status=0
+  "${RRR_REPO}/scripts/fuzz" --all "${fuzz_seconds}" || fuzz_status=$?
+  if [[ $fuzz_status == 1 ]]; then
+    echo "[rrr] fuzzing found a bug: input and reproducer above (test/fuzz/README.md)"
+    exit 1
+  elif [[ $fuzz_status != 0 ]]; then
+    echo "[rrr] building or running the fuzz targets failed"
+    exit 1
+  fi
 fi
 
 rrr_build >/dev/null
