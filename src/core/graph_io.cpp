@@ -53,7 +53,8 @@ constexpr int kToroOrder[6][2] = {{0, 0}, {0, 1}, {1, 1}, {2, 2}, {0, 2}, {1, 2}
 // which odometry edges cost nothing and loop candidates cost one, so every node is placed along
 // a path with as few loop candidates as possible (none when the odometry chain is connected).
 // A node's pose is final when it leaves the queue; until then a cheaper path may replace it.
-void chainInitialPoses(const std::vector<ParsedEdge>& edges, PoseGraph& graph) {
+void chainInitialPoses(const std::string& path, const std::vector<ParsedEdge>& edges,
+                       PoseGraph& graph) {
   std::map<NodeId, Pose2> poses;
   std::unordered_map<NodeId, std::vector<std::size_t>> incident;
   for (std::size_t k = 0; k < edges.size(); ++k) {
@@ -84,6 +85,13 @@ void chainInitialPoses(const std::vector<ParsedEdge>& edges, PoseGraph& graph) {
         cost[other] = through;
         poses[other] = e.from == n ? compose(poses[n], e.measurement)
                                    : compose(poses[n], inverse(e.measurement));
+        // Finite measurements can still chain beyond the doubles (1e308 + 1e308).
+        if (!poses[other].allFinite()) {
+          throw InputError(path, e.line,
+                           "chaining the edges from node " + std::to_string(root) + " gives node " +
+                               std::to_string(other) +
+                               " a pose that is not finite (the file has no vertices)");
+        }
         if (odometry) {
           queue.push_front(other);
         } else {
@@ -170,7 +178,7 @@ PoseGraph readPoseGraph(const std::string& path, const GraphReadOptions& options
   }
 
   if (vertex_line.empty()) {
-    chainInitialPoses(edges, graph);
+    chainInitialPoses(path, edges, graph);
   }
   for (const ParsedEdge& e : edges) {
     for (NodeId end : {e.from, e.to}) {

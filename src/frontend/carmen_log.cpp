@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <string_view>
 
@@ -46,6 +47,11 @@ std::vector<float> readRanges(const LineParser& parse, std::size_t first, std::s
   for (std::size_t i = 0; i < n; ++i) {
     const double r = parse.number(first + i);
     if (r < 0.0) parse.fail("reading " + std::to_string(i) + " is negative");
+    // Ranges are single precision: beyond it a reading would become infinite.
+    if (r > std::numeric_limits<float>::max()) {
+      parse.fail("reading " + std::to_string(i) + " (field " + std::to_string(first + i) +
+                 ") is beyond the single-precision range");
+    }
     ranges[i] = static_cast<float>(r);
   }
   return ranges;

@@ -204,7 +204,11 @@ INSTANTIATE_TEST_SUITE_P(
                  "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0\nVERTEX_SE2 2 2 0 0\nVERTEX_SE2 3 3 0 0\n"
                  "EDGE_SE2 0 1 1 0 0 1 0 0 1 0 1\nEDGE_SE2 2 3 1 0 0 1 0 0 1 0 1\n",
                  0, "2 components: {0..1} (2 nodes), {2..3} (2 nodes)"},
-        BadInput{"empty", "# nothing but a comment\n", 0, "no vertices or edges"}),
+        BadInput{"empty", "# nothing but a comment\n", 0, "no vertices or edges"},
+        // Found by the fuzzer (test/fuzz/regressions/graph_io): finite steps, infinite chain.
+        BadInput{"chained_pose_overflows",
+                 "EDGE_SE2 0 1 1e308 0 0 1 0 0 1 0 1\nEDGE_SE2 1 2 1e308 0 0 1 0 0 1 0 1\n", 2,
+                 "gives node 2 a pose that is not finite"}),
     [](const ::testing::TestParamInfo<BadInput>& param_info) {
       return std::string(param_info.param.name);
     });

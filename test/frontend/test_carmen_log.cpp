@@ -86,6 +86,7 @@ TEST(CarmenLog, BadLinesNameFileLineAndField) {
        "expects 28 fields after the tag, found 29"},
       {"FLASER 3 1 nan 3 0 0 0 0 0 0 1 h 1\n", "not finite"},
       {"FLASER 3 1 -2 3 0 0 0 0 0 0 1 h 1\n", "negative"},
+      {"FLASER 2 1e39 1 0 0 0 0 0 0 1 h 1\n", "beyond the single-precision range"},
       {"FLASER 1 1 0 0 0 0 0 0 1 h 1\n", "at least 2 readings"},
       {"ROBOTLASER1 0 -1.5 3.0 0 20 0.1 0 2 1 2 0 0 0 0 0 0 0 0 0 0 0 0 1 h 1\n", "resolution"},
       {"ODOM 0 0 0 0 0 0 1 h 1\n", "no FLASER or ROBOTLASER1 line"},
