@@ -1,5 +1,6 @@
 #include "rrr_graphslam/frontend/laser_slam.h"
 
+#include <algorithm>
 #include <chrono>
 #include <stdexcept>
 
@@ -11,8 +12,11 @@ namespace rrr_graphslam::frontend {
 
 using core::secondsSince;
 
-LaserSlam::LaserSlam(const LaserSlamParams& params)
-    : params_(params), local_(params.local), rrr_(std::make_unique<rrr::OnlineRrr>(params.rrr)) {
+LaserSlam::LaserSlam(const LaserSlamParams& params, const std::string& session_name)
+    : params_(params),
+      local_(params.local),
+      rrr_(std::make_unique<rrr::OnlineRrr>(params.rrr)),
+      sessions_{{session_name, 0.0, 0}} {
   if (!(params.odometry_stddev.array() > 0.0).all()) {
     throw std::invalid_argument("odometry_stddev must be positive");
   }
@@ -41,24 +45,29 @@ std::optional<int> LaserSlam::addScan(const RangeScan& scan, const core::Pose2& 
   if (result.node) {
     const int node = *result.node;
     start = std::chrono::steady_clock::now();
-    if (node == 0) {
-      rrr_->startSession(0, result.local_pose);
+    if (node == sessions_.back().first_node) {
+      sessions_.back().start_time = scan.timestamp;
+      rrr_->startSession(static_cast<rrr::OnlineRrr::NodeId>(node), result.local_pose);
     } else {
       rrr_->addOdometry(node - 1, node, core::between(node_local_poses_.back(), result.local_pose),
                         odometry_information_);
     }
     stats_.rrr_seconds += secondsSince(start);
     node_local_poses_.push_back(result.local_pose);
+    node_timestamps_.push_back(scan.timestamp);
     node_scans_.push_back(
         std::make_shared<const mrpt::obs::CObservation2DRangeScan>(std::move(*result.observation)));
     stats_.nodes = node + 1;
     stats_.submaps = local_.submaps().numSubmaps();
     if (result.finished_submap) {
       finished_.push_back(result.finished_submap);
+      finished_spans_.push_back(
+          {result.finished_submap->anchorNode(), result.finished_submap->lastNode()});
       search_state_.resize(static_cast<std::size_t>(result.finished_submap->index()) + 1);
       ++stats_.finished_submaps;
     }
     searchLoops(node, result.points);
+    if (!tied_at_ && sessions_.size() > 1 && tied()) tied_at_ = node;
   }
   const int newest = static_cast<int>(node_local_poses_.size()) - 1;
   scan_node_.push_back(newest);
@@ -76,17 +85,29 @@ void LaserSlam::searchLoops(int node, const PointCloud& scan_points) {
   if (finished_.empty() || points.size() < 10) return;
   const std::vector<core::Pose2> map = rrr_->mapPoses();
   const core::Pose2& node_pose = map[static_cast<std::size_t>(node)];
+  // While this session is not tied to the earlier ones, its map pose says nothing about where it
+  // is in theirs: their submaps are searched whole (relocalization) instead.
+  const bool relocalizing = sessions_.size() > 1 && !tied();
+  const bool relocalize_now =
+      relocalizing && node >= relocalization_paused_until_ &&
+      (node - sessions_.back().first_node) % p.relocalization_every_n_nodes == 0;
 
   // Which submaps to search, and from where (in node order, so the result does not depend on
   // the threads).
   struct Search {
     const Submap* submap;
     core::Pose2 initial;
+    bool whole;
     std::optional<LoopMatch> loop;
     double seconds = 0.0;
   };
   std::vector<Search> searches;
   for (const auto& submap : finished_) {
+    const bool earlier_session = submap->index() < session_first_submap_;
+    if (relocalizing && earlier_session) {
+      if (relocalize_now) searches.push_back({submap.get(), core::Pose2::Zero(), true, {}, 0.0});
+      continue;
+    }
     if (node - submap->lastNode() < p.min_node_separation) continue;
     const core::Pose2& anchor = map[static_cast<std::size_t>(submap->anchorNode())];
     if ((anchor.head<2>() - node_pose.head<2>()).norm() > p.max_constraint_distance_m) continue;
@@ -98,6 +119,7 @@ void LaserSlam::searchLoops(int node, const PointCloud& scan_points) {
     state.last_searched = node;
     searches.push_back({submap.get(),
                         core::compose(submap->anchorPose(), core::between(anchor, node_pose)),
+                        false,
                         {},
                         0.0});
   }
@@ -109,20 +131,50 @@ void LaserSlam::searchLoops(int node, const PointCloud& scan_points) {
   for (int k = 0; k < n; ++k) {
     Search& s = searches[static_cast<std::size_t>(k)];
     const auto match_start = std::chrono::steady_clock::now();
-    s.loop = matchNodeToSubmap(*s.submap, node, scan, s.initial, p);
+    s.loop = s.whole ? matchNodeToWholeSubmap(*s.submap, node, scan, p)
+                     : matchNodeToSubmap(*s.submap, node, scan, s.initial, p);
     s.seconds = secondsSince(match_start);
   }
   stats_.loop_search_seconds += secondsSince(start);
-  for (const Search& s : searches) stats_.loop_search_pair_seconds += s.seconds;
-  stats_.loop_searches += n;
+  for (const Search& s : searches) {
+    stats_.loop_search_pair_seconds += s.seconds;
+    (s.whole ? stats_.relocalization_searches : stats_.loop_searches) += 1;
+  }
+  bool relocalized = false;
   for (const Search& s : searches) {
     if (!s.loop) continue;
     search_state_[static_cast<std::size_t>(s.submap->index())].last_matched = node;
-    const auto rrr_start = std::chrono::steady_clock::now();
-    rrr_->addCandidate(s.loop->from, s.loop->to, s.loop->measurement, s.loop->information);
-    stats_.rrr_seconds += secondsSince(rrr_start);
-    ++stats_.candidates;
+    addLoop(*s.loop);
+    relocalized = relocalized || s.whole;
   }
+  // A cluster is decided once the robot is cluster_gap nodes past its newest link: after a few
+  // nodes matched the map, the whole-map search rests that long, so RRR decides them (ties the
+  // session, or rejects them and the search goes on).
+  if (relocalized && ++relocalization_matches_ >= p.relocalization_matches) {
+    relocalization_matches_ = 0;
+    relocalization_paused_until_ = node + params_.rrr.rrr.cluster_gap + 1;
+  }
+}
+
+void LaserSlam::addLoop(const LoopMatch& loop) {
+  const auto rrr_start = std::chrono::steady_clock::now();
+  const int first = sessions_.back().first_node;
+  const int index = rrr_->numCandidates();
+  rrr_->addCandidate(static_cast<rrr::OnlineRrr::NodeId>(loop.from),
+                     static_cast<rrr::OnlineRrr::NodeId>(loop.to), loop.measurement,
+                     loop.information);
+  if (rrr_->numCandidates() > index && std::min(loop.from, loop.to) < first &&
+      std::max(loop.from, loop.to) >= first) {
+    crossing_candidates_.push_back(index);
+  }
+  stats_.rrr_seconds += secondsSince(rrr_start);
+  ++stats_.candidates;
+}
+
+bool LaserSlam::tied() const {
+  return std::any_of(crossing_candidates_.begin(), crossing_candidates_.end(), [&](int k) {
+    return k < rrr_->numCandidates() && rrr_->verdict(k) == rrr::Verdict::kAccepted;
+  });
 }
 
 void LaserSlam::finish() {

@@ -5,8 +5,11 @@
 
 namespace rrr_graphslam::frontend {
 
-LocalSlam::LocalSlam(const LocalSlamParams& params)
-    : params_(params), submaps_(params.submap), motion_filter_(params.motion_filter) {}
+LocalSlam::LocalSlam(const LocalSlamParams& params, int first_node, int first_submap)
+    : params_(params),
+      submaps_(params.submap, first_submap),
+      motion_filter_(params.motion_filter),
+      next_node_(first_node) {}
 
 namespace {
 

@@ -56,7 +56,8 @@ void Submap::finish() {
   grid_.reset();
 }
 
-ActiveSubmaps::ActiveSubmaps(const SubmapParams& params) : params_(params) {
+ActiveSubmaps::ActiveSubmaps(const SubmapParams& params, int first_index)
+    : params_(params), next_index_(first_index) {
   if (params.scans_per_submap < 2) throw std::invalid_argument("scans_per_submap must be >= 2");
   if (!(params.resolution_m > 0.0)) throw std::invalid_argument("resolution must be positive");
 }

@@ -13,15 +13,18 @@
 #include <exception>
 #include <iomanip>
 #include <iostream>
+#include <memory>
 #include <string>
 #include <type_traits>
 
 #include "params_cli.h"
 #include "rrr_graphslam/core/atomic_file.h"
 #include "rrr_graphslam/core/graph_io.h"
+#include "rrr_graphslam/core/stopwatch.h"
 #include "rrr_graphslam/core/text_file.h"
 #include "rrr_graphslam/frontend/carmen_log.h"
 #include "rrr_graphslam/frontend/laser_slam.h"
+#include "rrr_graphslam/frontend/map_file.h"
 #include "rrr_graphslam/frontend/map_io.h"
 #include "rrr_graphslam/frontend/trajectory_refinement.h"
 #include "rrr_graphslam/rrr/decisions_io.h"
@@ -77,6 +80,8 @@ const std::string& usage() {
       "usage: rrr_slam_offline LOG.clf[.gz] [--output GRAPH.g2o] [--decisions DECISIONS.tsv]\n"
       "                        [--trajectory TRAJ.txt] [--map MAP] [--map-resolution M]\n"
       "                        [--refine-resolution M] [--max-scans N] [--quiet]\n"
+      "                        [--load-map IN.rrrmap] [--save-map OUT.rrrmap]\n"
+      "                        [--session-name NAME] [--session-trajectory TRAJ.txt]\n"
       "                        [--preset paper|default] [--PARAMETER V ...]\n"
       "  LOG               CARMEN log (FLASER or ROBOTLASER1 lines; the scans carry the odometry)\n"
       "  --output          the pose graph: nodes at their optimized poses, odometry and every "
@@ -93,6 +98,11 @@ const std::string& usage() {
       "                    against the final map rendered at M m per cell (default 0.04; 0 = off:\n"
       "                    scans follow their nodes rigidly)\n"
       "  --max-scans       stop after the first N scans of the log\n"
+      "  --load-map        start from a saved map: the log is mapped as a new session, in its own\n"
+      "                    odometry frame; it joins the map once RRR accepts a loop to it\n"
+      "  --save-map        write the map at the end (IN and OUT may be the same file)\n"
+      "  --session-name    this run's session name (default: the log's file name)\n"
+      "  --session-trajectory  as --trajectory, for this run's session only\n"
       "  --quiet           no progress line\n"
       "The front end's parameters (the same names and units as the ROS parameters, with "
       "dashes):\n" +
@@ -115,6 +125,10 @@ struct Arguments {
   bool quiet = false;
   frontend::TrajectoryRefinementParams refinement;
   std::size_t max_scans = 0;  ///< 0: all
+  std::string load_map;
+  std::string save_map;
+  std::string session_name;
+  std::string session_trajectory;
   frontend::LaserSlamParams params;
 };
 
@@ -180,6 +194,14 @@ Arguments parseArguments(int argc, char** argv) {
       args.max_scans = static_cast<std::size_t>(cli.number(a, cli.value(i, a), 1, 1e12));
     } else if (a == "--quiet") {
       args.quiet = true;
+    } else if (a == "--load-map") {
+      args.load_map = cli.value(i, a);
+    } else if (a == "--save-map") {
+      args.save_map = cli.value(i, a);
+    } else if (a == "--session-name") {
+      args.session_name = cli.value(i, a);
+    } else if (a == "--session-trajectory") {
+      args.session_trajectory = cli.value(i, a);
     } else if (tools::readTableParam(cli, i, argv, p, slamTable) ||
                tools::readRrrParam(cli, i, argv, p.rrr.rrr) || readAlias(cli, i, argv, p)) {
       continue;
@@ -188,6 +210,7 @@ Arguments parseArguments(int argc, char** argv) {
     }
   }
   if (args.log.empty()) cli.fail("no log file given");
+  if (args.session_name.empty()) args.session_name = args.log.substr(args.log.rfind('/') + 1);
   try {
     rrr::validate(p.rrr);
   } catch (const std::invalid_argument& e) {
@@ -196,11 +219,12 @@ Arguments parseArguments(int argc, char** argv) {
   return args;
 }
 
+// Poses from index `first` on, TUM format.
 void writeTrajectory(const std::string& path, const std::vector<double>& stamps,
-                     const std::vector<core::Pose2>& poses) {
+                     const std::vector<core::Pose2>& poses, std::size_t first) {
   core::writeFileAtomically(path, [&](std::ostream& out) {
     out << "# t x y z qx qy qz qw (rrr_slam_offline; t = ipc_timestamp)\n" << std::fixed;
-    for (std::size_t k = 0; k < poses.size(); ++k) {
+    for (std::size_t k = first; k < poses.size(); ++k) {
       const core::Pose2& x = poses[k];
       out << std::setprecision(6) << stamps[k] << ' ' << std::setprecision(6) << x.x() << ' '
           << x.y() << " 0 0 0 " << std::setprecision(9) << std::sin(0.5 * x.z()) << ' '
@@ -209,14 +233,15 @@ void writeTrajectory(const std::string& path, const std::vector<double>& stamps,
   });
 }
 
-// The optimized pose of each placed scan (`placed`: their indices in the log), refined against the
-// final map (see trajectory_refinement.h) unless refinement is off.
+// The optimized pose of every scan in the map (nodes of loaded sessions one each); this run's
+// placed scans (`placed`: their indices in the log) are refined against the final map (see
+// trajectory_refinement.h) unless refinement is off.
 std::vector<core::Pose2> refinedTrajectory(const frontend::LaserSlam& slam,
                                            const frontend::CarmenLog& log,
                                            const std::vector<std::size_t>& placed,
                                            const frontend::TrajectoryRefinementParams& params) {
   std::vector<core::Pose2> poses = slam.scanMapPoses();
-  if (params.resolution_m <= 0.0) return poses;
+  if (params.resolution_m <= 0.0 || placed.empty()) return poses;
   const auto map = frontend::MatchGrid::fromOccupancyGrid(slam.renderMap(params.resolution_m),
                                                           slam.params().local.submap.unknown_value);
   std::vector<frontend::PointCloud> points;
@@ -225,7 +250,57 @@ std::vector<core::Pose2> refinedTrajectory(const frontend::LaserSlam& slam,
     points.push_back(frontend::matchingPoints(frontend::RangeScan::fromCarmen(log.scans[k]),
                                               slam.params().local.scan));
   }
-  return frontend::refineTrajectory(map, points, poses, params);
+  const auto first = static_cast<std::ptrdiff_t>(slam.sessionFirstScan());
+  const std::vector<core::Pose2> session(poses.begin() + first, poses.end());
+  const std::vector<core::Pose2> refined = frontend::refineTrajectory(map, points, session, params);
+  std::copy(refined.begin(), refined.end(), poses.begin() + first);
+  return poses;
+}
+
+// Nodes and edges per session, and when the current session was tied to the earlier ones.
+void printSessions(const frontend::LaserSlam& slam) {
+  const auto& sessions = slam.sessions();
+  if (sessions.size() < 2) return;
+  const core::PoseGraph graph = slam.rrr().toPoseGraph();
+  const int nodes = slam.rrr().numNodes();
+  auto sessionOf = [&](int node) {
+    int s = 0;
+    while (s + 1 < static_cast<int>(sessions.size()) &&
+           sessions[static_cast<std::size_t>(s) + 1].first_node <= node) {
+      ++s;
+    }
+    return s;
+  };
+  for (std::size_t s = 0; s < sessions.size(); ++s) {
+    const int first = sessions[s].first_node;
+    const int end = s + 1 < sessions.size() ? sessions[s + 1].first_node : nodes;
+    int edges = 0, crossing_accepted = 0;
+    for (std::size_t e = 0; e < graph.numEdges(); ++e) {
+      const auto& edge = graph.edge(e);
+      const int a = sessionOf(static_cast<int>(edge.from)),
+                b = sessionOf(static_cast<int>(edge.to));
+      if (a != static_cast<int>(s) && b != static_cast<int>(s)) continue;
+      ++edges;
+    }
+    for (int k = 0; k < slam.rrr().numCandidates(); ++k) {
+      const auto& c = slam.rrr().candidate(k);
+      const int a = sessionOf(c.from), b = sessionOf(c.to);
+      if (a != b && (a == static_cast<int>(s) || b == static_cast<int>(s)) &&
+          slam.rrr().verdict(k) == rrr::Verdict::kAccepted) {
+        ++crossing_accepted;
+      }
+    }
+    std::printf("session %-6zu %s: %d nodes, %d edges, %d accepted loops to other sessions\n", s,
+                sessions[s].name.c_str(), end - first, edges, crossing_accepted);
+  }
+  const auto& current = sessions.back();
+  if (const auto tied = slam.tiedAt()) {
+    std::printf("relocalized    at node %d (the session's node %d, %.1f s after its start)\n",
+                *tied, *tied - current.first_node,
+                slam.nodeTimestamps()[static_cast<std::size_t>(*tied)] - current.start_time);
+  } else {
+    std::printf("relocalized    no: this session is a separate component of the map\n");
+  }
 }
 
 std::vector<frontend::LoopLine> loopLines(const frontend::LaserSlam& slam) {
@@ -246,7 +321,22 @@ int main(int argc, char** argv) {
   try {
     const auto start = std::chrono::steady_clock::now();
     const frontend::CarmenLog log = frontend::readCarmenLog(args.log);
-    frontend::LaserSlam slam(args.params);
+    std::unique_ptr<frontend::LaserSlam> slam_owner;
+    if (args.load_map.empty()) {
+      slam_owner = std::make_unique<frontend::LaserSlam>(args.params, args.session_name);
+    } else {
+      const auto load_start = std::chrono::steady_clock::now();
+      const frontend::MapSnapshot map = frontend::readMapFile(args.load_map);
+      try {
+        slam_owner = frontend::LaserSlam::fromMap(map, args.params, args.session_name);
+      } catch (const std::invalid_argument& e) {
+        throw std::runtime_error(args.load_map + ": " + e.what());
+      }
+      std::printf("loaded map     %s: %zu sessions, %zu nodes, %zu submaps in %.2f s\n",
+                  args.load_map.c_str(), map.sessions.size(), map.nodes.size(), map.submaps.size(),
+                  core::secondsSince(load_start));
+    }
+    frontend::LaserSlam& slam = *slam_owner;
     const bool progress = !args.quiet && isatty(STDERR_FILENO);
     const std::size_t n =
         args.max_scans > 0 ? std::min(args.max_scans, log.scans.size()) : log.scans.size();
@@ -297,6 +387,7 @@ int main(int argc, char** argv) {
     std::printf("candidates     %d in %d clusters\n", status.candidates, status.clusters);
     std::printf("accepted       %d\n", status.accepted);
     std::printf("rejected       %d\n", status.rejected);
+    printSessions(slam);
     std::printf(
         "time           %.2f s (local SLAM %.2f, loop search %.2f, RRR %.2f), %.1fx real time\n",
         seconds, stats.local_slam_seconds, stats.loop_search_seconds, stats.rrr_seconds,
@@ -310,18 +401,28 @@ int main(int argc, char** argv) {
       rrr::writeDecisions(args.decisions, slam.rrr().decisionRows());
       std::printf("decisions      %s\n", args.decisions.c_str());
     }
-    if (!args.trajectory.empty()) {
+    if (!args.trajectory.empty() || !args.session_trajectory.empty()) {
       const auto refine_start = std::chrono::steady_clock::now();
-      writeTrajectory(args.trajectory, slam.scanTimestamps(),
-                      refinedTrajectory(slam, log, placed, args.refinement));
-      if (args.refinement.resolution_m > 0.0) {
-        std::printf(
-            "trajectory     %s (refined against the final map in %.2f s)\n",
-            args.trajectory.c_str(),
-            std::chrono::duration<double>(std::chrono::steady_clock::now() - refine_start).count());
-      } else {
-        std::printf("trajectory     %s\n", args.trajectory.c_str());
+      const std::vector<core::Pose2> poses = refinedTrajectory(slam, log, placed, args.refinement);
+      const std::string refined = args.refinement.resolution_m > 0.0
+                                      ? " (refined against the final map in " +
+                                            std::to_string(core::secondsSince(refine_start)) + " s)"
+                                      : "";
+      if (!args.trajectory.empty()) {
+        writeTrajectory(args.trajectory, slam.scanTimestamps(), poses, 0);
+        std::printf("trajectory     %s%s\n", args.trajectory.c_str(), refined.c_str());
       }
+      if (!args.session_trajectory.empty()) {
+        writeTrajectory(args.session_trajectory, slam.scanTimestamps(), poses,
+                        slam.sessionFirstScan());
+        std::printf("session traj.  %s%s\n", args.session_trajectory.c_str(), refined.c_str());
+      }
+    }
+    if (!args.save_map.empty()) {
+      const auto save_start = std::chrono::steady_clock::now();
+      frontend::writeMapFile(slam.snapshot(), args.save_map);
+      std::printf("saved map      %s in %.2f s\n", args.save_map.c_str(),
+                  core::secondsSince(save_start));
     }
     if (!args.map.empty()) {
       const auto grid = slam.renderMap(args.map_resolution);

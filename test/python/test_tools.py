@@ -5,6 +5,7 @@ these tests are skipped.
 """
 import math
 import os
+import re
 import subprocess
 
 import pytest
@@ -236,3 +237,88 @@ def test_slam_offline_takes_the_ros_parameter_names_and_its_older_flags(tmp_path
     assert result.returncode == 2 and "three comma-separated numbers" in result.stderr
     result = run(SLAM_OFFLINE, ACES_HEAD, "--cluster-gap", 0)
     assert result.returncode == 2 and "cluster_gap = 0 is out of range online" in result.stderr
+
+
+MAP_INFO = os.environ.get("RRR_MAP_INFO")
+needs_map_info = pytest.mark.skipif(not (SLAM_OFFLINE and MAP_INFO), reason="rrr_slam_offline/rrr_map_info not given")
+SMALL_SUBMAPS = ("--scans-per-submap", 10, "--min-node-separation", 15)
+
+
+def moved_log(source, target, frame):
+    """The CARMEN log with every pose (laser and odometry) seen from another odometry frame."""
+    import gzip
+    fx, fy, ft = frame
+    c, s = math.cos(ft), math.sin(ft)
+    lines = []
+    with gzip.open(source, "rt") as f:
+        for line in f:
+            fields = line.split()
+            if fields and fields[0] == "FLASER":
+                n = int(fields[1])
+                for k in (2 + n, 5 + n):
+                    x, y, t = (float(v) for v in fields[k:k + 3])
+                    fields[k:k + 3] = [repr(fx + c * x - s * y), repr(fy + s * x + c * y), repr(t + ft)]
+                line = " ".join(fields) + "\n"
+            lines.append(line)
+    target.write_text("".join(lines))
+    return target
+
+
+@needs_map_info
+def test_a_saved_map_is_continued_as_a_new_session_from_another_odometry_frame(tmp_path):
+    from rrr_graphslam.relations import read_tum
+    first_map = tmp_path / "first.rrrmap"
+    first = run(SLAM_OFFLINE, ACES_HEAD, "--save-map", first_map, "--trajectory", tmp_path / "t1.txt",
+                "--refine-resolution", 0, "--quiet", *SMALL_SUBMAPS)
+    assert first.returncode == 0, first.stderr
+    info = run(MAP_INFO, first_map, "--graph", tmp_path / "g.g2o", "--map", tmp_path / "m")
+    assert info.returncode == 0, info.stderr
+    keys = dict(line.split(" ", 1) for line in info.stdout.splitlines())
+    for key in ("format_version", "sessions", "nodes", "edges", "loop_edges_accepted",
+                "loop_edges_rejected", "submaps", "scans", "bytes"):
+        assert key in keys, key
+    assert keys["format_version"] == "1" and keys["sessions"] == "1"
+    assert int(keys["bytes"]) == first_map.stat().st_size
+    assert len(read_graph(str(tmp_path / "g.g2o")).poses) == int(keys["nodes"])
+    assert (tmp_path / "m.pgm").read_bytes().startswith(b"P5")
+
+    # The same log again, its odometry 100 m away and turned: a new session tied to the map.
+    moved = moved_log(ACES_HEAD, tmp_path / "moved.clf", (100.0, -40.0, 2.0))
+    second = run(SLAM_OFFLINE, moved, "--load-map", first_map, "--save-map", first_map,
+                 "--session-trajectory", tmp_path / "t2.txt", "--trajectory", tmp_path / "all.txt",
+                 "--refine-resolution", 0, "--quiet", *SMALL_SUBMAPS)
+    assert second.returncode == 0, second.stderr
+    assert "relocalized    at node" in second.stdout, second.stdout
+    info = run(MAP_INFO, first_map)
+    keys = dict(line.split(" ", 1) for line in info.stdout.splitlines())
+    assert keys["sessions"] == "2"
+    # From the moment it was tied on, the replayed log's scans lie where the first run put them
+    # (same timestamps).
+    tied_after = float(re.search(r"relocalized +at node \d+ \(the session's node \d+, ([0-9.]+) s after",
+                                 second.stdout).group(1))
+    stamps1, poses1 = read_tum(str(tmp_path / "t1.txt"))
+    stamps2, poses2 = read_tum(str(tmp_path / "t2.txt"))
+    assert stamps1 == stamps2
+    errors = [math.hypot(a[0] - b[0], a[1] - b[1]) for t, a, b in zip(stamps1, poses1, poses2)
+              if t >= stamps1[0] + tied_after]
+    assert len(errors) > 50
+    assert sorted(errors)[len(errors) // 2] < 0.05 and max(errors) < 0.15, errors
+    stamps_all, _ = read_tum(str(tmp_path / "all.txt"))
+    assert len(stamps_all) > len(stamps2)  # the first session's nodes, then this run's scans
+
+
+@needs_map_info
+def test_damaged_or_incompatible_maps_are_refused_naming_the_file(tmp_path):
+    good = tmp_path / "good.rrrmap"
+    assert run(SLAM_OFFLINE, ACES_HEAD, "--save-map", good, "--max-scans", 60, "--quiet").returncode == 0
+    data = good.read_bytes()
+    bad = tmp_path / "bad.rrrmap"
+    bad.write_bytes(data[:len(data) // 2])
+    for tool in (MAP_INFO, SLAM_OFFLINE):
+        args = (bad,) if tool == MAP_INFO else (ACES_HEAD, "--load-map", bad, "--quiet")
+        result = run(tool, *args)
+        assert result.returncode == 1 and f"{bad}" in result.stderr and "truncated" in result.stderr
+    result = run(SLAM_OFFLINE, ACES_HEAD, "--load-map", good, "--submap-resolution", 0.1, "--quiet")
+    assert result.returncode == 1 and "submap_resolution is 0.1 here but the map was made with 0.05" in result.stderr
+    result = run(MAP_INFO, ACES_HEAD)
+    assert result.returncode == 1 and "not an rrr_graphslam map file" in result.stderr

@@ -7,8 +7,17 @@
 // nodes with the local-SLAM relative pose; loop candidates join a submap's anchor node to the
 // matched node. Every scan (node or not) keeps its pose relative to the newest node at its time,
 // so the whole trajectory follows the optimized nodes.
+//
+// Sessions: a map saved by snapshot() (map_file.h) is continued by fromMap() as a new session in
+// its own odometry frame. Until one of its loops to the earlier sessions is accepted by RRR (the
+// session is "tied"), every relocalization_every_n_nodes-th node is matched against every submap
+// of the earlier sessions, whole (branch and bound over the submap and all rotations); RRR decides
+// those candidates like any other, so one wrong relocalization cannot bend the map.
 
 #include <memory>
+#include <optional>
+#include <string>
+#include <utility>
 #include <vector>
 
 #include <mrpt/maps/COccupancyGridMap2D.h>
@@ -16,6 +25,7 @@
 #include "rrr_graphslam/frontend/laser_slam_params.h"
 #include "rrr_graphslam/frontend/local_slam.h"
 #include "rrr_graphslam/frontend/loop_search.h"
+#include "rrr_graphslam/frontend/map_file.h"
 #include "rrr_graphslam/frontend/map_render.h"
 #include "rrr_graphslam/rrr/online_rrr.h"
 
@@ -35,11 +45,24 @@ struct LaserSlamStats {
   double local_slam_seconds = 0.0;
   double rrr_seconds = 0.0;
   int candidates = 0;
+  long long relocalization_searches = 0;  ///< node-submap pairs searched whole (untied session)
 };
 
 class LaserSlam {
  public:
-  explicit LaserSlam(const LaserSlamParams& params = {});
+  /// A new map; its first session is named `session_name`.
+  explicit LaserSlam(const LaserSlamParams& params = {}, const std::string& session_name = "");
+
+  /// Continues `map` (read by readMapFile): its nodes, edges and RRR's decisions are restored
+  /// (RRR decides the loaded candidates again with `params`), its submaps rebuilt from their
+  /// nodes' scans, and the next scan starts session `session_name`. Throws std::invalid_argument
+  /// when the map cannot be continued with `params` (a parameter the submaps depend on differs:
+  /// named) or is inconsistent.
+  static std::unique_ptr<LaserSlam> fromMap(const MapSnapshot& map, const LaserSlamParams& params,
+                                            const std::string& session_name);
+  /// Everything fromMap() needs, the current session's unfinished submaps included (they are
+  /// rebuilt finished), and every parameter of both tables it runs with.
+  MapSnapshot snapshot() const;
 
   /// One scan with the robot's odometry pose at its time. Returns the node it became, if any.
   /// Throws ScanRefused (local_slam.h) for a scan it cannot place; the run goes on.
@@ -52,7 +75,20 @@ class LaserSlam {
   const LaserSlamStats& stats() const { return stats_; }
   const LaserSlamParams& params() const { return params_; }
 
-  /// Map pose of every scan so far (log order), following the current node estimates.
+  /// The sessions so far; the last is the current one.
+  const std::vector<MapSnapshot::Session>& sessions() const { return sessions_; }
+  /// The node at which the current session was first tied to an earlier one (an accepted loop
+  /// between them), if it was; nullopt for the first session.
+  std::optional<int> tiedAt() const { return tied_at_; }
+  /// Whether an accepted loop ties the current session to an earlier one now.
+  bool tied() const;
+  /// Index in scanMapPoses() of the current session's first scan (0 in the first session).
+  std::size_t sessionFirstScan() const { return session_first_scan_; }
+  /// Timestamp of every node.
+  const std::vector<double>& nodeTimestamps() const { return node_timestamps_; }
+
+  /// Map pose of every scan so far (log order), following the current node estimates. Nodes of
+  /// loaded sessions count as one scan each.
   std::vector<core::Pose2> scanMapPoses() const;
   /// Timestamps of every scan so far.
   const std::vector<double>& scanTimestamps() const { return scan_timestamps_; }
@@ -65,6 +101,7 @@ class LaserSlam {
 
  private:
   void searchLoops(int node, const PointCloud& points);
+  void addLoop(const LoopMatch& loop);
 
   LaserSlamParams params_;
   LocalSlam local_;
@@ -83,6 +120,15 @@ class LaserSlam {
   };
   std::vector<SubmapSearchState> search_state_;  // by submap index
   LaserSlamStats stats_;
+  std::vector<MapSnapshot::Session> sessions_;
+  std::vector<double> node_timestamps_;
+  std::vector<MapSnapshot::Submap> finished_spans_;  // nodes of each finished submap
+  int session_first_submap_ = 0;  // submaps of earlier sessions have smaller indices
+  std::size_t session_first_scan_ = 0;
+  std::optional<int> tied_at_;
+  int relocalization_matches_ = 0;        // nodes that matched the earlier sessions since the rest
+  int relocalization_paused_until_ = 0;   // no whole-map search before this node
+  std::vector<int> crossing_candidates_;  // candidates between this session and earlier ones
 };
 
 }  // namespace rrr_graphslam::frontend

@@ -100,6 +100,12 @@ void forEachSlamParam(Params& p, F&& f) {
   f(core::ParamInfo{"pause_after_match_nodes", 0, 1e9,
                     "a submap rests this many nodes after a match"},
     loops.pause_after_match_nodes);
+  f(core::ParamInfo{"relocalization_every_n_nodes", 1, 1e6,
+                    "until a session is tied to the loaded map, every N-th node searches it whole"},
+    loops.relocalization_every_n_nodes);
+  f(core::ParamInfo{"relocalization_matches", 1, 1e6,
+                    "after N nodes matched the loaded map, its search rests until RRR decides"},
+    loops.relocalization_matches);
   f(core::ParamInfo{"loop_search_threads", 1, 256, "threads matching a node against its submaps"},
     loops.threads);
   f(core::ParamInfo{"loop_search_max_range", 0.1, 1e3,

@@ -58,7 +58,9 @@ struct LocalSlamResult {
 
 class LocalSlam {
  public:
-  explicit LocalSlam(const LocalSlamParams& params);
+  /// Nodes are numbered from `first_node` and submaps from `first_submap` (a session that
+  /// continues a loaded map goes on from the map's numbers).
+  explicit LocalSlam(const LocalSlamParams& params, int first_node = 0, int first_submap = 0);
 
   /// A scan with the robot's odometry pose at its time. The local frame starts at the first
   /// scan's odometry pose. Throws ScanRefused, leaving the state as it was (but for the odometry

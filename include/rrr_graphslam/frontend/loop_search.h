@@ -35,6 +35,12 @@ struct LoopSearchParams {
   int search_min_points = 150;
   /// Threads matching one node against its submaps (OpenMP).
   int threads = 2;
+  /// While a session is not tied to the map it continues, every N-th of its nodes is matched
+  /// against every submap of the earlier sessions, whole; default 5.
+  int relocalization_every_n_nodes = 5;
+  /// After this many nodes matched the earlier sessions, the whole-map search rests for
+  /// cluster_gap nodes so that RRR decides their cluster; default 3.
+  int relocalization_matches = 3;
   /// Least-squares refinement of a match (weak pull toward the branch-and-bound pose).
   LeastSquaresParams refinement{1.0, 1.0, 1.0, 20, {0.05, 0.05, 0.5 * M_PI / 180}};
 };

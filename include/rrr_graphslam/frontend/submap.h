@@ -81,7 +81,8 @@ class Submap {
 /// the newer one is half full, so consecutive submaps overlap by half.
 class ActiveSubmaps {
  public:
-  explicit ActiveSubmaps(const SubmapParams& params);
+  /// Submaps are numbered from `first_index`.
+  explicit ActiveSubmaps(const SubmapParams& params, int first_index = 0);
 
   /// Inserts; returns the submap finished by this insertion, if any.
   std::shared_ptr<Submap> insert(const mrpt::obs::CObservation2DRangeScan& scan,
@@ -91,6 +92,7 @@ class ActiveSubmaps {
     return active_.empty() ? nullptr : active_.front();
   }
   const std::vector<std::shared_ptr<Submap>>& active() const { return active_; }
+  /// Index the next submap will take (the number started so far, plus the first index).
   int numSubmaps() const { return next_index_; }
 
  private:

@@ -1,0 +1,143 @@
+// LaserSlam across runs: the snapshot a map file holds, and a new session continuing one.
+
+#include <stdexcept>
+#include <string>
+
+#include "rrr_graphslam/frontend/laser_slam.h"
+
+namespace rrr_graphslam::frontend {
+namespace {
+
+// The parameters a loaded map's submaps and scans depend on: with another value the rebuilt
+// submaps would not be the ones the map was made of, or new scans would not match them.
+constexpr const char* kFixedParams[] = {"submap_resolution", "scan_max_range"};
+
+void checkContinuable(const MapSnapshot& map, const LaserSlamParams& params) {
+  for (const char* name : kFixedParams) {
+    std::string current;
+    forEachSlamParam(params, [&](const core::ParamInfo& info, const auto& value) {
+      if (std::string(info.name) == name) current = core::formatParam(value);
+    });
+    for (const auto& [saved_name, saved] : map.params) {
+      if (saved_name == name && saved != current) {
+        throw std::invalid_argument(
+            std::string(name) + " is " + current + " here but the map was made with " + saved +
+            ": its submaps cannot be continued (set " + name + " to " + saved + ")");
+      }
+    }
+  }
+}
+
+}  // namespace
+
+MapSnapshot LaserSlam::snapshot() const {
+  MapSnapshot map;
+  auto record = [&](const core::ParamInfo& info, const auto& value) {
+    map.params.emplace_back(info.name, core::formatParam(value));
+  };
+  forEachSlamParam(params_, record);
+  rrr::forEachParam(params_.rrr.rrr, record);
+  map.sessions = sessions_;
+  // A session that ended before its first node leaves no trace.
+  while (map.sessions.size() > 1 &&
+         map.sessions.back().first_node >= static_cast<int>(node_local_poses_.size())) {
+    map.sessions.pop_back();
+  }
+  const std::vector<core::Pose2> map_poses = rrr_->mapPoses();
+  std::size_t session = 0;
+  for (std::size_t k = 0; k < node_local_poses_.size(); ++k) {
+    while (session + 1 < map.sessions.size() &&
+           map.sessions[session + 1].first_node <= static_cast<int>(k)) {
+      ++session;
+    }
+    map.nodes.push_back({static_cast<int>(session), node_timestamps_[k], node_local_poses_[k],
+                         map_poses[k], node_scans_[k]});
+  }
+  const core::PoseGraph graph = rrr_->toPoseGraph();  // odometry, then candidates in arrival order
+  const std::vector<rrr::DecisionRow> rows = rrr_->decisionRows();
+  std::size_t candidate = 0;
+  for (std::size_t e = 0; e < graph.numEdges(); ++e) {
+    const auto& edge = graph.edge(e);
+    MapSnapshot::Edge out;
+    out.from = static_cast<int>(edge.from);
+    out.to = static_cast<int>(edge.to);
+    out.measurement = graph.measurement(e);
+    out.information = graph.information(e);
+    if (edge.kind == core::EdgeKind::kOdometry) {
+      out.kind = MapSnapshot::EdgeKind::kOdometry;
+    } else {
+      const rrr::DecisionRow& row = rows.at(candidate++);
+      out.kind = MapSnapshot::EdgeKind::kLoopCandidate;
+      out.verdict = row.verdict;
+      out.cluster = row.cluster;
+      out.reason = row.reason;
+    }
+    map.edges.push_back(std::move(out));
+  }
+  map.submaps = finished_spans_;
+  for (const auto& active : local_.submaps().active()) {
+    map.submaps.push_back({active->anchorNode(), active->lastNode()});
+  }
+  return map;
+}
+
+std::unique_ptr<LaserSlam> LaserSlam::fromMap(const MapSnapshot& map, const LaserSlamParams& params,
+                                              const std::string& session_name) {
+  map.check();
+  checkContinuable(map, params);
+  auto slam = std::make_unique<LaserSlam>(params, session_name);
+  const int n = static_cast<int>(map.nodes.size());
+
+  // The graph in each session's own frame, replayed into RRR (which decides it again).
+  core::PoseGraph graph;
+  for (int k = 0; k < n; ++k) {
+    graph.addNode(static_cast<core::PoseGraph::NodeId>(k),
+                  map.nodes[static_cast<std::size_t>(k)].local_pose);
+  }
+  for (const MapSnapshot::Edge& e : map.edges) {
+    if (e.kind == MapSnapshot::EdgeKind::kMarginal) {
+      throw std::invalid_argument("the map holds marginal edges, which this build cannot use");
+    }
+    graph.addEdge(static_cast<core::PoseGraph::NodeId>(e.from),
+                  static_cast<core::PoseGraph::NodeId>(e.to), e.measurement, e.information,
+                  e.kind == MapSnapshot::EdgeKind::kOdometry ? core::EdgeKind::kOdometry
+                                                             : core::EdgeKind::kLoopCandidate);
+  }
+  if (n > 0) slam->rrr_ = rrr::OnlineRrr::fromPoseGraph(graph, params.rrr);
+  slam->rrr_->takeChanges();  // the loaded decisions are the starting point, not news
+
+  for (const MapSnapshot::Node& node : map.nodes) {
+    slam->node_local_poses_.push_back(node.local_pose);
+    slam->node_scans_.push_back(node.scan);
+    slam->node_timestamps_.push_back(node.timestamp);
+    slam->scan_node_.push_back(static_cast<int>(slam->scan_node_.size()));
+    slam->scan_offset_.push_back(core::Pose2::Zero());
+    slam->scan_timestamps_.push_back(node.timestamp);
+  }
+  // The submaps, rebuilt from the scans that made them, in the order and at the poses they were
+  // inserted.
+  for (std::size_t i = 0; i < map.submaps.size(); ++i) {
+    const MapSnapshot::Submap& span = map.submaps[i];
+    auto submap = std::make_shared<Submap>(
+        static_cast<int>(i), span.first_node,
+        map.nodes[static_cast<std::size_t>(span.first_node)].local_pose, params.local.submap);
+    for (int k = span.first_node; k <= span.last_node; ++k) {
+      const auto& node = map.nodes[static_cast<std::size_t>(k)];
+      submap->insert(*node.scan, node.local_pose, k);
+    }
+    submap->finish();
+    slam->finished_.push_back(std::move(submap));
+    slam->finished_spans_.push_back(span);
+  }
+  slam->sessions_ = map.sessions;
+  slam->sessions_.push_back({session_name, 0.0, n});
+  slam->session_first_submap_ = static_cast<int>(map.submaps.size());
+  slam->session_first_scan_ = static_cast<std::size_t>(n);
+  slam->search_state_.resize(map.submaps.size());
+  slam->local_ = LocalSlam(params.local, n, static_cast<int>(map.submaps.size()));
+  slam->stats_.nodes = n;
+  slam->stats_.submaps = slam->stats_.finished_submaps = static_cast<int>(map.submaps.size());
+  return slam;
+}
+
+}  // namespace rrr_graphslam::frontend

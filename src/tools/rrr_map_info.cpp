@@ -1,0 +1,120 @@
+// rrr_map_info MAP.rrrmap [--graph OUT.g2o] [--map OUT] [--map-resolution M]
+// What a saved map holds, as `key value` lines; exports its graph (g2o, map poses) and its
+// occupancy map (map_server PGM + YAML).
+
+#include <sys/stat.h>
+
+#include <cstdio>
+#include <exception>
+#include <iostream>
+#include <string>
+
+#include "command_line.h"
+#include "rrr_graphslam/core/graph_io.h"
+#include "rrr_graphslam/frontend/map_file.h"
+#include "rrr_graphslam/frontend/map_io.h"
+#include "rrr_graphslam/frontend/map_render.h"
+
+namespace {
+
+namespace tools = rrr_graphslam::tools;
+namespace core = rrr_graphslam::core;
+namespace frontend = rrr_graphslam::frontend;
+namespace rrr = rrr_graphslam::rrr;
+
+const char* const kUsage =
+    "usage: rrr_map_info MAP.rrrmap [--graph OUT.g2o] [--map OUT] [--map-resolution M]\n"
+    "  MAP             a map saved by rrr_slam_offline --save-map (or the node's ~save_map)\n"
+    "  --graph         writes the graph: nodes at their map poses, odometry and every loop\n"
+    "                  candidate (g2o, or TORO for .graph/.toro)\n"
+    "  --map           writes OUT.pgm + OUT.yaml (map_server) from every node's scan\n"
+    "  --map-resolution  m per cell of --map (default 0.05)\n"
+    "Prints 'key value' lines: format_version, sessions, nodes, edges, odometry_edges,\n"
+    "loop_edges, loop_edges_accepted, loop_edges_rejected, loop_edges_pending, submaps, scans,\n"
+    "bytes, then 'session K nodes N start_time T name NAME' per session and every parameter the\n"
+    "map was made with as 'param NAME VALUE'.\n";
+
+std::string paramOf(const frontend::MapSnapshot& map, const std::string& name) {
+  for (const auto& [key, value] : map.params) {
+    if (key == name) return value;
+  }
+  return "";
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const tools::CommandLine cli(argc, argv, "rrr_map_info", kUsage);
+  std::string path, graph_out, map_out;
+  double resolution = 0.05;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "--graph") {
+      graph_out = cli.value(i, a);
+    } else if (a == "--map") {
+      map_out = cli.value(i, a);
+    } else if (a == "--map-resolution") {
+      resolution = cli.number(a, cli.value(i, a), 0.005, 10.0);
+    } else {
+      cli.positional(a, path);
+    }
+  }
+  if (path.empty()) cli.fail("no map file given");
+  try {
+    const frontend::MapSnapshot map = frontend::readMapFile(path);
+    std::size_t odometry = 0, loops = 0, accepted = 0, rejected = 0, pending = 0;
+    for (const auto& e : map.edges) {
+      if (e.kind == frontend::MapSnapshot::EdgeKind::kOdometry) {
+        ++odometry;
+      } else if (e.kind == frontend::MapSnapshot::EdgeKind::kLoopCandidate) {
+        ++loops;
+        accepted += e.verdict == rrr::Verdict::kAccepted;
+        rejected += e.verdict == rrr::Verdict::kRejected;
+        pending += e.verdict == rrr::Verdict::kPending;
+      }
+    }
+    struct stat info {};
+    const long long bytes = ::stat(path.c_str(), &info) == 0 ? info.st_size : -1;
+    std::printf("format_version %u\n", map.format_version);
+    std::printf("sessions %zu\n", map.sessions.size());
+    std::printf("nodes %zu\n", map.nodes.size());
+    std::printf("edges %zu\n", map.edges.size());
+    std::printf("odometry_edges %zu\n", odometry);
+    std::printf("loop_edges %zu\n", loops);
+    std::printf("loop_edges_accepted %zu\n", accepted);
+    std::printf("loop_edges_rejected %zu\n", rejected);
+    std::printf("loop_edges_pending %zu\n", pending);
+    std::printf("submaps %zu\n", map.submaps.size());
+    std::printf("scans %zu\n", map.nodes.size());  // one scan per node
+    std::printf("bytes %lld\n", bytes);
+    for (std::size_t s = 0; s < map.sessions.size(); ++s) {
+      const int end = s + 1 < map.sessions.size() ? map.sessions[s + 1].first_node
+                                                  : static_cast<int>(map.nodes.size());
+      std::printf("session %zu nodes %d start_time %.6f name %s\n", s,
+                  end - map.sessions[s].first_node, map.sessions[s].start_time,
+                  map.sessions[s].name.c_str());
+    }
+    for (const auto& [name, value] : map.params) {
+      std::printf("param %s %s\n", name.c_str(), value.c_str());
+    }
+    if (!graph_out.empty()) {
+      core::writePoseGraph(frontend::mapPoseGraph(map), graph_out);
+      std::printf("graph %s\n", graph_out.c_str());
+    }
+    if (!map_out.empty()) {
+      frontend::MapInputs inputs;
+      for (const auto& node : map.nodes) {
+        inputs.poses.push_back(node.map_pose);
+        inputs.scans.push_back(node.scan);
+      }
+      const std::string range = paramOf(map, "scan_max_range");
+      if (!range.empty()) inputs.insertion.max_insertion_range_m = std::stof(range);
+      frontend::writeMapServerFiles(frontend::renderOccupancyMap(inputs, resolution), map_out);
+      std::printf("map %s.pgm %s.yaml\n", map_out.c_str(), map_out.c_str());
+    }
+    return 0;
+  } catch (const std::exception& e) {
+    std::cerr << "rrr_map_info: " << e.what() << "\n";
+    return 1;
+  }
+}

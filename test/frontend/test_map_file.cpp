@@ -1,0 +1,188 @@
+// Map files: a round trip keeps everything a later run needs; damaged files are refused naming
+// the file and what is wrong; a new session continues a loaded map in its own odometry frame and
+// is tied to it by RRR-accepted loops.
+
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <fstream>
+#include <iterator>
+#include <string>
+
+#include "rrr_graphslam/core/input_error.h"
+#include "rrr_graphslam/frontend/laser_slam.h"
+#include "rrr_graphslam/frontend/map_file.h"
+#include "synthetic_room.h"
+
+namespace rrr_graphslam::frontend {
+namespace {
+
+using testing::castScan;
+using testing::room;
+
+LaserSlamParams smallMaps() {
+  LaserSlamParams p;
+  p.local.submap.scans_per_submap = 20;
+  p.loops.min_node_separation = 15;
+  p.loops.search_every_n_nodes = 2;
+  p.loops.search_min_points = 60;
+  p.loops.threads = 1;
+  return p;
+}
+
+// The robot's true pose k on a circle in the free part of the room.
+core::Pose2 truthAt(int k) {
+  const double a = 0.06 * k;
+  return {7.5 + 1.5 * std::cos(a), 2.5 + 1.5 * std::sin(a), a + M_PI / 2};
+}
+
+// Drives `scans` scans of the circle; the odometry is the truth seen from `odom_frame`.
+void drive(LaserSlam& slam, const core::Pose2& odom_frame, int scans, double t0) {
+  for (int k = 0; k < scans; ++k) {
+    RangeScan scan = castScan(room(), truthAt(k));
+    scan.timestamp = t0 + 0.1 * k;
+    slam.addScan(scan, core::compose(odom_frame, truthAt(k)));
+  }
+}
+
+std::string tempPath(const std::string& name) { return ::testing::TempDir() + name; }
+
+std::string readBytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+}
+
+void writeBytes(const std::string& path, const std::string& bytes) {
+  std::ofstream(path, std::ios::binary) << bytes;
+}
+
+// One lap and a bit, saved: the map the tests continue.
+const std::string& savedMap() {
+  static const std::string path = [] {
+    LaserSlam slam(smallMaps(), "first");
+    drive(slam, core::Pose2::Zero(), 130, 0.0);
+    slam.finish();
+    const std::string p = tempPath("room.rrrmap");
+    writeMapFile(slam.snapshot(), p);
+    return p;
+  }();
+  return path;
+}
+
+TEST(MapFile, RoundTripKeepsEverythingAContinuationNeeds) {
+  LaserSlam slam(smallMaps(), "first");
+  drive(slam, core::Pose2::Zero(), 130, 0.0);
+  slam.finish();
+  const MapSnapshot saved = slam.snapshot();
+  const std::string path = tempPath("roundtrip.rrrmap");
+  writeMapFile(saved, path);
+  const MapSnapshot read = readMapFile(path);
+
+  EXPECT_EQ(read.format_version, kMapFormatVersion);
+  EXPECT_EQ(read.params, saved.params);
+  ASSERT_EQ(read.sessions.size(), 1u);
+  EXPECT_EQ(read.sessions[0].name, "first");
+  ASSERT_EQ(read.nodes.size(), saved.nodes.size());
+  ASSERT_GT(read.nodes.size(), 50u);
+  for (std::size_t k = 0; k < read.nodes.size(); ++k) {
+    EXPECT_EQ(read.nodes[k].local_pose, saved.nodes[k].local_pose);
+    EXPECT_EQ(read.nodes[k].map_pose, saved.nodes[k].map_pose);
+    EXPECT_EQ(read.nodes[k].timestamp, saved.nodes[k].timestamp);
+    EXPECT_EQ(read.nodes[k].scan->getScanRange(10), saved.nodes[k].scan->getScanRange(10));
+    EXPECT_EQ(read.nodes[k].scan->getScanSize(), saved.nodes[k].scan->getScanSize());
+  }
+  ASSERT_EQ(read.edges.size(), saved.edges.size());
+  int loops = 0;
+  for (std::size_t k = 0; k < read.edges.size(); ++k) {
+    EXPECT_EQ(read.edges[k].from, saved.edges[k].from);
+    EXPECT_EQ(read.edges[k].kind, saved.edges[k].kind);
+    EXPECT_EQ(read.edges[k].measurement, saved.edges[k].measurement);
+    EXPECT_EQ(read.edges[k].information, saved.edges[k].information);
+    EXPECT_EQ(read.edges[k].verdict, saved.edges[k].verdict);
+    EXPECT_EQ(read.edges[k].reason, saved.edges[k].reason);
+    loops += read.edges[k].kind == MapSnapshot::EdgeKind::kLoopCandidate;
+  }
+  EXPECT_GT(loops, 0) << "the lap closed no loop";
+  ASSERT_EQ(read.submaps.size(), saved.submaps.size());
+
+  // Loaded, RRR decides the same candidates the same way.
+  const auto loaded = LaserSlam::fromMap(read, smallMaps(), "second");
+  ASSERT_EQ(loaded->rrr().numCandidates(), loops);
+  int k = 0;
+  for (const auto& e : read.edges) {
+    if (e.kind == MapSnapshot::EdgeKind::kLoopCandidate) {
+      EXPECT_EQ(loaded->rrr().verdict(k++), e.verdict);
+    }
+  }
+  // And saved again without a new node, it is the same map.
+  const MapSnapshot again = loaded->snapshot();
+  EXPECT_EQ(again.nodes.size(), read.nodes.size());
+  EXPECT_EQ(again.submaps.size(), read.submaps.size());
+  EXPECT_EQ(again.sessions.size(), 1u);  // the new session has no node yet
+}
+
+TEST(MapFile, DamagedFilesAreRefusedNamingFileAndFault) {
+  const std::string good = readBytes(savedMap());
+  auto refused = [&](const std::string& name, const std::string& bytes, const char* fault) {
+    const std::string path = tempPath(name);
+    writeBytes(path, bytes);
+    try {
+      readMapFile(path);
+      ADD_FAILURE() << name << " accepted";
+    } catch (const core::InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find(fault), std::string::npos) << e.what();
+    }
+  };
+  refused("truncated.rrrmap", good.substr(0, good.size() / 2), "truncated");
+  std::string flipped = good;
+  flipped[flipped.size() / 2] ^= 0x10;
+  refused("flipped.rrrmap", flipped, "checksum mismatch");
+  std::string newer = good;
+  newer[8] = 99;  // the version's low byte
+  refused("newer.rrrmap", newer, "format version 99 is newer than this build reads (1)");
+  refused("text.rrrmap", "VERTEX_SE2 0 0 0 0\n", "not an rrr_graphslam map file");
+  refused("empty.rrrmap", "", "not an rrr_graphslam map file");
+  EXPECT_THROW(readMapFile(tempPath("does_not_exist.rrrmap")), core::InputError);
+}
+
+TEST(MapFile, AMapMadeWithOtherSubmapsIsRefusedNamingTheParameter) {
+  LaserSlamParams other = smallMaps();
+  other.local.submap.resolution_m = 0.1;
+  try {
+    LaserSlam::fromMap(readMapFile(savedMap()), other, "second");
+    FAIL() << "a 0.05 m map continued with 0.1 m submaps";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("submap_resolution is 0.1 here but the map was made "
+                                         "with 0.05"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
+TEST(MapFile, ANewSessionInAnotherOdometryFrameIsTiedToTheMap) {
+  const MapSnapshot map = readMapFile(savedMap());
+  auto slam = LaserSlam::fromMap(map, smallMaps(), "second");
+  // The second run's odometry starts somewhere else entirely.
+  const core::Pose2 elsewhere(100.0, -50.0, 2.0);
+  drive(*slam, elsewhere, 100, 1000.0);
+  ASSERT_TRUE(slam->tiedAt().has_value()) << "the session never joined the map";
+  EXPECT_LT(*slam->tiedAt() - static_cast<int>(map.nodes.size()), 60);
+  slam->finish();
+  // Tied, the second session's nodes sit where the robot was, in the first session's frame
+  // (which is the room's: its first odometry pose was the truth).
+  const auto poses = slam->rrr().mapPoses();
+  const auto& stamps = slam->nodeTimestamps();
+  for (std::size_t k = map.nodes.size(); k < poses.size(); ++k) {
+    const int scan = static_cast<int>(std::lround((stamps[k] - 1000.0) / 0.1));
+    EXPECT_LT((poses[k].head<2>() - truthAt(scan).head<2>()).norm(), 0.1) << "node " << k;
+  }
+  ASSERT_EQ(slam->sessions().size(), 2u);
+  EXPECT_EQ(slam->sessions()[1].first_node, static_cast<int>(map.nodes.size()));
+  const MapSnapshot both = slam->snapshot();
+  EXPECT_EQ(both.sessions.size(), 2u);
+  EXPECT_EQ(both.nodes.back().session, 1);
+}
+
+}  // namespace
+}  // namespace rrr_graphslam::frontend
