@@ -52,8 +52,24 @@ GraphSlamRos::GraphSlamRos(ros::NodeHandle nh, ros::NodeHandle private_nh)
       ros::SubscriberStatusCallback(), ros::VoidConstPtr(), true);
   path_pub_ = private_nh_.advertise<nav_msgs::Path>("path", 1, true);
   status_pub_ = private_nh_.advertise<RrrStatus>("status", 10);
+  if (!params_.map_file.empty() && params_.input_mode != "scan") {
+    throw std::invalid_argument("parameter " + private_nh_.resolveName("map_file") +
+                                " needs input_mode scan (slam mode)");
+  }
   if (params_.input_mode == "scan") {
-    startSlam();
+    if (params_.map_file.empty()) {
+      startSlam();
+    } else {
+      const frontend::MapSnapshot map = frontend::readMapFile(params_.map_file);
+      try {
+        startSlam(&map);
+      } catch (const std::invalid_argument& e) {
+        throw std::invalid_argument(params_.map_file + ": " + e.what());
+      }
+      ROS_INFO("rrr_graphslam: continuing %s: %zu sessions, %zu nodes, %zu submaps",
+               params_.map_file.c_str(), map.sessions.size(), map.nodes.size(),
+               map.submaps.size());
+    }
     map_pub_ = nh_.advertise<nav_msgs::OccupancyGrid>("map", 1, true);
     map_publisher_ =
         std::make_unique<MapPublisher>(map_pub_, params_.map_frame, params_.map_resolution);
@@ -102,6 +118,8 @@ GraphSlamRos::GraphSlamRos(ros::NodeHandle nh, ros::NodeHandle private_nh)
   services_.push_back(services_nh.advertiseService("reset", &GraphSlamRos::reset, this));
   services_.push_back(services_nh.advertiseService("optimize", &GraphSlamRos::optimize, this));
   services_.push_back(services_nh.advertiseService("finish", &GraphSlamRos::finish, this));
+  services_.push_back(services_nh.advertiseService("save_map", &GraphSlamRos::saveMap, this));
+  services_.push_back(services_nh.advertiseService("load_map", &GraphSlamRos::loadMap, this));
   service_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &service_queue_);
   service_spinner_->start();
 
@@ -440,12 +458,21 @@ void GraphSlamRos::handleScan(const ScanInput& input) {
   }
 }
 
-void GraphSlamRos::startSlam() {
+void GraphSlamRos::startSlam(const frontend::MapSnapshot* map) {
   frontend::LaserSlamParams p = params_.slam;
   p.rrr = params_.rrr;
-  slam_ = std::make_unique<frontend::LaserSlam>(p);
+  // Sessions are named by the node and the wall time they started at.
+  const std::string name =
+      private_nh_.getNamespace() + " " + std::to_string(ros::WallTime::now().toSec());
+  // Built before anything is replaced: a map that cannot be continued leaves the running one.
+  std::unique_ptr<frontend::LaserSlam> slam = map != nullptr
+                                                  ? frontend::LaserSlam::fromMap(*map, p, name)
+                                                  : std::make_unique<frontend::LaserSlam>(p, name);
+  slam_ = std::move(slam);
   slam_->rrr().setCancelFlag(&cancel_);
-  node_odom_poses_.clear();
+  node_stamps_.clear();
+  for (double t : slam_->nodeTimestamps()) node_stamps_.emplace_back(t);
+  node_odom_poses_.clear();  // the current session's nodes
   last_scan_stamp_ = ros::Time();
   map_dirty_ = true;
 }
@@ -493,8 +520,13 @@ void GraphSlamRos::publishOutputs() {
     if (graph().empty()) {
       map_to_odom_.reset();
     } else if (slam_) {
-      // The graph's node poses are local-SLAM poses; odom_frame is the robot's odometry.
-      map_to_odom_ = core::compose(poses.back(), core::inverse(node_odom_poses_.back()));
+      // The graph's node poses are local-SLAM poses; odom_frame is the robot's odometry. A loaded
+      // map's nodes belong to other runs: until this session has a node there is no map -> odom.
+      if (node_odom_poses_.empty()) {
+        map_to_odom_.reset();
+      } else {
+        map_to_odom_ = core::compose(poses.back(), core::inverse(node_odom_poses_.back()));
+      }
     } else {
       map_to_odom_ = graph().mapToOdom();
     }
@@ -536,6 +568,16 @@ void GraphSlamRos::publishStatus() {
     msg.backlog += static_cast<std::uint32_t>(scan_order_.waiting());
   }
   msg.last_update_sec = last_update_sec_;
+  msg.tied_after_sec = -1.0;
+  if (slam_) {
+    const auto& sessions = slam_->sessions();
+    msg.session = static_cast<std::uint32_t>(sessions.size() - 1);
+    msg.tied_to_map = slam_->tied();
+    if (const auto tied = slam_->tiedAt()) {
+      msg.tied_after_sec =
+          slam_->nodeTimestamps()[static_cast<std::size_t>(*tied)] - sessions.back().start_time;
+    }
+  }
   status_pub_.publish(msg);
 }
 

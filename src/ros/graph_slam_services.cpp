@@ -10,6 +10,7 @@
 #include "rrr_graphslam/core/atomic_file.h"
 #include "rrr_graphslam/core/graph_io.h"
 #include "rrr_graphslam/core/stopwatch.h"
+#include "rrr_graphslam/frontend/map_file.h"
 #include "rrr_graphslam/ros/graph_slam_ros.h"
 #include "rrr_graphslam/rrr/decisions_io.h"
 
@@ -119,6 +120,50 @@ bool GraphSlamRos::load(LoadGraph::Request& req, LoadGraph::Response& res) {
       },
       res.message);
   logServiceResult("~load", res.success, res.message);
+  return true;
+}
+
+bool GraphSlamRos::saveMap(SaveMap::Request& req, SaveMap::Response& res) {
+  res.success = runInWorker(
+      [&]() -> std::string {
+        if (!slam_) throw std::invalid_argument("~save_map needs slam mode (input_mode scan)");
+        if (req.path.empty()) throw std::invalid_argument("path is empty");
+        const auto start = std::chrono::steady_clock::now();
+        const frontend::MapSnapshot map = slam_->snapshot();
+        frontend::writeMapFile(map, req.path);
+        return "saved " + std::to_string(map.sessions.size()) + " sessions, " +
+               std::to_string(map.nodes.size()) + " nodes and " +
+               std::to_string(map.submaps.size()) + " submaps to " + req.path + " in " +
+               std::to_string(secondsSince(start)) + " s";
+      },
+      res.message);
+  logServiceResult("~save_map", res.success, res.message);
+  return true;
+}
+
+bool GraphSlamRos::loadMap(LoadMap::Request& req, LoadMap::Response& res) {
+  res.success = runInWorker(
+      [&]() -> std::string {
+        if (!slam_) throw std::invalid_argument("~load_map needs slam mode (input_mode scan)");
+        const auto start = std::chrono::steady_clock::now();
+        const frontend::MapSnapshot map = frontend::readMapFile(req.path);
+        try {
+          startSlam(&map);  // replaces the running map only once the loaded one is built
+        } catch (const std::invalid_argument& e) {
+          throw std::invalid_argument(req.path + ": " + e.what());
+        }
+        owner_ = Owner::kNone;
+        dirty_ = true;
+        map_dirty_ = true;
+        publishChanges();
+        return "loaded " + std::to_string(map.sessions.size()) + " sessions, " +
+               std::to_string(map.nodes.size()) + " nodes and " +
+               std::to_string(map.submaps.size()) + " submaps from " + req.path + " in " +
+               std::to_string(secondsSince(start)) + " s; the next scans start session " +
+               std::to_string(map.sessions.size());
+      },
+      res.message);
+  logServiceResult("~load_map", res.success, res.message);
   return true;
 }
 

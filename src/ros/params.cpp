@@ -139,6 +139,8 @@ NodeParams loadParams(const ros::NodeHandle& private_nh) {
     throw std::invalid_argument("parameter " + private_nh.resolveName("") + ": " + e.what());
   }
   r.positive("map_resolution", p.map_resolution);
+  r.read<std::string>(
+      "map_file", p.map_file, [](const std::string&) { return true; }, "a path");
   r.positive("map_publish_period", p.map_publish_period);
   r.positive("tf_timeout", p.tf_timeout);
 

@@ -24,6 +24,9 @@ BAD = [
     ({"joint_link_check": "yes"}, "joint_link_check has the wrong type"),
     ({"preset": "papers"}, "must be default or paper"),
     ({"angular_search_window": 4.0}, "angular_search_window = 4 is out of range: must be in [0, 3.14159265359]"),
+    ({"input_mode": "scan", "map_file": "/nonexistent/map.rrrmap"},
+     "/nonexistent/map.rrrmap: cannot open the map file"),
+    ({"input_mode": "odom", "map_file": "/tmp/map.rrrmap"}, "map_file needs input_mode scan"),
 ]
 
 

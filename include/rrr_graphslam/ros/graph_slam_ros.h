@@ -41,9 +41,11 @@
 #include <tf2_ros/transform_listener.h>
 
 #include "rrr_graphslam/LoadGraph.h"
+#include "rrr_graphslam/LoadMap.h"
 #include "rrr_graphslam/LoopCandidate.h"
 #include "rrr_graphslam/PoseGraphEdge.h"
 #include "rrr_graphslam/SaveGraph.h"
+#include "rrr_graphslam/SaveMap.h"
 #include "rrr_graphslam/core/keyframe_selector.h"
 #include "rrr_graphslam/frontend/laser_slam.h"
 #include "rrr_graphslam/ros/arrival_order.h"
@@ -105,8 +107,9 @@ class GraphSlamRos {
   void logInputError(const char* topic, const std::string& what);
   /// The graph RRR decides: the front end's in slam mode, else the node's own.
   rrr::OnlineRrr& graph() { return slam_ ? slam_->rrr() : *graph_; }
-  /// Slam mode: a fresh front end (start, ~reset).
-  void startSlam();
+  /// Slam mode: a fresh front end (start, ~reset), or one continuing `map` in a new session
+  /// (map_file, ~load_map).
+  void startSlam(const frontend::MapSnapshot* map = nullptr);
   /// False if the other input owns the graph (the message is then counted as ignored).
   bool claim(Owner owner, const char* topic);
   void replaceGraph(std::unique_ptr<rrr::OnlineRrr> replacement);
@@ -119,6 +122,8 @@ class GraphSlamRos {
   // Services (their own queue and thread).
   bool save(SaveGraph::Request& req, SaveGraph::Response& res);
   bool load(LoadGraph::Request& req, LoadGraph::Response& res);
+  bool saveMap(SaveMap::Request& req, SaveMap::Response& res);
+  bool loadMap(LoadMap::Request& req, LoadMap::Response& res);
   bool reset(std_srvs::Trigger::Request& req, std_srvs::Trigger::Response& res);
   bool optimize(std_srvs::Trigger::Request& req, std_srvs::Trigger::Response& res);
   bool finish(std_srvs::Trigger::Request& req, std_srvs::Trigger::Response& res);

@@ -39,6 +39,7 @@ struct NodeParams {
   // how long a scan waits for its tf.
   frontend::LaserSlamParams slam;
   double map_resolution = 0.05;     ///< m per cell of the published map
+  std::string map_file;             ///< slam mode: a saved map (*.rrrmap) to continue at start
   double map_publish_period = 5.0;  ///< s between map renderings while scans arrive
   double tf_timeout = 0.2;          ///< s a scan waits for odom_frame -> base_frame
 

@@ -1,0 +1,125 @@
+#!/usr/bin/python3
+"""rostest: ~save_map, ~load_map and a new session from another odometry frame, tied to the map."""
+import gzip
+import math
+import os
+import subprocess
+import sys
+import tempfile
+import time
+import unittest
+
+import rospy
+import rostest
+
+from rrr_graphslam.msg import LoopClosureDecision, RrrStatus  # noqa: E402
+from rrr_graphslam.srv import LoadMap, SaveMap  # noqa: E402
+
+NODE = "/rrr_graphslam"
+
+
+def wait_for(condition, timeout=60.0):
+    deadline = time.monotonic() + timeout
+    while not condition() and time.monotonic() < deadline and not rospy.is_shutdown():
+        time.sleep(0.05)
+    return condition()
+
+
+def moved_log(source, target, frame, later):
+    """The CARMEN log seen from another odometry frame (every FLASER and ODOM pose moved by the
+    SE(2) `frame`) and `later` seconds later."""
+    fx, fy, ft = frame
+    c, s = math.cos(ft), math.sin(ft)
+
+    def move(fields, k):
+        x, y, t = (float(v) for v in fields[k:k + 3])
+        fields[k:k + 3] = [repr(fx + c * x - s * y), repr(fy + s * x + c * y), repr(t + ft)]
+
+    lines = []
+    with gzip.open(source, "rt") as f:
+        for line in f:
+            fields = line.split()
+            if fields and fields[0] == "FLASER":
+                n = int(fields[1])
+                move(fields, 2 + n)
+                move(fields, 5 + n)
+                for k in (8 + n, 10 + n):
+                    fields[k] = repr(float(fields[k]) + later)
+            elif fields and fields[0] == "ODOM":
+                move(fields, 1)
+                for k in (7, 9):
+                    fields[k] = repr(float(fields[k]) + later)
+            else:
+                lines.append(line)
+                continue
+            lines.append(" ".join(fields) + "\n")
+    with open(target, "w") as f:
+        f.write("".join(lines))
+
+
+class Sessions(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        rospy.init_node("sessions_test")
+        cls.status, cls.decisions = None, []
+        rospy.Subscriber(NODE + "/status", RrrStatus, lambda m: setattr(cls, "status", m), queue_size=10)
+        rospy.Subscriber(NODE + "/decisions", LoopClosureDecision, cls.decisions.append, queue_size=1000)
+        rospy.wait_for_service(NODE + "/save_map", timeout=30.0)
+        cls.save_map = rospy.ServiceProxy(NODE + "/save_map", SaveMap)
+        cls.load_map = rospy.ServiceProxy(NODE + "/load_map", LoadMap)
+        wait_for(lambda: cls.status is not None, 30.0)
+        here = os.path.dirname(os.path.abspath(__file__))
+        cls.log = os.path.join(here, "..", "data", rospy.get_param("~log"))
+        cls.replay = os.path.join(here, "..", "..", "scripts", "replay_carmen")
+        cls.folder = tempfile.mkdtemp()
+
+    def play(self, log, name):
+        env = dict(os.environ, PATH="/usr/bin:" + os.environ.get("PATH", ""))
+        result = subprocess.run([sys.executable, self.replay, log, "--rate", str(rospy.get_param("~rate", 3.0)),
+                                 f"__name:={name}"], env=env, capture_output=True, text=True, timeout=150)
+        self.assertEqual(result.returncode, 0, result.stdout + result.stderr)
+        self.assertTrue(wait_for(lambda: self.status.backlog == 0 and
+                                 self.status.messages_processed == self.status.messages_received, 60.0))
+
+    def test_a_saved_map_is_continued_by_a_session_from_another_frame(self):
+        self.play(self.log, "replay_first")
+        first_nodes = self.status.nodes
+        self.assertGreater(first_nodes, 30)
+        self.assertEqual(self.status.session, 0)
+        path = os.path.join(self.folder, "map.rrrmap")
+        answer = self.save_map(path=path)
+        self.assertTrue(answer.success, answer.message)
+        self.assertFalse([f for f in os.listdir(self.folder) if "tmp" in f], "temporary files left")
+
+        # A damaged file is refused and the running map stays.
+        bad = os.path.join(self.folder, "bad.rrrmap")
+        with open(path, "rb") as f, open(bad, "wb") as g:
+            g.write(f.read()[:100])
+        answer = self.load_map(path=bad)
+        self.assertFalse(answer.success)
+        self.assertIn(bad, answer.message)
+        self.assertTrue(wait_for(lambda: self.status.nodes == first_nodes, 5.0))
+
+        answer = self.load_map(path=path)
+        self.assertTrue(answer.success, answer.message)
+        self.assertTrue(wait_for(lambda: self.status.session == 1 and self.status.nodes == first_nodes, 10.0),
+                        str(self.status))
+        self.assertFalse(self.status.tied_to_map)
+
+        moved = os.path.join(self.folder, "moved.clf")
+        moved_log(self.log, moved, (50.0, 20.0, 2.5), 100.0)
+        decisions_before = len(self.decisions)
+        self.play(moved, "replay_second")
+        self.assertGreater(self.status.nodes, first_nodes + 30)
+        self.assertTrue(wait_for(lambda: self.status.tied_to_map, 10.0), str(self.status))
+        self.assertGreaterEqual(self.status.tied_after_sec, 0.0)
+        final = {}
+        for d in self.decisions[decisions_before:]:
+            final[d.candidate] = d
+        crossing = [d for d in final.values() if (d.from_id < first_nodes) != (d.to_id < first_nodes)
+                    and d.verdict == LoopClosureDecision.ACCEPTED]
+        self.assertTrue(crossing, "no accepted loop between the sessions was published")
+
+
+if __name__ == "__main__":
+    rostest.rosrun("rrr_graphslam", "sessions", Sessions)
