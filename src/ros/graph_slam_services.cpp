@@ -3,6 +3,7 @@
 
 #include <chrono>
 #include <cstdint>
+#include <fstream>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -103,7 +104,12 @@ bool GraphSlamRos::load(LoadGraph::Request& req, LoadGraph::Response& res) {
         }
         core::GraphReadOptions options;
         options.allow_disconnected = true;
-        const core::PoseGraph loaded = core::readPoseGraph(req.path, options);
+        core::PoseGraph loaded = core::readPoseGraph(req.path, options);
+        // g2o has no edge kinds: the decisions ~save wrote beside the graph say which edges are
+        // loop candidates (a loop between id-consecutive nodes of two sessions stays a loop).
+        const std::string decisions = defaultDecisionsPath(req.path);
+        const bool with_decisions = std::ifstream(decisions).good();
+        if (with_decisions) rrr::markCandidates(rrr::readDecisions(decisions), decisions, loaded);
         // The messages carry node ids as uint32: a larger one would be reported as another.
         for (const core::PoseGraph::NodeId id : loaded.nodeIds()) {
           if (id > std::numeric_limits<std::uint32_t>::max()) {
@@ -115,7 +121,8 @@ bool GraphSlamRos::load(LoadGraph::Request& req, LoadGraph::Response& res) {
         const rrr::OnlineRrrStatus s = graph().status();
         return "loaded " + std::to_string(s.nodes) + " nodes (" + std::to_string(s.sessions) +
                " sessions) and " + std::to_string(s.candidates) + " candidates from " + req.path +
-               ": " + std::to_string(s.accepted) + " accepted, " + std::to_string(s.rejected) +
+               (with_decisions ? " (edge kinds from " + decisions + ")" : std::string()) + ": " +
+               std::to_string(s.accepted) + " accepted, " + std::to_string(s.rejected) +
                " rejected";
       },
       res.message);

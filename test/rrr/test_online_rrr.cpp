@@ -14,7 +14,9 @@
 #include <vector>
 
 #include "rrr_graphslam/core/graph_io.h"
+#include "rrr_graphslam/core/input_error.h"
 #include "rrr_graphslam/core/keyframe_selector.h"
+#include "rrr_graphslam/rrr/decisions_io.h"
 #include "rrr_graphslam/rrr/online_rrr.h"
 #include "rrr_graphslam/rrr/rrr.h"
 
@@ -197,6 +199,50 @@ TEST(OnlineRrr, SavedGraphLoadsBackToTheSameDecisions) {
   EXPECT_EQ(optimized.numNodes(), input.numNodes());
   EXPECT_EQ(static_cast<int>(optimized.numEdges()),
             static_cast<int>(input.numNodes()) - 1 + online.status().accepted);
+}
+
+TEST(OnlineRrr, ASavedLoopBetweenIdConsecutiveNodesOfTwoSessionsStaysALoop) {
+  // Session A: nodes 0..9; session B: nodes 10..19 started elsewhere. Loops tie B's first node to
+  // A's last one (ids 9 and 10: g2o alone would read that edge as odometry and merge the sessions).
+  OnlineRrr online(paramsWithGap(3));
+  const Eigen::Matrix3d info = Eigen::Vector3d(100.0, 100.0, 400.0).asDiagonal();
+  const core::Pose2 step(1.0, 0.0, 0.0);
+  online.startSession(0, core::Pose2::Zero());
+  for (NodeId k = 1; k < 10; ++k) online.addOdometry(k - 1, k, step, info);
+  online.startSession(10, core::Pose2(50.0, 50.0, 1.0));
+  for (NodeId k = 11; k < 20; ++k) online.addOdometry(k - 1, k, step, info);
+  // B continues A's line: node 10 one step past node 9.
+  for (const auto& [from, to] : {std::pair<NodeId, NodeId>{9, 10}, {8, 10}, {9, 11}, {8, 11}}) {
+    online.addCandidate(from, to, core::Pose2(static_cast<double>(to - from), 0.0, 0.0), info);
+  }
+  online.finish();
+  ASSERT_EQ(online.status().sessions, 2);
+  ASSERT_EQ(online.numCandidates(), 4);
+
+  const std::string graph_path = ::testing::TempDir() + "two_sessions.g2o";
+  const std::string decisions_path = ::testing::TempDir() + "two_sessions.decisions.tsv";
+  core::writePoseGraph(online.toPoseGraph(), graph_path);
+  writeDecisions(decisions_path, online.decisionRows());
+  core::GraphReadOptions options;
+  options.allow_disconnected = true;
+  core::PoseGraph read = core::readPoseGraph(graph_path, options);
+  // The ids alone make 9 -> 10 odometry: one session.
+  EXPECT_EQ(OnlineRrr::fromPoseGraph(read, paramsWithGap(3))->status().sessions, 1);
+  markCandidates(readDecisions(decisions_path), decisions_path, read);
+  const auto loaded = OnlineRrr::fromPoseGraph(read, paramsWithGap(3));
+  EXPECT_EQ(loaded->status().sessions, 2);
+  EXPECT_EQ(loaded->numCandidates(), 4);
+  for (int k = 0; k < 4; ++k) EXPECT_EQ(loaded->verdict(k), online.verdict(k)) << k;
+
+  // Rows that do not end the graph are refused, naming the decisions file and line.
+  std::vector<DecisionRow> wrong = online.decisionRows();
+  wrong.back().to = 15;
+  try {
+    markCandidates(wrong, decisions_path, read);
+    FAIL() << "mismatched decisions accepted";
+  } catch (const core::InputError& e) {
+    EXPECT_NE(std::string(e.what()).find(decisions_path + ":5"), std::string::npos) << e.what();
+  }
 }
 
 TEST(OnlineRrr, RefusesBadInputNamingTheFieldAndKeepsTheGraph) {

@@ -28,4 +28,15 @@ void writeDecisions(const std::string& path, const std::vector<DecisionRow>& row
 /// The table's text (header and rows), for a file written with others (core::AtomicFileSet).
 void writeDecisions(std::ostream& out, const std::vector<DecisionRow>& rows);
 
+/// Reads a table (4 or 5 columns; plain or .gz). Throws core::InputError naming file:line.
+std::vector<DecisionRow> readDecisions(const std::string& path);
+
+/// g2o has no edge kinds: its reader takes an edge between id-consecutive nodes for odometry, so
+/// a loop between the last node of one session and the first of the next would come back as
+/// trusted odometry. A graph saved with its decisions (the node's ~save) holds its loop
+/// candidates last, in the table's order: this marks the last rows.size() edges as candidates.
+/// Throws core::InputError naming `decisions_path` when the rows do not match those edges.
+void markCandidates(const std::vector<DecisionRow>& rows, const std::string& decisions_path,
+                    core::PoseGraph& graph);
+
 }  // namespace rrr_graphslam::rrr
