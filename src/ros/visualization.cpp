@@ -24,6 +24,21 @@ visualization_msgs::Marker lineList(const std::string& ns, const std::string& fr
   return m;
 }
 
+// Each session's path in a colour of its own (the first grey, as a map's usually is).
+std_msgs::ColorRGBA sessionColour(int session) {
+  static constexpr float kPalette[][3] = {{0.6f, 0.6f, 0.6f}, {0.0f, 0.6f, 0.9f},
+                                          {0.9f, 0.5f, 0.0f}, {0.6f, 0.2f, 0.8f},
+                                          {0.0f, 0.7f, 0.5f}, {0.8f, 0.3f, 0.5f}};
+  constexpr int kColours = static_cast<int>(sizeof kPalette / sizeof kPalette[0]);
+  const float* c = kPalette[session % kColours];
+  std_msgs::ColorRGBA colour;
+  colour.r = c[0];
+  colour.g = c[1];
+  colour.b = c[2];
+  colour.a = 1.0f;
+  return colour;
+}
+
 geometry_msgs::Point point(const core::Pose2& p) {
   geometry_msgs::Point q;
   q.x = p[0];
@@ -47,12 +62,16 @@ visualization_msgs::MarkerArray buildMarkers(const rrr::OnlineRrr& graph,
   nodes.type = visualization_msgs::Marker::POINTS;
   nodes.scale.y = nodes.scale.x;
 
+  int session = 0;
   for (int k = 0; k < graph.numNodes(); ++k) {
     const core::Pose2& p = map_poses[static_cast<std::size_t>(k)];
     nodes.points.push_back(point(p));
     if (graph.odometryBefore(k)) {
       odometry.points.push_back(point(map_poses[static_cast<std::size_t>(k - 1)]));
       odometry.points.push_back(point(p));
+      odometry.colors.insert(odometry.colors.end(), 2, sessionColour(session));
+    } else if (k > 0) {
+      ++session;  // a node without odometry from the one before starts a session
     }
   }
   for (int k = 0; k < graph.numCandidates(); ++k) {

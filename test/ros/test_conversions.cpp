@@ -216,6 +216,24 @@ TEST(Conversions, MarkersAndPathShowTheGraph) {
   }
 }
 
+TEST(Conversions, EachSessionsPathHasItsOwnColour) {
+  rrr::OnlineRrr graph;
+  const Eigen::Matrix3d info = Eigen::Matrix3d::Identity() * 100.0;
+  graph.startSession(0, core::Pose2::Zero());
+  for (rrr::OnlineRrr::NodeId k = 1; k < 4; ++k) graph.addOdometry(k - 1, k, {1, 0, 0}, info);
+  graph.startSession(10, core::Pose2(5, 5, 0));
+  for (rrr::OnlineRrr::NodeId k = 11; k < 13; ++k) graph.addOdometry(k - 1, k, {1, 0, 0}, info);
+  const auto markers = buildMarkers(graph, graph.mapPoses(), "map", ros::Time(1));
+  const visualization_msgs::Marker& odometry = markers.markers.front();
+  ASSERT_EQ(odometry.ns, "odometry");
+  ASSERT_EQ(odometry.points.size(), 2u * (3 + 2));
+  ASSERT_EQ(odometry.colors.size(), odometry.points.size());
+  const auto& first = odometry.colors.front();
+  const auto& second = odometry.colors.back();
+  EXPECT_EQ(odometry.colors[5].b, first.b);  // session 0's three edges: one colour
+  EXPECT_TRUE(first.r != second.r || first.g != second.g || first.b != second.b);
+}
+
 TEST(Conversions, OccupancyGridCells) {
   mrpt::maps::COccupancyGridMap2D grid(-1.0F, 1.0F, -0.5F, 0.5F, 0.1F);
   grid.setCell(0, 0, 0.9F);   // free with p = 0.9
