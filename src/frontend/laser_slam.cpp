@@ -102,10 +102,29 @@ void LaserSlam::searchLoops(int node, const PointCloud& scan_points) {
     double seconds = 0.0;
   };
   std::vector<Search> searches;
+  // With a hint, where it puts this node in the map.
+  std::optional<core::Pose2> hinted;
+  if (hint_) {
+    const int hint_node = hint_->node >= 0 ? hint_->node : sessions_.back().first_node;
+    hinted = core::compose(hint_->map_pose,
+                           core::between(node_local_poses_[static_cast<std::size_t>(hint_node)],
+                                         node_local_poses_[static_cast<std::size_t>(node)]));
+  }
   for (const auto& submap : finished_) {
     const bool earlier_session = submap->index() < session_first_submap_;
     if (relocalizing && earlier_session) {
-      if (relocalize_now) searches.push_back({submap.get(), core::Pose2::Zero(), true, {}, 0.0});
+      if (!relocalize_now) continue;
+      if (!hinted) {
+        searches.push_back({submap.get(), core::Pose2::Zero(), true, {}, 0.0});
+        continue;
+      }
+      const core::Pose2& anchor = map[static_cast<std::size_t>(submap->anchorNode())];
+      if ((anchor.head<2>() - hinted->head<2>()).norm() > p.max_constraint_distance_m) continue;
+      searches.push_back({submap.get(),
+                          core::compose(submap->anchorPose(), core::between(anchor, *hinted)),
+                          false,
+                          {},
+                          0.0});
       continue;
     }
     if (node - submap->lastNode() < p.min_node_separation) continue;
@@ -145,7 +164,7 @@ void LaserSlam::searchLoops(int node, const PointCloud& scan_points) {
     if (!s.loop) continue;
     search_state_[static_cast<std::size_t>(s.submap->index())].last_matched = node;
     addLoop(*s.loop);
-    relocalized = relocalized || s.whole;
+    relocalized = relocalized || (relocalizing && s.submap->index() < session_first_submap_);
   }
   // A cluster is decided once the robot is cluster_gap nodes past its newest link: after a few
   // nodes matched the map, the whole-map search rests that long, so RRR decides them (ties the
@@ -169,6 +188,14 @@ void LaserSlam::addLoop(const LoopMatch& loop) {
   }
   stats_.rrr_seconds += secondsSince(rrr_start);
   ++stats_.candidates;
+}
+
+void LaserSlam::setInitialPose(const core::Pose2& map_pose) {
+  if (sessions_.size() < 2) {
+    throw std::logic_error("an initial pose needs a loaded map to be placed in");
+  }
+  const int newest = static_cast<int>(node_local_poses_.size()) - 1;
+  hint_ = Hint{newest >= sessions_.back().first_node ? newest : -1, map_pose};
 }
 
 bool LaserSlam::tied() const {

@@ -26,6 +26,7 @@ constexpr const char* kOdomTopic = "odom";
 constexpr const char* kEdgesTopic = "pose_graph_edges";
 constexpr const char* kCandidatesTopic = "loop_candidates";
 constexpr const char* kScanTopic = "scan";
+constexpr const char* kInitialPoseTopic = "initialpose";
 
 const char* ownerName(int owner) {
   static const char* const kNames[] = {"auto", "odom", "edges", "scan"};
@@ -106,6 +107,10 @@ GraphSlamRos::GraphSlamRos(ros::NodeHandle nh, ros::NodeHandle private_nh)
                              : "the tf2 message filter could not transform it (queue overflow or "
                                "tf failure)");
         });
+    // rviz's "2D Pose Estimate": where the robot is in the loaded map, to relocalize from.
+    subscribers_.push_back(nh_.subscribe<geometry_msgs::PoseWithCovarianceStamped>(
+        kInitialPoseTopic, 1,
+        [this](const geometry_msgs::PoseWithCovarianceStampedConstPtr& m) { initialPose(*m); }));
   }
 
   worker_ = std::thread([this] { workerLoop(); });
@@ -228,6 +233,34 @@ void GraphSlamRos::dropScan(const sensor_msgs::LaserScan& msg, const std::string
                                 std::to_string(msg.header.stamp.toSec()) +
                                 ": scan dropped, no usable transform " + params_.odom_frame +
                                 " -> " + params_.base_frame + " -> scan: " + why);
+}
+
+void GraphSlamRos::initialPose(const geometry_msgs::PoseWithCovarianceStamped& msg) {
+  ++received_;
+  core::Pose2 pose;
+  try {
+    if (msg.header.frame_id != params_.map_frame) {
+      throw std::invalid_argument("header.frame_id '" + msg.header.frame_id + "' is not " +
+                                  params_.map_frame);
+    }
+    pose = toPose2(msg.pose.pose);
+  } catch (const std::invalid_argument& e) {
+    ++malformed_;
+    ++processed_;
+    logInputError(kInitialPoseTopic, std::string(e.what()) + "; message dropped");
+    return;
+  }
+  ++processed_;
+  enqueue(Command([this, pose] {
+            try {
+              slam_->setInitialPose(pose);
+              ROS_INFO("%s: relocalizing around (%.2f, %.2f, %.2f) until the session is tied",
+                       nh_.resolveName(kInitialPoseTopic).c_str(), pose.x(), pose.y(), pose.z());
+            } catch (const std::logic_error& e) {
+              ROS_WARN("%s: ignored: %s", nh_.resolveName(kInitialPoseTopic).c_str(), e.what());
+            }
+          }),
+          kInitialPoseTopic);
 }
 
 void GraphSlamRos::logInputError(const char* topic, const std::string& what) {

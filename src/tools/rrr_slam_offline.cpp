@@ -14,6 +14,7 @@
 #include <iomanip>
 #include <iostream>
 #include <memory>
+#include <optional>
 #include <string>
 #include <type_traits>
 
@@ -82,6 +83,7 @@ const std::string& usage() {
       "                        [--refine-resolution M] [--max-scans N] [--quiet]\n"
       "                        [--load-map IN.rrrmap] [--save-map OUT.rrrmap]\n"
       "                        [--session-name NAME] [--session-trajectory TRAJ.txt]\n"
+      "                        [--initial-pose X,Y,THETA]\n"
       "                        [--preset paper|default] [--PARAMETER V ...]\n"
       "  LOG               CARMEN log (FLASER or ROBOTLASER1 lines; the scans carry the odometry)\n"
       "  --output          the pose graph: nodes at their optimized poses, odometry and every "
@@ -103,6 +105,8 @@ const std::string& usage() {
       "  --save-map        write the map at the end (IN and OUT may be the same file)\n"
       "  --session-name    this run's session name (default: the log's file name)\n"
       "  --session-trajectory  as --trajectory, for this run's session only\n"
+      "  --initial-pose    with --load-map: where the log's first scan is in the map frame (m, m,\n"
+      "                    rad); the map is searched around it instead of whole\n"
       "  --quiet           no progress line\n"
       "The front end's parameters (the same names and units as the ROS parameters, with "
       "dashes):\n" +
@@ -129,6 +133,7 @@ struct Arguments {
   std::string save_map;
   std::string session_name;
   std::string session_trajectory;
+  std::optional<core::Pose2> initial_pose;
   frontend::LaserSlamParams params;
 };
 
@@ -202,6 +207,11 @@ Arguments parseArguments(int argc, char** argv) {
       args.session_name = cli.value(i, a);
     } else if (a == "--session-trajectory") {
       args.session_trajectory = cli.value(i, a);
+    } else if (a == "--initial-pose") {
+      Eigen::Vector3d pose;
+      tools::parseParam(cli, a, core::ParamInfo{"--initial-pose", -1e6, 1e6, ""}, cli.value(i, a),
+                        pose);
+      args.initial_pose = core::Pose2(pose[0], pose[1], core::normalizeAngle(pose[2]));
     } else if (tools::readTableParam(cli, i, argv, p, slamTable) ||
                tools::readRrrParam(cli, i, argv, p.rrr.rrr) || readAlias(cli, i, argv, p)) {
       continue;
@@ -210,6 +220,7 @@ Arguments parseArguments(int argc, char** argv) {
     }
   }
   if (args.log.empty()) cli.fail("no log file given");
+  if (args.initial_pose && args.load_map.empty()) cli.fail("--initial-pose needs --load-map");
   if (args.session_name.empty()) args.session_name = args.log.substr(args.log.rfind('/') + 1);
   try {
     rrr::validate(p.rrr);
@@ -332,6 +343,7 @@ int main(int argc, char** argv) {
       } catch (const std::invalid_argument& e) {
         throw std::runtime_error(args.load_map + ": " + e.what());
       }
+      if (args.initial_pose) slam_owner->setInitialPose(*args.initial_pose);
       std::printf("loaded map     %s: %zu sessions, %zu nodes, %zu submaps in %.2f s\n",
                   args.load_map.c_str(), map.sessions.size(), map.nodes.size(), map.submaps.size(),
                   core::secondsSince(load_start));

@@ -184,5 +184,25 @@ TEST(MapFile, ANewSessionInAnotherOdometryFrameIsTiedToTheMap) {
   EXPECT_EQ(both.nodes.back().session, 1);
 }
 
+TEST(MapFile, AnInitialPoseRestrictsTheSearchAroundIt) {
+  const MapSnapshot map = readMapFile(savedMap());
+  const core::Pose2 elsewhere(100.0, -50.0, 2.0);
+  // Right: the first node is where the robot truly is; no submap is searched whole.
+  auto hinted = LaserSlam::fromMap(map, smallMaps(), "hinted");
+  hinted->setInitialPose(truthAt(0));
+  drive(*hinted, elsewhere, 100, 1000.0);
+  EXPECT_TRUE(hinted->tiedAt().has_value());
+  EXPECT_EQ(hinted->stats().relocalization_searches, 0);
+  // Wrong by 40 m: nothing near it in the map, so nothing is found, not even far away.
+  auto misled = LaserSlam::fromMap(map, smallMaps(), "misled");
+  misled->setInitialPose(core::Pose2(40.0, 0.0, 0.0));
+  drive(*misled, elsewhere, 100, 1000.0);
+  EXPECT_FALSE(misled->tiedAt().has_value());
+  EXPECT_EQ(misled->stats().relocalization_searches, 0);
+  // In a first session there is no map to be placed in.
+  LaserSlam fresh(smallMaps());
+  EXPECT_THROW(fresh.setInitialPose(core::Pose2::Zero()), std::logic_error);
+}
+
 }  // namespace
 }  // namespace rrr_graphslam::frontend

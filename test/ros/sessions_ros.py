@@ -11,6 +11,7 @@ import unittest
 
 import rospy
 import rostest
+from geometry_msgs.msg import PoseWithCovarianceStamped
 
 from rrr_graphslam.msg import LoopClosureDecision, RrrStatus  # noqa: E402
 from rrr_graphslam.srv import LoadMap, SaveMap  # noqa: E402
@@ -119,6 +120,16 @@ class Sessions(unittest.TestCase):
         crossing = [d for d in final.values() if (d.from_id < first_nodes) != (d.to_id < first_nodes)
                     and d.verdict == LoopClosureDecision.ACCEPTED]
         self.assertTrue(crossing, "no accepted loop between the sessions was published")
+
+        # /initialpose (rviz's 2D Pose Estimate) must be in the map frame; either way the node goes on.
+        publisher = rospy.Publisher("/initialpose", PoseWithCovarianceStamped, queue_size=1, latch=True)
+        self.assertTrue(wait_for(lambda: publisher.get_num_connections() > 0, 10.0))
+        malformed = self.status.messages_malformed
+        wrong = PoseWithCovarianceStamped()
+        wrong.header.frame_id = "odom"
+        wrong.pose.pose.orientation.w = 1.0
+        publisher.publish(wrong)
+        self.assertTrue(wait_for(lambda: self.status.messages_malformed == malformed + 1, 10.0), str(self.status))
 
 
 if __name__ == "__main__":

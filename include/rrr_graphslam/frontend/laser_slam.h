@@ -75,6 +75,14 @@ class LaserSlam {
   const LaserSlamStats& stats() const { return stats_; }
   const LaserSlamParams& params() const { return params_; }
 
+  /// A hint for relocalization: the robot is at `map_pose` (map frame) now, i.e. at the current
+  /// session's newest node, or at its first node if it has none yet. Until the session is tied,
+  /// its searches of the earlier sessions' submaps then start from where the hint puts each node
+  /// (the usual window, linear_search_window and angular_search_window) instead of searching them
+  /// whole. It only guides the search: the loops found are decided by RRR like any other. Throws
+  /// std::logic_error in the first session (there is no map to be placed in).
+  void setInitialPose(const core::Pose2& map_pose);
+
   /// The sessions so far; the last is the current one.
   const std::vector<MapSnapshot::Session>& sessions() const { return sessions_; }
   /// The node at which the current session was first tied to an earlier one (an accepted loop
@@ -126,6 +134,11 @@ class LaserSlam {
   int session_first_submap_ = 0;  // submaps of earlier sessions have smaller indices
   std::size_t session_first_scan_ = 0;
   std::optional<int> tied_at_;
+  struct Hint {
+    int node;  // the node the hint places (-1: the session's first node, not there yet)
+    core::Pose2 map_pose;
+  };
+  std::optional<Hint> hint_;
   int relocalization_matches_ = 0;        // nodes that matched the earlier sessions since the rest
   int relocalization_paused_until_ = 0;   // no whole-map search before this node
   std::vector<int> crossing_candidates_;  // candidates between this session and earlier ones

@@ -29,6 +29,7 @@
 #include <variant>
 #include <vector>
 
+#include <geometry_msgs/PoseWithCovarianceStamped.h>
 #include <message_filters/subscriber.h>
 #include <nav_msgs/Odometry.h>
 #include <ros/callback_queue.h>
@@ -103,6 +104,8 @@ class GraphSlamRos {
   void handleEdge(const PoseGraphEdge& msg);
   void handleCandidate(const LoopCandidate& msg);
   void handleScan(const ScanInput& input);
+  /// /initialpose (slam mode): a relocalization hint for the current session (in the worker).
+  void initialPose(const geometry_msgs::PoseWithCovarianceStamped& msg);
   /// Logs an error about `topic`'s input through input_errors_ (throttled, quoted short).
   void logInputError(const char* topic, const std::string& what);
   /// The graph RRR decides: the front end's in slam mode, else the node's own.
