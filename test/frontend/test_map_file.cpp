@@ -4,10 +4,18 @@
 
 #include <gtest/gtest.h>
 
+#include <dirent.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
 #include <cstdio>
 #include <fstream>
 #include <iterator>
+#include <random>
 #include <string>
+#include <thread>
 
 #include "rrr_graphslam/core/input_error.h"
 #include "rrr_graphslam/frontend/laser_slam.h"
@@ -182,6 +190,76 @@ TEST(MapFile, ANewSessionInAnotherOdometryFrameIsTiedToTheMap) {
   const MapSnapshot both = slam->snapshot();
   EXPECT_EQ(both.sessions.size(), 2u);
   EXPECT_EQ(both.nodes.back().session, 1);
+}
+
+// A map big enough that writing it takes a while: thousands of long scans of random ranges
+// (which zlib cannot shrink much).
+MapSnapshot bigMap(int nodes, float range) {
+  MapSnapshot map;
+  map.sessions.push_back({"big", 0.0, 0});
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> ranges(0.1F, range);
+  for (int k = 0; k < nodes; ++k) {
+    auto scan = std::make_shared<mrpt::obs::CObservation2DRangeScan>();
+    scan->resizeScan(1081);
+    for (std::size_t i = 0; i < 1081; ++i) scan->setScanRange(i, ranges(rng));
+    map.nodes.push_back({0, 0.1 * k, core::Pose2(0.1 * k, 0, 0), core::Pose2(0.1 * k, 0, 0), scan});
+    if (k > 0) {
+      map.edges.push_back({k - 1, k, MapSnapshot::EdgeKind::kOdometry, core::Pose2(0.1, 0, 0),
+                           Eigen::Matrix3d::Identity(), rrr::Verdict::kPending, -1, ""});
+    }
+  }
+  map.submaps.push_back({0, nodes - 1});
+  return map;
+}
+
+// A temporary file of `path` being written (path.tmp.XXXXXX), if there is one.
+std::string temporaryOf(const std::string& path) {
+  const std::string dir = path.substr(0, path.rfind('/'));
+  const std::string prefix = path.substr(path.rfind('/') + 1) + ".tmp.";
+  std::string found;
+  if (DIR* d = opendir(dir.c_str())) {
+    while (const dirent* e = readdir(d)) {
+      if (std::string(e->d_name).rfind(prefix, 0) == 0) found = dir + "/" + e->d_name;
+    }
+    closedir(d);
+  }
+  return found;
+}
+
+TEST(MapFile, AProcessKilledWhileSavingLeavesThePreviousMapWhole) {
+  const std::string path = tempPath("killed.rrrmap");
+  writeMapFile(bigMap(10, 1.0F), path);  // the previous map
+  const MapSnapshot next = bigMap(2000, 2.0F);
+  int killed_while_writing = 0;
+  for (int attempt = 0; attempt < 3; ++attempt) {
+    const pid_t child = fork();
+    ASSERT_GE(child, 0);
+    if (child == 0) {
+      writeMapFile(next, path);
+      _exit(0);
+    }
+    // Killed the moment its temporary file appears: in the middle of writing the new map.
+    std::string temporary;
+    for (int k = 0; k < 200000 && temporary.empty(); ++k) {
+      temporary = temporaryOf(path);
+      if (temporary.empty()) std::this_thread::sleep_for(std::chrono::microseconds(20));
+    }
+    kill(child, SIGKILL);
+    int status = 0;
+    waitpid(child, &status, 0);
+    const MapSnapshot read = readMapFile(path);
+    if (!temporaryOf(path).empty()) {
+      ++killed_while_writing;
+      EXPECT_EQ(read.nodes.size(), 10u) << "a save killed mid-write replaced the map";
+      std::remove(temporaryOf(path).c_str());
+    } else {
+      // It got as far as the rename: the new map, whole.
+      EXPECT_EQ(read.nodes.size(), 2000u);
+      writeMapFile(bigMap(10, 1.0F), path);
+    }
+  }
+  EXPECT_GT(killed_while_writing, 0) << "no kill landed while the file was written";
 }
 
 TEST(MapFile, AnInitialPoseRestrictsTheSearchAroundIt) {
