@@ -15,7 +15,7 @@ import math
 from dataclasses import dataclass
 from typing import List, Optional, Tuple
 
-from .graph_io import GraphFileError, Pose, between, tagged_lines
+from .graph_io import GraphFileError, Pose, between, tagged_lines, text_lines
 
 
 @dataclass
@@ -147,3 +147,45 @@ def odometry_stream(log: CarmenLog) -> List[Tuple[float, Pose, float, float]]:
 
 def is_miss(reading: float, max_range: Optional[float]) -> bool:
     return max_range is not None and reading >= max_range
+
+
+def write_moved_log(source: str, target: str, frame: Pose, later: float = 0.0) -> None:
+    """Writes the CARMEN log `source` (plain or .gz) to `target` as another run would have logged
+    it: every pose of its FLASER, ROBOTLASER1 and ODOM lines seen from an odometry frame moved by
+    the SE(2) `frame` (p' = frame * p) and every timestamp `later` seconds later. Other lines are
+    copied. For multi-session tests and benchmarks: the same scans from an unrelated frame."""
+    fx, fy, ft = frame
+    c, s = math.cos(ft), math.sin(ft)
+
+    def move(fields: List[str], k: int) -> None:
+        x, y, t = (float(v) for v in fields[k:k + 3])
+        fields[k:k + 3] = [repr(fx + c * x - s * y), repr(fy + s * x + c * y), repr(t + ft)]
+
+    def delay(fields: List[str], *ks: int) -> None:
+        for k in ks:
+            fields[k] = repr(float(fields[k]) + later)
+
+    out = []
+    for _, line in text_lines(source):
+        fields = line.split()
+        tag = fields[0] if fields else ""
+        if tag == "FLASER":
+            n = int(fields[1])
+            move(fields, 2 + n)
+            move(fields, 5 + n)
+            delay(fields, 8 + n, 10 + n)
+        elif tag == "ROBOTLASER1":
+            n = int(fields[8])
+            k = 10 + n + int(fields[9 + n])
+            move(fields, k)
+            move(fields, k + 3)
+            delay(fields, k + 11, k + 13)
+        elif tag == "ODOM":
+            move(fields, 1)
+            delay(fields, 7, 9)
+        else:
+            out.append(line + "\n")
+            continue
+        out.append(" ".join(fields) + "\n")
+    with open(target, "w") as f:
+        f.write("".join(out))

@@ -8,7 +8,7 @@ import pytest
 
 from conftest import DATA
 from rrr_graphslam.carmen import flaser_increment, monotonic_stamps, odometry_stream, read_carmen
-from rrr_graphslam.graph_io import GraphFileError
+from rrr_graphslam.graph_io import GraphFileError, between
 
 ROBOTLASER = ("ROBOTLASER1 0 -1.570796 3.141593 0.017453 81.900000 0.010000 0 3 1.0 81.91 2.0 0 "
               "0.1 0.0 0.0 0.0 0.0 0.0 0.2 0.0 1.0 1.0 0.5 12.5 host 0.0\n")
@@ -75,3 +75,23 @@ def test_bundled_aces_head():
     assert len(log.lasers) > 250 and all(len(r.ranges) == 180 for r in log.lasers)
     assert log.max_range == pytest.approx(50.0)
     assert len(odometry_stream(log)) == len(log.odometry) > 250
+
+
+def test_a_moved_log_is_the_same_run_seen_from_another_frame(tmp_path):
+    from rrr_graphslam.carmen import write_moved_log
+    source = os.path.join(DATA, "carmen", "aces_head.clf.gz")
+    target = tmp_path / "moved.clf"
+    frame = (10.0, -5.0, 2.0)
+    write_moved_log(source, str(target), frame, later=100.0)
+    a, b = read_carmen(source), read_carmen(str(target))
+    assert len(a.lasers) == len(b.lasers) and len(a.odometry) == len(b.odometry)
+    c, s = math.cos(frame[2]), math.sin(frame[2])
+    for r, m in zip(a.lasers, b.lasers):
+        assert m.timestamp == pytest.approx(r.timestamp + 100.0)
+        assert m.ranges == r.ranges
+        x, y, t = r.odom_pose
+        assert m.odom_pose[0] == pytest.approx(frame[0] + c * x - s * y)
+        assert m.odom_pose[1] == pytest.approx(frame[1] + s * x + c * y)
+        # The laser's pose on the robot is unchanged.
+        assert between(m.odom_pose, m.laser_pose) == pytest.approx(between(r.odom_pose, r.laser_pose), abs=1e-9)
+    assert b.odometry[0].timestamp == pytest.approx(a.odometry[0].timestamp + 100.0)

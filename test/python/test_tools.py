@@ -244,26 +244,6 @@ needs_map_info = pytest.mark.skipif(not (SLAM_OFFLINE and MAP_INFO), reason="rrr
 SMALL_SUBMAPS = ("--scans-per-submap", 10, "--min-node-separation", 15)
 
 
-def moved_log(source, target, frame):
-    """The CARMEN log with every pose (laser and odometry) seen from another odometry frame."""
-    import gzip
-    fx, fy, ft = frame
-    c, s = math.cos(ft), math.sin(ft)
-    lines = []
-    with gzip.open(source, "rt") as f:
-        for line in f:
-            fields = line.split()
-            if fields and fields[0] == "FLASER":
-                n = int(fields[1])
-                for k in (2 + n, 5 + n):
-                    x, y, t = (float(v) for v in fields[k:k + 3])
-                    fields[k:k + 3] = [repr(fx + c * x - s * y), repr(fy + s * x + c * y), repr(t + ft)]
-                line = " ".join(fields) + "\n"
-            lines.append(line)
-    target.write_text("".join(lines))
-    return target
-
-
 @needs_map_info
 def test_a_saved_map_is_continued_as_a_new_session_from_another_odometry_frame(tmp_path):
     from rrr_graphslam.relations import read_tum
@@ -283,7 +263,9 @@ def test_a_saved_map_is_continued_as_a_new_session_from_another_odometry_frame(t
     assert (tmp_path / "m.pgm").read_bytes().startswith(b"P5")
 
     # The same log again, its odometry 100 m away and turned: a new session tied to the map.
-    moved = moved_log(ACES_HEAD, tmp_path / "moved.clf", (100.0, -40.0, 2.0))
+    from rrr_graphslam.carmen import write_moved_log
+    moved = tmp_path / "moved.clf"
+    write_moved_log(ACES_HEAD, str(moved), (100.0, -40.0, 2.0))
     second = run(SLAM_OFFLINE, moved, "--load-map", first_map, "--save-map", first_map,
                  "--session-trajectory", tmp_path / "t2.txt", "--trajectory", tmp_path / "all.txt",
                  "--refine-resolution", 0, "--quiet", *SMALL_SUBMAPS)

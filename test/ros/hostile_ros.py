@@ -16,6 +16,8 @@ from std_srvs.srv import Trigger
 from tf2_msgs.msg import TFMessage
 
 from rrr_graphslam.msg import LoopCandidate, PoseGraphEdge, RrrStatus  # noqa: E402
+from rostest_helpers import wait_for  # noqa: E402
+
 
 NODE = "/rrr_graphslam"
 ROOM = (-4.0, 6.0, -3.0, 5.0)  # x_min, x_max, y_min, y_max of the walls (m)
@@ -36,13 +38,6 @@ def transform(parent, child, stamp, x, y, yaw):
     t.transform.translation.x, t.transform.translation.y = x, y
     t.transform.rotation.z, t.transform.rotation.w = math.sin(yaw / 2), math.cos(yaw / 2)
     return t
-
-
-def wait_for(condition, timeout=10.0):
-    deadline = time.monotonic() + timeout
-    while not condition() and time.monotonic() < deadline and not rospy.is_shutdown():
-        time.sleep(0.02)
-    return condition()
 
 
 class Hostile(unittest.TestCase):

@@ -24,15 +24,10 @@ from rrr_graphslam.outliers import add_outliers  # noqa: E402
 from rrr_graphslam.replay import decisions_in_file_order  # noqa: E402
 from rrr_graphslam.replay_ros import PoseGraphReplay  # noqa: E402
 from rrr_graphslam.srv import LoadGraph, SaveGraph  # noqa: E402
+from rostest_helpers import wait_for  # noqa: E402
+
 
 NODE = "/rrr_graphslam"
-
-
-def wait_for(condition, timeout=20.0):
-    deadline = time.monotonic() + timeout
-    while not condition() and time.monotonic() < deadline and not rospy.is_shutdown():
-        time.sleep(0.01)
-    return condition()
 
 
 class RrrGraphSlamRos(unittest.TestCase):

@@ -1,7 +1,5 @@
 #!/usr/bin/python3
 """rostest: ~save_map, ~load_map and a new session from another odometry frame, tied to the map."""
-import gzip
-import math
 import os
 import subprocess
 import sys
@@ -13,49 +11,13 @@ import rospy
 import rostest
 from geometry_msgs.msg import PoseWithCovarianceStamped
 
+from rrr_graphslam.carmen import write_moved_log  # noqa: E402
 from rrr_graphslam.msg import LoopClosureDecision, RrrStatus  # noqa: E402
 from rrr_graphslam.srv import LoadMap, SaveMap  # noqa: E402
+from rostest_helpers import wait_for  # noqa: E402
+
 
 NODE = "/rrr_graphslam"
-
-
-def wait_for(condition, timeout=60.0):
-    deadline = time.monotonic() + timeout
-    while not condition() and time.monotonic() < deadline and not rospy.is_shutdown():
-        time.sleep(0.05)
-    return condition()
-
-
-def moved_log(source, target, frame, later):
-    """The CARMEN log seen from another odometry frame (every FLASER and ODOM pose moved by the
-    SE(2) `frame`) and `later` seconds later."""
-    fx, fy, ft = frame
-    c, s = math.cos(ft), math.sin(ft)
-
-    def move(fields, k):
-        x, y, t = (float(v) for v in fields[k:k + 3])
-        fields[k:k + 3] = [repr(fx + c * x - s * y), repr(fy + s * x + c * y), repr(t + ft)]
-
-    lines = []
-    with gzip.open(source, "rt") as f:
-        for line in f:
-            fields = line.split()
-            if fields and fields[0] == "FLASER":
-                n = int(fields[1])
-                move(fields, 2 + n)
-                move(fields, 5 + n)
-                for k in (8 + n, 10 + n):
-                    fields[k] = repr(float(fields[k]) + later)
-            elif fields and fields[0] == "ODOM":
-                move(fields, 1)
-                for k in (7, 9):
-                    fields[k] = repr(float(fields[k]) + later)
-            else:
-                lines.append(line)
-                continue
-            lines.append(" ".join(fields) + "\n")
-    with open(target, "w") as f:
-        f.write("".join(lines))
 
 
 class Sessions(unittest.TestCase):
@@ -108,7 +70,7 @@ class Sessions(unittest.TestCase):
         self.assertFalse(self.status.tied_to_map)
 
         moved = os.path.join(self.folder, "moved.clf")
-        moved_log(self.log, moved, (50.0, 20.0, 2.5), 100.0)
+        write_moved_log(self.log, moved, (50.0, 20.0, 2.5), later=100.0)
         decisions_before = len(self.decisions)
         self.play(moved, "replay_second")
         self.assertGreater(self.status.nodes, first_nodes + 30)

@@ -15,15 +15,10 @@ from std_srvs.srv import Trigger
 from tf2_msgs.msg import TFMessage
 
 from rrr_graphslam.msg import LoopClosureDecision, RrrStatus  # noqa: E402
+from rostest_helpers import wait_for  # noqa: E402
+
 
 NODE = "/rrr_graphslam"
-
-
-def wait_for(condition, timeout=60.0):
-    deadline = time.monotonic() + timeout
-    while not condition() and time.monotonic() < deadline and not rospy.is_shutdown():
-        time.sleep(0.05)
-    return condition()
 
 
 class SlamMode(unittest.TestCase):
