@@ -177,9 +177,12 @@ void Optimizer::rebuildPattern() {
   // 1.8x the supernodal ones on City10000, yet with reserved slots (most new nodes join by
   // updates) incremental City10000 + 1000 random seeds 1/2/3 has 103/78/90 candidates over
   // 50 ms instead of 132/112/83 with CHOLMOD's choice (without slots: within the noise).
-  solver_.analyze(
-      hessian_.matrix(), true,
-      params_.factor_updates ? SparseSolver::Kind::kSimplicial : SparseSolver::Kind::kAuto);
+  // Nothing to analyze without variables (a graph of fixed nodes only): CHOLMOD would complain.
+  if (num_variables_ > 0) {
+    solver_.analyze(
+        hessian_.matrix(), true,
+        params_.factor_updates ? SparseSolver::Kind::kSimplicial : SparseSolver::Kind::kAuto);
+  }
   pattern_valid_ = true;
   factor_valid_ = false;
   covariance_valid_ = false;

@@ -2,13 +2,12 @@
 
 #include <zlib.h>
 
+#include <cmath>
 #include <cstring>
 #include <fstream>
 #include <iterator>
 #include <stdexcept>
-
-#include <mrpt/serialization/CArchive.h>
-#include <mrpt/serialization/archiveFrom_std_vector.h>
+#include <type_traits>
 
 #include "rrr_graphslam/core/atomic_file.h"
 #include "rrr_graphslam/core/input_error.h"
@@ -18,59 +17,179 @@ namespace {
 
 constexpr char kMagic[8] = {'R', 'R', 'R', 'M', 'A', 'P', '\n', '\0'};
 constexpr std::size_t kHeaderBytes = 8 + 4 + 8 + 8 + 4;
+// Payloads are held in memory whole; beyond this a file is refused rather than allocated.
+constexpr std::uint64_t kMaxPayloadBytes = std::uint64_t{1} << 31;
 
-using Archive = mrpt::serialization::CArchive;
+static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__,
+              "map files are little-endian; a big-endian build needs byte swaps in Writer/Reader");
 
-void putPose(Archive& out, const core::Pose2& p) { out << p.x() << p.y() << p.z(); }
-core::Pose2 getPose(Archive& in) {
-  double x = 0, y = 0, z = 0;
-  in >> x >> y >> z;
-  return {x, y, z};
-}
-
-// A count read from the payload, which cannot exceed the payload's bytes (every item takes at
-// least one): a corrupted or hostile count fails here instead of allocating.
-std::size_t getCount(Archive& in, std::size_t payload_bytes, const char* what) {
-  std::uint64_t n = 0;
-  in >> n;
-  if (n > payload_bytes) {
-    throw std::invalid_argument(std::string(what) + " count " + std::to_string(n) +
-                                " exceeds the payload");
+// Little-endian records. Every length read is checked against the bytes left before anything is
+// allocated: MRPT's own deserializers allocate from lengths in the data first (a 4 GiB label or a
+// billion readings in a damaged scan), which a map file read from a robot's disk cannot allow.
+class Writer {
+ public:
+  template <class T>
+  void put(T value) {
+    static_assert(std::is_arithmetic_v<T>);
+    char bytes[sizeof(T)];
+    std::memcpy(bytes, &value, sizeof(T));
+    bytes_.append(bytes, sizeof(T));
   }
-  return static_cast<std::size_t>(n);
-}
+  void put(const std::string& text) {
+    put<std::uint64_t>(text.size());
+    bytes_ += text;
+  }
+  void put(const core::Pose2& p) {
+    put(p.x());
+    put(p.y());
+    put(p.z());
+  }
+  const std::string& bytes() const { return bytes_; }
 
-std::vector<std::uint8_t> encodePayload(const MapSnapshot& map) {
-  std::vector<std::uint8_t> bytes;
-  auto out = mrpt::serialization::archiveFrom(bytes);
-  out << static_cast<std::uint64_t>(map.params.size());
-  for (const auto& [name, value] : map.params) out << name << value;
-  out << static_cast<std::uint64_t>(map.sessions.size());
-  for (const auto& s : map.sessions) {
-    out << s.name << s.start_time << static_cast<std::int64_t>(s.first_node);
+ private:
+  std::string bytes_;
+};
+
+class Reader {
+ public:
+  explicit Reader(const std::vector<std::uint8_t>& bytes) : bytes_(bytes) {}
+  template <class T>
+  T get() {
+    static_assert(std::is_arithmetic_v<T>);
+    need(sizeof(T), "a value");
+    T value;
+    std::memcpy(&value, bytes_.data() + pos_, sizeof(T));
+    pos_ += sizeof(T);
+    return value;
   }
-  out << static_cast<std::uint64_t>(map.nodes.size());
-  for (const auto& n : map.nodes) {
-    out << static_cast<std::int64_t>(n.session) << n.timestamp;
-    putPose(out, n.local_pose);
-    putPose(out, n.map_pose);
-    out << *n.scan;
+  double finite() {
+    const double v = get<double>();
+    if (!std::isfinite(v)) throw std::invalid_argument("a value is not finite");
+    return v;
   }
-  out << static_cast<std::uint64_t>(map.edges.size());
-  for (const auto& e : map.edges) {
-    out << static_cast<std::int64_t>(e.from) << static_cast<std::int64_t>(e.to)
-        << static_cast<std::uint8_t>(e.kind);
-    putPose(out, e.measurement);
-    for (int r = 0; r < 3; ++r) {
-      for (int c = 0; c < 3; ++c) out << e.information(r, c);
+  std::string text() {
+    const std::size_t n = count(1, "a string");
+    std::string s(reinterpret_cast<const char*>(bytes_.data() + pos_), n);
+    pos_ += n;
+    return s;
+  }
+  core::Pose2 pose() {
+    const double x = get<double>(), y = get<double>(), z = get<double>();
+    return {x, y, z};
+  }
+  /// A count of items of at least `item_bytes` each, checked against the bytes left.
+  std::size_t count(std::size_t item_bytes, const char* what) {
+    const auto n = get<std::uint64_t>();
+    if (n > (bytes_.size() - pos_) / item_bytes) {
+      throw std::invalid_argument(std::string(what) + " count " + std::to_string(n) +
+                                  " exceeds the " + std::to_string(bytes_.size() - pos_) +
+                                  " bytes left");
     }
-    out << static_cast<std::uint8_t>(e.verdict) << static_cast<std::int64_t>(e.cluster) << e.reason;
+    return static_cast<std::size_t>(n);
   }
-  out << static_cast<std::uint64_t>(map.submaps.size());
+  void expectEnd() const {
+    if (pos_ != bytes_.size()) {
+      throw std::invalid_argument(std::to_string(bytes_.size() - pos_) + " bytes after the map");
+    }
+  }
+
+ private:
+  void need(std::size_t n, const char* what) const {
+    if (bytes_.size() - pos_ < n) {
+      throw std::invalid_argument(std::string("ends inside ") + what + " at byte " +
+                                  std::to_string(pos_));
+    }
+  }
+  const std::vector<std::uint8_t>& bytes_;
+  std::size_t pos_ = 0;
+};
+
+// A scan as the grids use it: its geometry, readings and their validity.
+void putScan(Writer& out, const mrpt::obs::CObservation2DRangeScan& scan) {
+  out.put(scan.aperture);
+  out.put<std::uint8_t>(scan.rightToLeft ? 1 : 0);
+  out.put(scan.maxRange);
+  for (double v : {scan.sensorPose.x(), scan.sensorPose.y(), scan.sensorPose.z(),
+                   scan.sensorPose.yaw(), scan.sensorPose.pitch(), scan.sensorPose.roll()}) {
+    out.put(v);
+  }
+  out.put(scan.stdError);
+  out.put(scan.beamAperture);
+  out.put(scan.deltaPitch);
+  out.put<std::uint64_t>(scan.getScanSize());
+  for (std::size_t i = 0; i < scan.getScanSize(); ++i) {
+    out.put(scan.getScanRange(i));
+    out.put<std::uint8_t>(scan.getScanRangeValidity(i) ? 1 : 0);
+  }
+}
+
+std::shared_ptr<const mrpt::obs::CObservation2DRangeScan> getScan(Reader& in) {
+  auto scan = std::make_shared<mrpt::obs::CObservation2DRangeScan>();
+  scan->aperture = in.get<float>();
+  const auto right_to_left = in.get<std::uint8_t>();
+  if (right_to_left > 1) throw std::invalid_argument("a scan's direction byte is not 0 or 1");
+  scan->rightToLeft = right_to_left == 1;
+  scan->maxRange = in.get<float>();
+  double pose[6];
+  for (double& v : pose) v = in.finite();
+  scan->sensorPose = mrpt::poses::CPose3D(pose[0], pose[1], pose[2], pose[3], pose[4], pose[5]);
+  scan->stdError = in.get<float>();
+  scan->beamAperture = in.get<float>();
+  scan->deltaPitch = in.get<double>();
+  if (!std::isfinite(scan->aperture) || !std::isfinite(scan->maxRange)) {
+    throw std::invalid_argument("a scan's aperture or maximum range is not finite");
+  }
+  const std::size_t n = in.count(sizeof(float) + 1, "a scan's reading");
+  scan->resizeScan(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    scan->setScanRange(i, in.get<float>());
+    const auto valid = in.get<std::uint8_t>();
+    if (valid > 1) throw std::invalid_argument("a reading's validity byte is not 0 or 1");
+    scan->setScanRangeValidity(i, valid == 1);
+  }
+  return scan;
+}
+
+std::string encodePayload(const MapSnapshot& map) {
+  Writer out;
+  out.put<std::uint64_t>(map.params.size());
+  for (const auto& [name, value] : map.params) {
+    out.put(name);
+    out.put(value);
+  }
+  out.put<std::uint64_t>(map.sessions.size());
+  for (const auto& s : map.sessions) {
+    out.put(s.name);
+    out.put(s.start_time);
+    out.put<std::int64_t>(s.first_node);
+  }
+  out.put<std::uint64_t>(map.nodes.size());
+  for (const auto& n : map.nodes) {
+    out.put<std::int64_t>(n.session);
+    out.put(n.timestamp);
+    out.put(n.local_pose);
+    out.put(n.map_pose);
+    putScan(out, *n.scan);
+  }
+  out.put<std::uint64_t>(map.edges.size());
+  for (const auto& e : map.edges) {
+    out.put<std::int64_t>(e.from);
+    out.put<std::int64_t>(e.to);
+    out.put(static_cast<std::uint8_t>(e.kind));
+    out.put(e.measurement);
+    for (int r = 0; r < 3; ++r) {
+      for (int c = 0; c < 3; ++c) out.put(e.information(r, c));
+    }
+    out.put(static_cast<std::uint8_t>(e.verdict));
+    out.put<std::int64_t>(e.cluster);
+    out.put(e.reason);
+  }
+  out.put<std::uint64_t>(map.submaps.size());
   for (const auto& s : map.submaps) {
-    out << static_cast<std::int64_t>(s.first_node) << static_cast<std::int64_t>(s.last_node);
+    out.put<std::int64_t>(s.first_node);
+    out.put<std::int64_t>(s.last_node);
   }
-  return bytes;
+  return out.bytes();
 }
 
 int toInt(std::int64_t v, const char* what) {
@@ -83,56 +202,55 @@ int toInt(std::int64_t v, const char* what) {
 MapSnapshot decodePayload(const std::vector<std::uint8_t>& bytes, std::uint32_t version) {
   MapSnapshot map;
   map.format_version = version;
-  auto in = mrpt::serialization::archiveFrom(bytes);
-  const std::size_t size = bytes.size();
-  std::int64_t a = 0, b = 0;
-  map.params.resize(getCount(in, size, "parameter"));
-  for (auto& [name, value] : map.params) in >> name >> value;
-  map.sessions.resize(getCount(in, size, "session"));
+  Reader in(bytes);
+  map.params.resize(in.count(16, "parameter"));
+  for (auto& [name, value] : map.params) {
+    name = in.text();
+    value = in.text();
+  }
+  map.sessions.resize(in.count(24, "session"));
   for (auto& s : map.sessions) {
-    in >> s.name >> s.start_time >> a;
-    s.first_node = toInt(a, "session first node");
+    s.name = in.text();
+    s.start_time = in.get<double>();
+    s.first_node = toInt(in.get<std::int64_t>(), "session first node");
   }
-  map.nodes.resize(getCount(in, size, "node"));
+  map.nodes.resize(in.count(64, "node"));
   for (auto& n : map.nodes) {
-    in >> a >> n.timestamp;
-    n.session = toInt(a, "node session");
-    n.local_pose = getPose(in);
-    n.map_pose = getPose(in);
-    auto scan = std::make_shared<mrpt::obs::CObservation2DRangeScan>();
-    in >> *scan;
-    n.scan = std::move(scan);
+    n.session = toInt(in.get<std::int64_t>(), "node session");
+    n.timestamp = in.get<double>();
+    n.local_pose = in.pose();
+    n.map_pose = in.pose();
+    n.scan = getScan(in);
   }
-  map.edges.resize(getCount(in, size, "edge"));
+  map.edges.resize(in.count(64, "edge"));
   for (auto& e : map.edges) {
-    std::uint8_t kind = 0, verdict = 0;
-    in >> a >> b >> kind;
-    e.from = toInt(a, "edge from");
-    e.to = toInt(b, "edge to");
+    e.from = toInt(in.get<std::int64_t>(), "edge from");
+    e.to = toInt(in.get<std::int64_t>(), "edge to");
+    const auto kind = in.get<std::uint8_t>();
     if (kind > 2) throw std::invalid_argument("edge kind " + std::to_string(kind) + " is unknown");
     e.kind = static_cast<MapSnapshot::EdgeKind>(kind);
-    e.measurement = getPose(in);
+    e.measurement = in.pose();
     for (int r = 0; r < 3; ++r) {
-      for (int c = 0; c < 3; ++c) in >> e.information(r, c);
+      for (int c = 0; c < 3; ++c) e.information(r, c) = in.get<double>();
     }
-    in >> verdict >> a >> e.reason;
+    const auto verdict = in.get<std::uint8_t>();
     if (verdict > 2)
       throw std::invalid_argument("verdict " + std::to_string(verdict) + " is unknown");
     e.verdict = static_cast<rrr::Verdict>(verdict);
-    e.cluster = toInt(a, "edge cluster");
+    e.cluster = toInt(in.get<std::int64_t>(), "edge cluster");
+    e.reason = in.text();
   }
-  map.submaps.resize(getCount(in, size, "submap"));
+  map.submaps.resize(in.count(16, "submap"));
   for (auto& s : map.submaps) {
-    in >> a >> b;
-    s.first_node = toInt(a, "submap first node");
-    s.last_node = toInt(b, "submap last node");
+    s.first_node = toInt(in.get<std::int64_t>(), "submap first node");
+    s.last_node = toInt(in.get<std::int64_t>(), "submap last node");
   }
+  in.expectEnd();
   return map;
 }
 
 template <class T>
 void putRaw(std::string& out, T value) {
-  // Little-endian, as every platform this builds on; the payload itself is MRPT's portable one.
   for (std::size_t k = 0; k < sizeof(T); ++k) {
     out.push_back(static_cast<char>((static_cast<std::uint64_t>(value) >> (8 * k)) & 0xff));
   }
@@ -206,11 +324,16 @@ void MapSnapshot::check() const {
 
 void writeMapFile(const MapSnapshot& map, const std::string& path) {
   map.check();
-  const std::vector<std::uint8_t> payload = encodePayload(map);
+  const std::string payload = encodePayload(map);
+  if (payload.size() >= kMaxPayloadBytes) {
+    throw std::runtime_error(path + ": the map is too large for the format (" +
+                             std::to_string(payload.size()) + " bytes)");
+  }
   uLongf packed_size = compressBound(static_cast<uLong>(payload.size()));
   std::string packed(packed_size, '\0');
-  if (compress2(reinterpret_cast<Bytef*>(packed.data()), &packed_size, payload.data(),
-                static_cast<uLong>(payload.size()), Z_DEFAULT_COMPRESSION) != Z_OK) {
+  if (compress2(reinterpret_cast<Bytef*>(packed.data()), &packed_size,
+                reinterpret_cast<const Bytef*>(payload.data()), static_cast<uLong>(payload.size()),
+                Z_DEFAULT_COMPRESSION) != Z_OK) {
     throw std::runtime_error(path + ": compression failed");
   }
   packed.resize(packed_size);
@@ -249,8 +372,11 @@ MapSnapshot readMapFile(const std::string& path) {
   }
   const auto* packed = reinterpret_cast<const Bytef*>(data.data() + kHeaderBytes);
   if (crc32(0, packed, static_cast<uInt>(packed_size)) != crc) fail("checksum mismatch: corrupted");
-  // The CRC held, so the size is what the writer wrote; bound it anyway (1000:1 is beyond zlib).
-  if (payload_size > 1000 * (packed_size + 1)) fail("payload size is implausible");
+  // The CRC held, so the size is what the writer wrote; bound it anyway (deflate's ratio stays
+  // below 1032:1).
+  if (payload_size > 1040 * (packed_size + 1) || payload_size >= kMaxPayloadBytes) {
+    fail("payload size " + std::to_string(payload_size) + " is implausible");
+  }
   std::vector<std::uint8_t> payload(payload_size);
   uLongf unpacked = static_cast<uLongf>(payload_size);
   if (uncompress(payload.data(), &unpacked, packed, static_cast<uLong>(packed_size)) != Z_OK ||

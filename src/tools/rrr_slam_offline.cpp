@@ -309,6 +309,9 @@ void printSessions(const frontend::LaserSlam& slam) {
     std::printf("relocalized    at node %d (the session's node %d, %.1f s after its start)\n",
                 *tied, *tied - current.first_node,
                 slam.nodeTimestamps()[static_cast<std::size_t>(*tied)] - current.start_time);
+  } else if (slam.tied()) {
+    std::printf(
+        "relocalized    only by the final decision (a loop to the map accepted at the end)\n");
   } else {
     std::printf("relocalized    no: this session is a separate component of the map\n");
   }

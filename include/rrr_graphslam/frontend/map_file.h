@@ -6,8 +6,9 @@
 //
 // Layout (doc/design.md, "The map file"): an 8-byte magic "RRRMAP\n\0", the format version
 // (uint32), the payload's size and its compressed size (uint64 each), the CRC-32 of the
-// compressed payload (uint32), then the payload compressed with zlib. The payload is written with
-// MRPT's CArchive (portable byte order; scans as serialized CObservation2DRangeScan objects).
+// compressed payload (uint32), then the payload compressed with zlib. The payload is a sequence
+// of little-endian records whose every length is checked against the bytes left before anything
+// is allocated.
 // Files are written atomically and read all or nothing: a truncated, corrupted, unknown or newer
 // file is an InputError naming the file and what is wrong.
 
