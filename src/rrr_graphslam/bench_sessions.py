@@ -252,7 +252,8 @@ class GroundTruth:
         return None if i is None else self.pose_of_scan(i)
 
 
-def local_from_trajectory(raw: Sequence[RawScan], stamps: Sequence[float], poses: Sequence[Pose]) -> List[Optional[Pose]]:
+def local_from_trajectory(raw: Sequence[RawScan], stamps: Sequence[float],
+                          poses: Sequence[Pose]) -> List[Optional[Pose]]:
     """The trajectory's pose of every raw scan (None where it has none)."""
     index = StampIndex(stamps)
     out = []
@@ -308,7 +309,8 @@ def parse_summary(text: str) -> RunSummary:
         s.relocalized = "final"
     elif re.search(r"^relocalized\s+no", text, re.M):
         s.relocalized = "no"
-    crossing = re.findall(r"^session .*: \d+ nodes, \d+ edges, (\d+) accepted loops to other sessions", text, re.M)
+    crossing = re.findall(r"^session .*: \d+ nodes, \d+ edges, (\d+) accepted loops to other sessions",
+                          text, re.M)
     if crossing:
         s.crossing_accepted = int(crossing[-1])
     return s
@@ -490,6 +492,13 @@ def cross_relations(relations, session_of_stamp) -> list:
 # Running the tools
 
 
+@dataclass
+class Criteria:
+    false_m: float = 0.5        # an accepted loop is false beyond this ...
+    false_deg: float = 10.0     # ... or this, against the ground truth
+    mapped_radius: float = 1.0  # m: a node is in mapped space this close to an earlier session's node
+
+
 class Tools:
     def __init__(self, slam: str, map_info: str, extra: Sequence[str], reuse: bool):
         self.slam, self.map_info, self.extra, self.reuse = slam, map_info, list(extra), reuse
@@ -501,7 +510,8 @@ class Tools:
             with open(summary) as f:
                 return parse_summary(f.read())
         cmd = [self.slam, log, "--quiet"] + list(args) + self.extra
-        print("  " + " ".join(os.path.basename(c) if k < 2 else c for k, c in enumerate(cmd)), file=sys.stderr)
+        print("  " + " ".join(os.path.basename(c) if k < 2 else c for k, c in enumerate(cmd)),
+              file=sys.stderr)
         result = subprocess.run(cmd, capture_output=True, text=True)
         if result.returncode != 0:
             raise RuntimeError(f"{' '.join(cmd)} failed:\n{result.stderr}")
@@ -523,7 +533,8 @@ def run_files(out_dir: str, stem: str) -> Dict[str, str]:
         map=".rrrmap", probe=".probe.txt").items()}
 
 
-def probe(tools: Tools, log: str, out_dir: str, stem: str, map_path: str) -> Tuple[RunSummary, List[float], List[Pose]]:
+def probe(tools: Tools, log: str, out_dir: str, stem: str,
+          map_path: str) -> Tuple[RunSummary, List[float], List[Pose]]:
     """Loads a map with one scan of `log` as a new session: the load time, and the stamp and map
     pose of every node of the map (the first lines of --trajectory; no tool prints node stamps)."""
     files = run_files(out_dir, stem)
@@ -592,8 +603,8 @@ def fmt_row(r: SessionRow) -> str:
 
 HEADER = ("| log | sessions | seed | session | scans / nodes | time (s) | relocalized at the session's "
           "node (s after start) | entered mapped space | nodes from entry to tie | inter-session loops "
-          "accepted at the end of its run (false) | load (s) | save (s) | map file (× gzipped log) | relation error, all "
-          "(relations) | relation error, cross-session (relations) |")
+          "accepted at the end of its run (false) | load (s) | save (s) | map file (× gzipped log) | "
+          "relation error, all (relations) | relation error, cross-session (relations) |")
 
 
 def find(name: str, dirs: Sequence[str]) -> Optional[str]:
@@ -642,7 +653,9 @@ def session_of_stamp_from_parts(parts: Sequence[str]):
     return of
 
 
-def run_single(tools: Tools, data: LogData, cache: str) -> Tuple[SessionRow, str]:
+def run_single(tools: Tools, data: LogData, cache: str, criteria: Criteria) -> Tuple[SessionRow, str]:
+    """The log mapped in one run (its map saved and loaded again for the times); the ground truth
+    takes this run's motion between corrected scans from here on."""
     out = os.path.join(cache, data.name, "single")
     os.makedirs(out, exist_ok=True)
     f = run_files(out, "run")
@@ -652,16 +665,18 @@ def run_single(tools: Tools, data: LogData, cache: str) -> Tuple[SessionRow, str
     data.use_local_motion(f["trajectory"])
     p, node_stamps, _ = probe(tools, data.log, out, "run", f["map"])
     loops = check_loops(accepted_loops(f["graph"], f["decisions"]), node_stamps,
-                        session_of_node([0]), data.truth.pose, ARGS.false_m, ARGS.false_deg)
-    row = SessionRow(data.name, 1, None, None, s, info.bytes, os.path.getsize(data.log), s.nodes, loops=loops,
-                     load_s=p.load_s, save_s=s.save_s)
+                        session_of_node([0]), data.truth.pose, criteria.false_m, criteria.false_deg)
+    row = SessionRow(data.name, 1, None, None, s, info.bytes, os.path.getsize(data.log), s.nodes,
+                     loops=loops, load_s=p.load_s, save_s=s.save_s)
     if data.relations:
         row.all_error = relation_error(*read_tum(f["trajectory"]), data.relations)
     return row, f["trajectory"]
 
 
-def run_sessions(tools: Tools, data: LogData, cache: str, count: int, seed: int,
-                 single_trajectory: str) -> Tuple[List[SessionRow], SessionRow]:
+def run_sessions(tools: Tools, data: LogData, cache: str, count: int, seed: int, single_trajectory: str,
+                 criteria: Criteria) -> Tuple[List[SessionRow], Optional[RelationError]]:
+    """The log in `count` sessions: a row per session (the map as its run left it), and the one
+    run's relation error over this split's cross-session relations."""
     out = os.path.join(cache, data.name, f"{count}_sessions_seed{seed}")
     os.makedirs(out, exist_ok=True)
     parts, transforms = write_sessions(data.log, out, count, seed)
@@ -684,17 +699,17 @@ def run_sessions(tools: Tools, data: LogData, cache: str, count: int, seed: int,
         info = infos[k]
         first_nodes = info.first_nodes()
         of_node = session_of_node(first_nodes)
-        # Node stamps of the map after run k: the loaded nodes of run k+1, or the probe.
-        stamps = read_tum(files[k + 1]["trajectory"])[0][:info.nodes] if k + 1 < count else last_stamps[:info.nodes]
+        # Node stamps of the map after run k: the loaded nodes of run k+1, or the probe's.
+        stamps = (read_tum(files[k + 1]["trajectory"])[0] if k + 1 < count else last_stamps)[:info.nodes]
         truth = data.truth.pose
         positions = []
         for t in stamps:
             p = truth(t)
             positions.append(None if p is None else (p[0], p[1]))
         end = first_nodes[k] + info.session_nodes[k]
-        entry = mapped_space_entry(positions, first_nodes[k], end, ARGS.mapped_radius) if k else None
+        entry = mapped_space_entry(positions, first_nodes[k], end, criteria.mapped_radius) if k else None
         accepted = accepted_loops(files[k]["graph"], files[k]["decisions"])
-        loops = check_loops(accepted, stamps, of_node, truth, ARGS.false_m, ARGS.false_deg, involving=k)
+        loops = check_loops(accepted, stamps, of_node, truth, criteria.false_m, criteria.false_deg, involving=k)
         row = SessionRow(data.name, count, seed, k, summaries[k], info.bytes, sum(gz[:k + 1]),
                          info.session_nodes[k], entry_node=entry, loops=loops, transform=transforms[k],
                          load_s=summaries[k].load_s if k else math.nan, save_s=summaries[k].save_s)
@@ -707,13 +722,14 @@ def run_sessions(tools: Tools, data: LogData, cache: str, count: int, seed: int,
                 s_stamps, s_poses = read_tum(files[j]["session"])
                 then = read_graph(files[j]["graph"]).poses
                 all_stamps += s_stamps
-                all_poses += place_scans(s_stamps, s_poses, stamps[lo:hi], [then[n] for n in range(lo, hi)],
-                                         t_poses[lo:hi])
+                all_poses += place_scans(s_stamps, s_poses, stamps[lo:hi],
+                                         [then[n] for n in range(lo, hi)], t_poses[lo:hi])
             row.all_error = relation_error(all_stamps, all_poses, data.relations)
-            row.cross_error = relation_error(all_stamps, all_poses, cross_relations(data.relations, session_of_stamp))
+            row.cross_error = relation_error(all_stamps, all_poses,
+                                             cross_relations(data.relations, session_of_stamp))
             row.nodes_only_error = relation_error(t_stamps, t_poses, data.relations)
         if k == count - 1:
-            row.final_loops = check_loops(accepted, stamps, of_node, truth, ARGS.false_m, ARGS.false_deg)
+            row.final_loops = check_loops(accepted, stamps, of_node, truth, criteria.false_m, criteria.false_deg)
             row.final_components = session_components(accepted, of_node, count)
         rows.append(row)
 
@@ -726,7 +742,20 @@ def run_sessions(tools: Tools, data: LogData, cache: str, count: int, seed: int,
     return rows, single
 
 
-ARGS = argparse.Namespace(false_m=0.5, false_deg=10.0, mapped_radius=1.0)
+def final_note(name: str, count: int, seed: int, rows: Sequence[SessionRow]) -> str:
+    last, final = rows[-1], rows[-1].final_loops
+    transforms = ", ".join(f"({t[0]:.1f}, {t[1]:.1f}, {math.degrees(t[2]):.0f}°)"
+                           for t in (r.transform for r in rows[1:]))
+    worst = ", ".join(f"{m:.2f} m {d:.1f}° {a}-{b}" for m, d, a, b in final.worst[:3])
+    joined = " ".join("{" + ",".join(str(k + 1) for k in c) + "}" for c in last.final_components)
+    note = (f"{name}, {count} sessions, seed {seed}: transforms {transforms}; final map loaded in "
+            f"{last.final_load_s:.2f} s; its accepted loops {final.checked + final.unknown}, "
+            f"{final.false} beyond the threshold{f' ({worst})' if worst else ''}, inter-session "
+            f"{final.inter_session} ({final.inter_session_false} false); sessions joined: {joined}")
+    if last.nodes_only_error is not None:
+        note += (f"; the tool's --trajectory as written (loaded sessions: nodes only): "
+                 f"{fmt_error(last.nodes_only_error)}")
+    return note
 
 
 def main(argv=None):
@@ -743,11 +772,11 @@ def main(argv=None):
     parser.add_argument("--false-m", type=float, default=0.5, help="a loop is false beyond this (m)")
     parser.add_argument("--false-deg", type=float, default=10.0, help="... or this (degrees)")
     parser.add_argument("--mapped-radius", type=float, default=1.0,
-                        help="a node is in mapped space within this distance (m) of an earlier session's node")
+                        help="a node is in mapped space this close (m) to an earlier session's node")
     parser.add_argument("--reuse", action="store_true", help="reuse the runs kept in --cache")
     parser.add_argument("extra", nargs=argparse.REMAINDER, help="-- then options for rrr_slam_offline")
     args = parser.parse_args(argv)
-    ARGS.false_m, ARGS.false_deg, ARGS.mapped_radius = args.false_m, args.false_deg, args.mapped_radius
+    criteria = Criteria(args.false_m, args.false_deg, args.mapped_radius)
     tools = Tools(args.slam_offline, args.map_info, [a for a in args.extra if a != "--"], args.reuse)
 
     lines = [HEADER, "|" + "---|" * HEADER.count(" | ") + "---|"]
@@ -760,41 +789,29 @@ def main(argv=None):
             continue
         print(f"{name}: one run ...", file=sys.stderr)
         odometry_truth = data.truth
-        single_row, single_traj = run_single(tools, data, args.cache)
+        single_row, single_traj = run_single(tools, data, args.cache, criteria)
         if data.relations:
             def truth_error(truth):
-                return fmt_error(relation_error([s.ipc for s in data.raw],
-                                                [truth.pose_of_scan(i) for i in range(len(data.raw))], data.relations))
+                poses = [truth.pose_of_scan(i) for i in range(len(data.raw))]
+                return fmt_error(relation_error([s.ipc for s in data.raw], poses, data.relations))
             notes.append(f"{name}: ground truth from {data.truth.matched} corrected scans; its relation error "
                          f"{truth_error(data.truth)} (with the raw odometry between corrected scans: "
                          f"{truth_error(odometry_truth)})")
         else:
             notes.append(f"{name}: ground truth from {data.truth.matched} corrected scans; no relations file")
+        worst = single_row.loops.worst
         notes.append(f"{name}, one run: {single_row.loops.checked} accepted loops checked against the ground "
                      f"truth, {single_row.loops.false} beyond {args.false_m} m / {args.false_deg}°"
-                     + (f" (worst {single_row.loops.worst[0][0]:.2f} m / {single_row.loops.worst[0][1]:.1f}°)"
-                        if single_row.loops.worst else ""))
+                     + (f" (worst {worst[0][0]:.2f} m / {worst[0][1]:.1f}°)" if worst else ""))
         for count in args.sessions:
             for seed in args.seeds:
                 print(f"{name}: {count} sessions, seed {seed} ...", file=sys.stderr)
-                rows, single_cross = run_sessions(tools, data, args.cache, count, seed, single_traj)
-                single = SessionRow(**{**single_row.__dict__, "sessions": count, "cross_error": single_cross})
-                lines.append(fmt_row(single))
+                rows, single_cross = run_sessions(tools, data, args.cache, count, seed, single_traj, criteria)
+                if seed == args.seeds[0]:  # the one run, on this split's cross-session relations
+                    lines.append(fmt_row(SessionRow(**{**single_row.__dict__, "sessions": count,
+                                                       "cross_error": single_cross})))
                 lines.extend(fmt_row(r) for r in rows)
-                last = rows[-1]
-                final = last.final_loops
-                note = (f"{name}, {count} sessions, seed {seed}: transforms "
-                        + ", ".join(f"({t[0]:.1f}, {t[1]:.1f}, {math.degrees(t[2]):.0f}°)" for t in
-                                    (r.transform for r in rows[1:]))
-                        + f"; final map loaded in {last.final_load_s:.2f} s; its accepted loops "
-                          f"{final.checked + final.unknown}, {final.false} beyond the threshold"
-                          f"{' (' + ', '.join(f'{m:.2f} m {d:.1f}° {a}-{b}' for m, d, a, b in final.worst[:3]) + ')' if final.worst else ''}"
-                          f", inter-session {final.inter_session} ({final.inter_session_false} false); "
-                          f"sessions joined: {' '.join('{' + ','.join(str(k + 1) for k in c) + '}' for c in last.final_components)}")
-                if last.nodes_only_error is not None:
-                    note += f"; the tool's --trajectory as written (loaded sessions: nodes only): " \
-                            f"{fmt_error(last.nodes_only_error)}"
-                notes.append(note)
+                notes.append(final_note(name, count, seed, rows))
     print("\n".join(lines))
     print()
     print("\n".join("- " + n for n in notes))
