@@ -7,6 +7,7 @@
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
+#include <random>
 #include <sstream>
 #include <stdexcept>
 
@@ -16,15 +17,22 @@ namespace {
 // Writes `data` to a new temporary file next to `path` (flushed, synced, readable as any file the
 // user writes) and returns its name. Throws std::runtime_error naming `path`; nothing is left.
 std::string writeTemporary(const std::string& path, const std::string& data) {
-  std::vector<char> temp_name(path.begin(), path.end());
-  const std::string suffix = ".tmp.XXXXXX";
-  temp_name.insert(temp_name.end(), suffix.begin(), suffix.end());
-  temp_name.push_back('\0');
-  const int fd = mkstemp(temp_name.data());
+  // Created 0666 so that the kernel applies the process's umask (as to any file the user
+  // writes), under a random name next to `path`; O_EXCL never reuses one that exists.
+  static thread_local std::mt19937_64 names{std::random_device{}()};
+  int fd = -1;
+  std::string temp_path;
+  for (int attempt = 0; attempt < 100 && fd < 0; ++attempt) {
+    char suffix[32];
+    std::snprintf(suffix, sizeof suffix, ".tmp.%012llx",
+                  static_cast<unsigned long long>(names() & 0xffffffffffffULL));
+    temp_path = path + suffix;
+    fd = ::open(temp_path.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
+    if (fd < 0 && errno != EEXIST) break;
+  }
   if (fd < 0) {
     throw std::runtime_error(path + ": cannot create temporary file: " + std::strerror(errno));
   }
-  const std::string temp_path(temp_name.data());
   auto fail = [&](const std::string& what) {
     const std::string reason = std::strerror(errno);
     ::close(fd);
@@ -40,10 +48,6 @@ std::string writeTemporary(const std::string& path, const std::string& data) {
     }
     written += static_cast<std::size_t>(n);
   }
-  // mkstemp creates 0600; a saved graph should be as readable as any file the user writes.
-  const mode_t mask = umask(0);
-  umask(mask);
-  if (::fchmod(fd, 0666 & ~mask) != 0) fail("chmod failed");
   if (::fsync(fd) != 0) fail("fsync failed");
   if (::close(fd) != 0) {
     std::remove(temp_path.c_str());

@@ -40,7 +40,6 @@ std::optional<int> LaserSlam::addScan(const RangeScan& scan, const core::Pose2& 
   stats_.local_slam_seconds += secondsSince(start);
   ++stats_.scans;
   stats_.matched_scans += result.matched ? 1 : 0;
-  scan_timestamps_.push_back(scan.timestamp);
 
   if (result.node) {
     const int node = *result.node;
@@ -70,6 +69,7 @@ std::optional<int> LaserSlam::addScan(const RangeScan& scan, const core::Pose2& 
     if (!tied_at_ && sessions_.size() > 1 && tied()) tied_at_ = node;
   }
   const int newest = static_cast<int>(node_local_poses_.size()) - 1;
+  scan_timestamps_.push_back(scan.timestamp);
   scan_node_.push_back(newest);
   scan_offset_.push_back(
       core::between(node_local_poses_[static_cast<std::size_t>(newest)], result.local_pose));
@@ -179,9 +179,15 @@ void LaserSlam::addLoop(const LoopMatch& loop) {
   const auto rrr_start = std::chrono::steady_clock::now();
   const int first = sessions_.back().first_node;
   const int index = rrr_->numCandidates();
-  rrr_->addCandidate(static_cast<rrr::OnlineRrr::NodeId>(loop.from),
-                     static_cast<rrr::OnlineRrr::NodeId>(loop.to), loop.measurement,
-                     loop.information);
+  try {
+    rrr_->addCandidate(static_cast<rrr::OnlineRrr::NodeId>(loop.from),
+                       static_cast<rrr::OnlineRrr::NodeId>(loop.to), loop.measurement,
+                       loop.information);
+  } catch (const std::invalid_argument&) {
+    // A match RRR cannot take (information not positive definite, a duplicate): no candidate.
+    ++stats_.refused_candidates;
+    return;
+  }
   if (rrr_->numCandidates() > index && std::min(loop.from, loop.to) < first &&
       std::max(loop.from, loop.to) >= first) {
     crossing_candidates_.push_back(index);

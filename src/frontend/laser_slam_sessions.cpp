@@ -30,13 +30,22 @@ void checkContinuable(const MapSnapshot& map, const LaserSlamParams& params) {
 
 }  // namespace
 
-MapSnapshot LaserSlam::snapshot() const {
-  MapSnapshot map;
+std::vector<std::pair<std::string, std::string>> LaserSlam::snapshotParams() const {
+  std::vector<std::pair<std::string, std::string>> params;
   auto record = [&](const core::ParamInfo& info, const auto& value) {
-    map.params.emplace_back(info.name, core::formatParam(value));
+    params.emplace_back(info.name, core::formatParam(value));
   };
   forEachSlamParam(params_, record);
   rrr::forEachParam(params_.rrr.rrr, record);
+  return params;
+}
+
+MapSnapshot LaserSlam::snapshot() const {
+  if (node_local_poses_.empty()) {
+    throw std::invalid_argument("the map has no nodes yet: nothing to save");
+  }
+  MapSnapshot map;
+  map.params = snapshotParams();
   map.sessions = sessions_;
   // A session that ended before its first node leaves no trace.
   while (map.sessions.size() > 1 &&

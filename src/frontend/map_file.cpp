@@ -5,7 +5,6 @@
 #include <cmath>
 #include <cstring>
 #include <fstream>
-#include <iterator>
 #include <stdexcept>
 #include <type_traits>
 
@@ -16,6 +15,9 @@ namespace rrr_graphslam::frontend {
 namespace {
 
 constexpr char kMagic[8] = {'R', 'R', 'R', 'M', 'A', 'P', '\n', '\0'};
+// Local SLAM's limits for live scans (local_slam.cpp), held by loaded ones too.
+constexpr double kMaxCoordinate = 1e6;
+constexpr double kMaxLaserOffset = 100.0;
 constexpr std::size_t kHeaderBytes = 8 + 4 + 8 + 8 + 4;
 // Payloads are held in memory whole; beyond this a file is refused rather than allocated.
 constexpr std::uint64_t kMaxPayloadBytes = std::uint64_t{1} << 31;
@@ -106,6 +108,7 @@ class Reader {
 
 // A scan as the grids use it: its geometry, readings and their validity.
 void putScan(Writer& out, const mrpt::obs::CObservation2DRangeScan& scan) {
+  out.put<std::int64_t>(scan.timestamp.time_since_epoch().count());
   out.put(scan.aperture);
   out.put<std::uint8_t>(scan.rightToLeft ? 1 : 0);
   out.put(scan.maxRange);
@@ -125,6 +128,7 @@ void putScan(Writer& out, const mrpt::obs::CObservation2DRangeScan& scan) {
 
 std::shared_ptr<const mrpt::obs::CObservation2DRangeScan> getScan(Reader& in) {
   auto scan = std::make_shared<mrpt::obs::CObservation2DRangeScan>();
+  scan->timestamp = mrpt::Clock::time_point(mrpt::Clock::duration(in.get<std::int64_t>()));
   scan->aperture = in.get<float>();
   const auto right_to_left = in.get<std::uint8_t>();
   if (right_to_left > 1) throw std::invalid_argument("a scan's direction byte is not 0 or 1");
@@ -136,8 +140,10 @@ std::shared_ptr<const mrpt::obs::CObservation2DRangeScan> getScan(Reader& in) {
   scan->stdError = in.get<float>();
   scan->beamAperture = in.get<float>();
   scan->deltaPitch = in.get<double>();
-  if (!std::isfinite(scan->aperture) || !std::isfinite(scan->maxRange)) {
-    throw std::invalid_argument("a scan's aperture or maximum range is not finite");
+  if (!std::isfinite(scan->aperture) || !std::isfinite(scan->maxRange) ||
+      !std::isfinite(scan->stdError) || !std::isfinite(scan->beamAperture) ||
+      !std::isfinite(scan->deltaPitch)) {
+    throw std::invalid_argument("a scan's aperture, range, error or pitch is not finite");
   }
   const std::size_t n = in.count(sizeof(float) + 1, "a scan's reading");
   scan->resizeScan(n);
@@ -203,27 +209,33 @@ MapSnapshot decodePayload(const std::vector<std::uint8_t>& bytes, std::uint32_t 
   MapSnapshot map;
   map.format_version = version;
   Reader in(bytes);
-  map.params.resize(in.count(16, "parameter"));
-  for (auto& [name, value] : map.params) {
-    name = in.text();
-    value = in.text();
+  // Items are appended as they decode (never allocated from a count), and each count is checked
+  // against its record's smallest size.
+  const std::size_t params = in.count(16, "parameter");
+  for (std::size_t k = 0; k < params; ++k) {
+    std::string name = in.text();
+    std::string value = in.text();
+    map.params.emplace_back(std::move(name), std::move(value));
   }
-  map.sessions.resize(in.count(24, "session"));
-  for (auto& s : map.sessions) {
+  const std::size_t sessions = in.count(24, "session");
+  for (std::size_t k = 0; k < sessions; ++k) {
+    MapSnapshot::Session& s = map.sessions.emplace_back();
     s.name = in.text();
     s.start_time = in.get<double>();
     s.first_node = toInt(in.get<std::int64_t>(), "session first node");
   }
-  map.nodes.resize(in.count(64, "node"));
-  for (auto& n : map.nodes) {
+  const std::size_t nodes = in.count(153, "node");
+  for (std::size_t k = 0; k < nodes; ++k) {
+    MapSnapshot::Node& n = map.nodes.emplace_back();
     n.session = toInt(in.get<std::int64_t>(), "node session");
     n.timestamp = in.get<double>();
     n.local_pose = in.pose();
     n.map_pose = in.pose();
     n.scan = getScan(in);
   }
-  map.edges.resize(in.count(64, "edge"));
-  for (auto& e : map.edges) {
+  const std::size_t edges = in.count(130, "edge");
+  for (std::size_t k = 0; k < edges; ++k) {
+    MapSnapshot::Edge& e = map.edges.emplace_back();
     e.from = toInt(in.get<std::int64_t>(), "edge from");
     e.to = toInt(in.get<std::int64_t>(), "edge to");
     const auto kind = in.get<std::uint8_t>();
@@ -240,8 +252,9 @@ MapSnapshot decodePayload(const std::vector<std::uint8_t>& bytes, std::uint32_t 
     e.cluster = toInt(in.get<std::int64_t>(), "edge cluster");
     e.reason = in.text();
   }
-  map.submaps.resize(in.count(16, "submap"));
-  for (auto& s : map.submaps) {
+  const std::size_t submaps = in.count(16, "submap");
+  for (std::size_t k = 0; k < submaps; ++k) {
+    MapSnapshot::Submap& s = map.submaps.emplace_back();
     s.first_node = toInt(in.get<std::int64_t>(), "submap first node");
     s.last_node = toInt(in.get<std::int64_t>(), "submap last node");
   }
@@ -273,6 +286,9 @@ void MapSnapshot::check() const {
   for (std::size_t k = 0; k < sessions.size(); ++k) {
     const int first = sessions[k].first_node;
     const int next = k + 1 < sessions.size() ? sessions[k + 1].first_node : n;
+    if (!std::isfinite(sessions[k].start_time)) {
+      fail("session " + std::to_string(k) + "'s start time is not finite");
+    }
     if (first < 0 || first >= next || next > n) {
       fail("session " + std::to_string(k) + " starts at node " + std::to_string(first) +
            ", not before the next session or the end");
@@ -290,11 +306,30 @@ void MapSnapshot::check() const {
       fail("node " + std::to_string(k) + " names session " + std::to_string(node.session) +
            ", which does not hold it");
     }
-    if (!node.local_pose.allFinite() || !node.map_pose.allFinite() ||
+    // The limits local SLAM holds live scans to: the grids rebuilt from these must stay sane.
+    auto plausible = [](const core::Pose2& p) {
+      return p.allFinite() && p.head<2>().cwiseAbs().maxCoeff() <= kMaxCoordinate;
+    };
+    if (!plausible(node.local_pose) || !plausible(node.map_pose) ||
         !std::isfinite(node.timestamp)) {
-      fail("node " + std::to_string(k) + " has a pose or timestamp that is not finite");
+      fail("node " + std::to_string(k) + " has a pose beyond 1e6 m or a value that is not finite");
     }
     if (node.scan == nullptr) fail("node " + std::to_string(k) + " has no scan");
+    const auto& scan = *node.scan;
+    const auto& laser = scan.sensorPose;
+    if (std::hypot(laser.x(), laser.y()) > kMaxLaserOffset ||
+        std::abs(laser.z()) > kMaxLaserOffset || !(scan.maxRange > 0.0F) ||
+        !std::isfinite(scan.maxRange) || !std::isfinite(scan.aperture)) {
+      fail("node " + std::to_string(k) +
+           "'s scan has its laser more than 100 m from the robot, or a maximum range or aperture "
+           "that is not finite and positive");
+    }
+    for (std::size_t i = 0; i < scan.getScanSize(); ++i) {
+      const float r = scan.getScanRange(i);
+      if (scan.getScanRangeValidity(i) && !(r >= 0.0F && r <= scan.maxRange)) {
+        fail("node " + std::to_string(k) + "'s scan has a valid reading outside [0, maxRange]");
+      }
+    }
   }
   for (std::size_t k = 0; k < edges.size(); ++k) {
     const Edge& e = edges[k];
@@ -350,11 +385,24 @@ void writeMapFile(const MapSnapshot& map, const std::string& path) {
 MapSnapshot readMapFile(const std::string& path) {
   std::ifstream file(path, std::ios::binary);
   if (!file) throw core::InputError(path, 0, "cannot open the map file");
-  const std::string data((std::istreambuf_iterator<char>(file)), std::istreambuf_iterator<char>());
-  if (file.bad()) throw core::InputError(path, 0, "read error");
   auto fail = [&](const std::string& what) { throw core::InputError(path, 0, what); };
-  if (data.size() < kHeaderBytes || std::memcmp(data.data(), kMagic, sizeof kMagic) != 0) {
+  // The header first: a file that is no map (a bag given by mistake) is not read whole.
+  std::string data(kHeaderBytes, '\0');
+  file.read(data.data(), static_cast<std::streamsize>(kHeaderBytes));
+  if (static_cast<std::size_t>(file.gcount()) < kHeaderBytes ||
+      std::memcmp(data.data(), kMagic, sizeof kMagic) != 0) {
     fail("not an rrr_graphslam map file (no RRRMAP header)");
+  }
+  {
+    const auto stated = getRaw<std::uint64_t>(data, 20);
+    if (stated > compressBound(static_cast<uLong>(kMaxPayloadBytes))) {
+      fail("the header states " + std::to_string(stated) + " compressed bytes: too many");
+    }
+    // One byte more than stated, so that a padded file shows.
+    data.resize(kHeaderBytes + static_cast<std::size_t>(stated) + 1);
+    file.read(data.data() + kHeaderBytes, static_cast<std::streamsize>(stated + 1));
+    if (file.bad()) fail("read error");
+    data.resize(kHeaderBytes + static_cast<std::size_t>(file.gcount()));
   }
   const auto version = getRaw<std::uint32_t>(data, 8);
   if (version == 0 || version > kMapFormatVersion) {

@@ -28,6 +28,11 @@ constexpr const char* kCandidatesTopic = "loop_candidates";
 constexpr const char* kScanTopic = "scan";
 constexpr const char* kInitialPoseTopic = "initialpose";
 
+// Seconds on a clock that never steps (the wall clock may: NTP), for how long a scan has waited.
+double steadySeconds() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
 const char* ownerName(int owner) {
   static const char* const kNames[] = {"auto", "odom", "edges", "scan"};
   return kNames[owner];
@@ -64,7 +69,7 @@ GraphSlamRos::GraphSlamRos(ros::NodeHandle nh, ros::NodeHandle private_nh)
       const frontend::MapSnapshot map = frontend::readMapFile(params_.map_file);
       try {
         startSlam(&map);
-      } catch (const std::invalid_argument& e) {
+      } catch (const std::exception& e) {
         throw std::invalid_argument(params_.map_file + ": " + e.what());
       }
       ROS_INFO("rrr_graphslam: continuing %s: %zu sessions, %zu nodes, %zu submaps",
@@ -146,6 +151,9 @@ GraphSlamRos::GraphSlamRos(ros::NodeHandle nh, ros::NodeHandle private_nh)
 
 GraphSlamRos::~GraphSlamRos() {
   cancel_ = true;
+  // No scan callback may run once the ordering state below goes.
+  scan_filter_.reset();
+  scan_sub_.reset();
   {
     std::lock_guard<std::mutex> lock(queue_mutex_);
     stop_ = true;
@@ -192,7 +200,7 @@ void GraphSlamRos::scanCallback(const sensor_msgs::LaserScanConstPtr& msg) {
 
 void GraphSlamRos::scanArrived(const sensor_msgs::LaserScanConstPtr& msg) {
   std::lock_guard<std::mutex> lock(scan_order_mutex_);
-  scan_order_.arrived(msg.get(), ros::WallTime::now().toSec());
+  scan_order_.arrived(msg.get(), steadySeconds());
 }
 
 bool GraphSlamRos::scanSettled(const sensor_msgs::LaserScan* msg, std::optional<ScanInput> input) {
@@ -206,7 +214,7 @@ void GraphSlamRos::expireScans(const ros::WallTimerEvent&) {
   std::vector<std::pair<const sensor_msgs::LaserScan*, double>> expired;
   {
     std::lock_guard<std::mutex> lock(scan_order_mutex_);
-    expired = scan_order_.expire(ros::WallTime::now().toSec(), params_.tf_timeout);
+    expired = scan_order_.expire(steadySeconds(), params_.tf_timeout);
     for (ScanInput& ready : scan_order_.release()) enqueue(std::move(ready), kScanTopic);
   }
   for (const auto& [msg, arrival] : expired) {
@@ -500,10 +508,17 @@ void GraphSlamRos::startSlam(const frontend::MapSnapshot* map) {
   std::unique_ptr<frontend::LaserSlam> slam = map != nullptr
                                                   ? frontend::LaserSlam::fromMap(*map, p, name)
                                                   : std::make_unique<frontend::LaserSlam>(p, name);
+  std::vector<ros::Time> stamps;
+  for (double t : slam->nodeTimestamps()) {
+    if (!(t >= 0.0 && t < 4294967295.0)) {
+      throw std::invalid_argument("a node's timestamp " + std::to_string(t) +
+                                  " is outside ROS time");
+    }
+    stamps.emplace_back(t);
+  }
   slam_ = std::move(slam);
   slam_->rrr().setCancelFlag(&cancel_);
-  node_stamps_.clear();
-  for (double t : slam_->nodeTimestamps()) node_stamps_.emplace_back(t);
+  node_stamps_ = std::move(stamps);
   node_odom_poses_.clear();  // the current session's nodes
   last_scan_stamp_ = ros::Time();
   map_dirty_ = true;

@@ -156,7 +156,7 @@ bool GraphSlamRos::loadMap(LoadMap::Request& req, LoadMap::Response& res) {
         const frontend::MapSnapshot map = frontend::readMapFile(req.path);
         try {
           startSlam(&map);  // replaces the running map only once the loaded one is built
-        } catch (const std::invalid_argument& e) {
+        } catch (const std::exception& e) {
           throw std::invalid_argument(req.path + ": " + e.what());
         }
         owner_ = Owner::kNone;

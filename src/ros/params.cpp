@@ -38,9 +38,11 @@ class ParamReader {
     if (!nh_.hasParam(name)) return;
     if constexpr (std::is_enum_v<T>) {
       std::string text;
-      if (!nh_.getParam(name, text) || !core::parseChoice(text, value))
+      if (!nh_.getParam(name, text)) fail(name, "has the wrong type: a string is expected");
+      if (!core::parseChoice(text, value)) {
         throw std::invalid_argument("parameter " + nh_.resolveName("") + ": " +
                                     core::notAChoiceMessage(info, text, core::choiceNames<T>()));
+      }
     } else if constexpr (std::is_same_v<T, Eigen::Vector3d>) {
       value = numbers3(name);
     } else if (!nh_.getParam(name, value)) {

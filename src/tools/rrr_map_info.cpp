@@ -5,6 +5,7 @@
 #include <sys/stat.h>
 
 #include <cstdio>
+#include <cstdlib>
 #include <exception>
 #include <iostream>
 #include <string>
@@ -108,7 +109,15 @@ int main(int argc, char** argv) {
         inputs.scans.push_back(node.scan);
       }
       const std::string range = paramOf(map, "scan_max_range");
-      if (!range.empty()) inputs.insertion.max_insertion_range_m = std::stof(range);
+      if (!range.empty()) {
+        char* end = nullptr;
+        const double r = std::strtod(range.c_str(), &end);
+        if (end == range.c_str() || *end != '\0' || !(r > 0.0 && r < 1e6)) {
+          throw std::invalid_argument(path + ": parameter scan_max_range '" + range +
+                                      "' is not a positive number");
+        }
+        inputs.insertion.max_insertion_range_m = static_cast<float>(r);
+      }
       frontend::writeMapServerFiles(frontend::renderOccupancyMap(inputs, resolution), map_out);
       std::printf("map %s.pgm %s.yaml\n", map_out.c_str(), map_out.c_str());
     }

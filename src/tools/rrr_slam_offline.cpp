@@ -350,6 +350,16 @@ int main(int argc, char** argv) {
       std::printf("loaded map     %s: %zu sessions, %zu nodes, %zu submaps in %.2f s\n",
                   args.load_map.c_str(), map.sessions.size(), map.nodes.size(), map.submaps.size(),
                   core::secondsSince(load_start));
+      // The parameters this run takes that differ from the map's (those that could not differ
+      // were refused by fromMap).
+      for (const auto& [name, now] : slam_owner->snapshotParams()) {
+        for (const auto& [saved_name, saved] : map.params) {
+          if (saved_name == name && saved != now) {
+            std::printf("parameter      %s is %s here, %s in the map\n", name.c_str(), now.c_str(),
+                        saved.c_str());
+          }
+        }
+      }
     }
     frontend::LaserSlam& slam = *slam_owner;
     const bool progress = !args.quiet && isatty(STDERR_FILENO);

@@ -154,6 +154,37 @@ TEST(MapFile, DamagedFilesAreRefusedNamingFileAndFault) {
   EXPECT_THROW(readMapFile(tempPath("does_not_exist.rrrmap")), core::InputError);
 }
 
+TEST(MapFile, ImplausibleContentIsRefusedBeforeAnyGridIsBuiltFromIt) {
+  // What local SLAM refuses live (ScanRefused) is refused in a file too: a grid rebuilt from it
+  // would try to grow to 1e300 m.
+  const MapSnapshot good = readMapFile(savedMap());
+  auto refused = [](const MapSnapshot& map, const char* fault) {
+    try {
+      map.check();
+      ADD_FAILURE() << fault << ": accepted";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find(fault), std::string::npos) << e.what();
+    }
+    EXPECT_THROW(writeMapFile(map, tempPath("implausible.rrrmap")), std::invalid_argument);
+  };
+  MapSnapshot far = good;
+  far.nodes[3].map_pose.x() = 1e300;
+  refused(far, "node 3 has a pose beyond 1e6 m");
+  MapSnapshot laser = good;
+  auto moved = std::make_shared<mrpt::obs::CObservation2DRangeScan>(*good.nodes[2].scan);
+  moved->sensorPose.x(1e300);
+  laser.nodes[2].scan = moved;
+  refused(laser, "node 2's scan has its laser more than 100 m from the robot");
+  MapSnapshot reading = good;
+  auto nan = std::make_shared<mrpt::obs::CObservation2DRangeScan>(*good.nodes[1].scan);
+  nan->setScanRange(0, std::nanf(""));
+  nan->setScanRangeValidity(0, true);
+  reading.nodes[1].scan = nan;
+  refused(reading, "node 1's scan has a valid reading outside [0, maxRange]");
+  // A map without nodes is not saved.
+  EXPECT_THROW(LaserSlam(smallMaps()).snapshot(), std::invalid_argument);
+}
+
 TEST(MapFile, AMapMadeWithOtherSubmapsIsRefusedNamingTheParameter) {
   LaserSlamParams other = smallMaps();
   other.local.submap.resolution_m = 0.1;

@@ -300,6 +300,8 @@ def test_damaged_or_incompatible_maps_are_refused_naming_the_file(tmp_path):
         args = (bad,) if tool == MAP_INFO else (ACES_HEAD, "--load-map", bad, "--quiet")
         result = run(tool, *args)
         assert result.returncode == 1 and f"{bad}" in result.stderr and "truncated" in result.stderr
+    result = run(SLAM_OFFLINE, ACES_HEAD, "--load-map", good, "--min-score", 0.7, "--max-scans", 30, "--quiet")
+    assert result.returncode == 0 and "parameter      min_score is 0.7 here, 0.6 in the map" in result.stdout
     result = run(SLAM_OFFLINE, ACES_HEAD, "--load-map", good, "--submap-resolution", 0.1, "--quiet")
     assert result.returncode == 1 and "submap_resolution is 0.1 here but the map was made with 0.05" in result.stderr
     result = run(MAP_INFO, ACES_HEAD)

@@ -45,6 +45,7 @@ struct LaserSlamStats {
   double local_slam_seconds = 0.0;
   double rrr_seconds = 0.0;
   int candidates = 0;
+  int refused_candidates = 0;  ///< matches OnlineRrr refused (not positive definite, duplicates)
   long long relocalization_searches = 0;  ///< node-submap pairs searched whole (untied session)
 };
 
@@ -63,6 +64,8 @@ class LaserSlam {
   /// Everything fromMap() needs, the current session's unfinished submaps included (they are
   /// rebuilt finished), and every parameter of both tables it runs with.
   MapSnapshot snapshot() const;
+  /// Every parameter of both tables it runs with, as a map file records them (name, value).
+  std::vector<std::pair<std::string, std::string>> snapshotParams() const;
 
   /// One scan with the robot's odometry pose at its time. Returns the node it became, if any.
   /// Throws ScanRefused (local_slam.h) for a scan it cannot place; the run goes on.
