@@ -306,9 +306,12 @@ void printSessions(const frontend::LaserSlam& slam) {
   }
   const auto& current = sessions.back();
   if (const auto tied = slam.tiedAt()) {
-    std::printf("relocalized    at node %d (the session's node %d, %.1f s after its start)\n",
+    std::printf("relocalized    at node %d (the session's node %d, %.1f s after its start)%s\n",
                 *tied, *tied - current.first_node,
-                slam.nodeTimestamps()[static_cast<std::size_t>(*tied)] - current.start_time);
+                slam.nodeTimestamps()[static_cast<std::size_t>(*tied)] - current.start_time,
+                slam.tied() ? ""
+                            : "; no loop to the map is accepted at the end: this session is a "
+                              "separate component of the map");
   } else if (slam.tied()) {
     std::printf(
         "relocalized    only by the final decision (a loop to the map accepted at the end)\n");
