@@ -394,15 +394,22 @@ MapSnapshot readMapFile(const std::string& path) {
     fail("not an rrr_graphslam map file (no RRRMAP header)");
   }
   {
+    // The body is allocated only once the file is known to hold what the header states.
     const auto stated = getRaw<std::uint64_t>(data, 20);
+    file.seekg(0, std::ios::end);
+    const auto end = static_cast<std::uint64_t>(file.tellg());
+    if (!file || end < kHeaderBytes || stated != end - kHeaderBytes) {
+      fail("truncated or padded: the header says " + std::to_string(stated) +
+           " compressed bytes, the file holds " +
+           std::to_string(end >= kHeaderBytes ? end - kHeaderBytes : 0));
+    }
     if (stated > compressBound(static_cast<uLong>(kMaxPayloadBytes))) {
       fail("the header states " + std::to_string(stated) + " compressed bytes: too many");
     }
-    // One byte more than stated, so that a padded file shows.
-    data.resize(kHeaderBytes + static_cast<std::size_t>(stated) + 1);
-    file.read(data.data() + kHeaderBytes, static_cast<std::streamsize>(stated + 1));
-    if (file.bad()) fail("read error");
-    data.resize(kHeaderBytes + static_cast<std::size_t>(file.gcount()));
+    file.seekg(static_cast<std::streamoff>(kHeaderBytes));
+    data.resize(kHeaderBytes + static_cast<std::size_t>(stated));
+    file.read(data.data() + kHeaderBytes, static_cast<std::streamsize>(stated));
+    if (static_cast<std::uint64_t>(file.gcount()) != stated) fail("read error");
   }
   const auto version = getRaw<std::uint32_t>(data, 8);
   if (version == 0 || version > kMapFormatVersion) {
