@@ -23,7 +23,10 @@ echo "[rrr] clang-format check"
 rrr_run_tests() {
   rm -rf build/test_results
   catkin_make tests >/dev/null || { echo "[rrr] building the tests failed"; return 1; }
-  catkin_make run_tests 2>&1 | grep -E '^\[ +(RUN|OK|FAILED|PASSED) +\]|Failure|error' || true
+  # Its output is filtered to the test lines; its own status still counts (a target that fails
+  # to build or run), and grep finding no line is not a failure.
+  catkin_make run_tests 2>&1 | { grep -E '^\[ +(RUN|OK|FAILED|PASSED) +\]|Failure|error' || true; }
+  [[ ${PIPESTATUS[0]} == 0 ]] || { echo "[rrr] catkin_make run_tests failed"; return 1; }
   local summary status=0
   summary=$(catkin_test_results build/test_results) || status=$?
   [[ $status != 0 ]] && catkin_test_results build/test_results --verbose | grep -vE '^Summary' || true
