@@ -13,11 +13,6 @@ LocalSlam::LocalSlam(const LocalSlamParams& params, int first_node, int first_su
 
 namespace {
 
-// Beyond these a pose cannot be a robot's (single-precision grid coordinates lose centimetres
-// beyond 1e5-1e6 m): refused before MRPT's grids would try to grow to it.
-constexpr double kMaxCoordinate = 1e6;
-constexpr double kMaxLaserOffset = 100.0;
-
 std::string format(const core::Pose2& p) {
   char text[96];
   std::snprintf(text, sizeof text, "(%.6g, %.6g, %.6g)", p.x(), p.y(), p.z());

@@ -10,14 +10,12 @@
 
 #include "rrr_graphslam/core/atomic_file.h"
 #include "rrr_graphslam/core/input_error.h"
+#include "rrr_graphslam/frontend/plausible_pose.h"
 
 namespace rrr_graphslam::frontend {
 namespace {
 
 constexpr char kMagic[8] = {'R', 'R', 'R', 'M', 'A', 'P', '\n', '\0'};
-// Local SLAM's limits for live scans (local_slam.cpp), held by loaded ones too.
-constexpr double kMaxCoordinate = 1e6;
-constexpr double kMaxLaserOffset = 100.0;
 constexpr std::size_t kHeaderBytes = 8 + 4 + 8 + 8 + 4;
 // Payloads are held in memory whole; beyond this a file is refused rather than allocated.
 constexpr std::uint64_t kMaxPayloadBytes = std::uint64_t{1} << 31;

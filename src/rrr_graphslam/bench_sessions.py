@@ -39,7 +39,7 @@ from collections import defaultdict
 from dataclasses import dataclass, field
 from typing import Dict, List, Optional, Sequence, Tuple
 
-from .carmen import write_moved_log
+from .carmen import read_carmen, write_moved_log
 from .evaluation import read_decisions
 from .graph_io import Pose, between, compose, normalize_angle, open_text, read_graph
 from .relations import RelationError, read_relations, read_tum, relation_error
@@ -148,32 +148,14 @@ class RawScan:
 
 
 def read_raw_scans(path: str) -> List[RawScan]:
-    """FLASER lines (the logs this benchmark runs: ACES, Intel) of a CARMEN log, in log order."""
-    out = []
-    with open_text(path) as f:
-        for line in f:
-            if not line.startswith("FLASER"):
-                continue
-            fields = line.split()
-            n = int(fields[1])
-            odom = tuple(float(v) for v in fields[5 + n:8 + n])
-            out.append(RawScan(float(fields[-3]), float(fields[-1]), odom,
-                               tuple(float(v) for v in fields[2:2 + n])))
-    return out
+    """The laser scans of a CARMEN log, in log order."""
+    return [RawScan(r.timestamp, r.logger_timestamp, r.odom_pose, tuple(r.ranges))
+            for r in read_carmen(path).lasers]
 
 
 def read_corrected(path: str) -> List[Tuple[float, Pose, Tuple[float, ...]]]:
-    """(timestamp, corrected pose, ranges) of every FLASER line of a ple_corrected log."""
-    out = []
-    with open_text(path) as f:
-        for line in f:
-            if not line.startswith("FLASER"):
-                continue
-            fields = line.split()
-            n = int(fields[1])
-            out.append((float(fields[-1]), tuple(float(v) for v in fields[2 + n:5 + n]),
-                        tuple(float(v) for v in fields[2:2 + n])))
-    return out
+    """(logger timestamp, corrected laser pose, ranges) of every scan of a ple_corrected log."""
+    return [(r.logger_timestamp, r.laser_pose, tuple(r.ranges)) for r in read_carmen(path).lasers]
 
 
 class StampIndex:

@@ -28,6 +28,7 @@ class LaserRecord:
     laser_pose: Pose        # world (odometry) pose of the laser
     odom_pose: Pose         # odometry pose of the robot
     line: int
+    logger_timestamp: float = math.nan  # the logger's own timestamp (the line's last field)
 
 
 @dataclass
@@ -106,7 +107,7 @@ def _parse(tag: str, f: List[str], line: int):
         ranges = _finite([float(v) for v in f[2:2 + n]], "a range")
         x, y, t, ox, oy, ot = _finite([float(v) for v in f[2 + n:8 + n]], "a pose")
         return LaserRecord(float(f[8 + n]), -math.pi / 2, flaser_increment(n), math.nan, ranges,
-                           (x, y, t), (ox, oy, ot), line)
+                           (x, y, t), (ox, oy, ot), line, float(f[10 + n]))
     # ROBOTLASER1 type start fov resolution max_range accuracy remission_mode n ranges... nrem rems...
     #   laser x y theta robot x y theta tv rv forward_safety side_safety turn_axis ipc host logger
     start, fov, resolution, max_range = (float(v) for v in f[2:6])
@@ -123,7 +124,8 @@ def _parse(tag: str, f: List[str], line: int):
     _finite([start, fov, resolution, max_range], "an angle or the maximum range")
     if resolution <= 0:
         raise ValueError("angular resolution must be positive")
-    return LaserRecord(float(f[k + 11]), start, resolution, max_range, ranges, (lx, ly, lt), (rx, ry, rt), line)
+    return LaserRecord(float(f[k + 11]), start, resolution, max_range, ranges, (lx, ly, lt), (rx, ry, rt), line,
+                       float(f[k + 13]))
 
 
 def monotonic_stamps(times: List[float], step: float = 1e-6) -> Tuple[List[float], int]:

@@ -12,6 +12,7 @@
 
 #include "rrr_graphslam/core/keyframe_selector.h"
 #include "rrr_graphslam/frontend/icp_refinement.h"
+#include "rrr_graphslam/frontend/plausible_pose.h"
 #include "rrr_graphslam/frontend/range_scan.h"
 #include "rrr_graphslam/frontend/scan_matcher.h"
 #include "rrr_graphslam/frontend/submap.h"
