@@ -11,7 +11,7 @@ namespace {
 
 // Solves the normal equations sum_k w_k (x_to - x_from - d_k)^2 per coordinate block, with a
 // tiny prior pulling every unknown to `prior` (holds the gauge and unreached nodes) and a
-// strong one holding node 0.
+// strong one holding each gauge node.
 struct LinearProblem {
   explicit LinearProblem(int n) : n_(n), rhs_(Eigen::VectorXd::Zero(n)) {}
 
@@ -52,6 +52,12 @@ std::vector<Pose2> lagoInitialization(const Optimizer& optimizer) {
   const int n = optimizer.numNodes();
   std::vector<Pose2> poses = optimizer.poses();
   if (n < 2) return poses;
+  // The optimizer's gauge: its fixed nodes, or node 0 when none is.
+  std::vector<int> gauge;
+  for (int i = 0; i < n; ++i) {
+    if (optimizer.isFixed(i)) gauge.push_back(i);
+  }
+  if (gauge.empty()) gauge.push_back(0);
 
   // Current orientations unwrapped along node order: the reference each measured angle is
   // unwrapped against.
@@ -79,7 +85,7 @@ std::vector<Pose2> lagoInitialization(const Optimizer& optimizer) {
   }
   for (int i = 0; i < n; ++i)
     angles.addPrior(i, kWeakPrior, unwrapped[static_cast<std::size_t>(i)]);
-  angles.addPrior(0, kGaugePrior, unwrapped[0]);
+  for (int i : gauge) angles.addPrior(i, kGaugePrior, unwrapped[static_cast<std::size_t>(i)]);
   const Eigen::VectorXd theta = angles.solve();
   if (theta.size() != n) return poses;
 
@@ -99,13 +105,18 @@ std::vector<Pose2> lagoInitialization(const Optimizer& optimizer) {
     xs.addPrior(i, kWeakPrior, poses[static_cast<std::size_t>(i)].x());
     ys.addPrior(i, kWeakPrior, poses[static_cast<std::size_t>(i)].y());
   }
-  xs.addPrior(0, kGaugePrior, poses[0].x());
-  ys.addPrior(0, kGaugePrior, poses[0].y());
+  for (int i : gauge) {
+    xs.addPrior(i, kGaugePrior, poses[static_cast<std::size_t>(i)].x());
+    ys.addPrior(i, kGaugePrior, poses[static_cast<std::size_t>(i)].y());
+  }
   const Eigen::VectorXd x = xs.solve();
   const Eigen::VectorXd y = ys.solve();
   if (x.size() != n || y.size() != n) return poses;
-  for (int i = 0; i < n; ++i)
+  for (int i = 0; i < n; ++i) {
+    // A fixed node keeps its pose exactly (the strong prior holds it to ~1e-9 of it).
+    if (optimizer.isFixed(i)) continue;
     poses[static_cast<std::size_t>(i)] = Pose2(x(i), y(i), normalizeAngle(theta(i)));
+  }
   return poses;
 }
 

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <limits>
 #include <stdexcept>
 
 #include <mrpt/poses/CPose3D.h>
@@ -52,13 +53,21 @@ std::optional<int> LaserSlam::addScan(const RangeScan& scan, const core::Pose2& 
                         odometry_information_);
     }
     stats_.rrr_seconds += secondsSince(start);
+    node_travel_.push_back(
+        node == sessions_.back().first_node
+            ? 0.0
+            : node_travel_.back() +
+                  (result.local_pose.head<2>() - node_local_poses_.back().head<2>()).norm());
     node_local_poses_.push_back(result.local_pose);
     node_timestamps_.push_back(scan.timestamp);
-    node_scans_.push_back(
-        std::make_shared<const mrpt::obs::CObservation2DRangeScan>(std::move(*result.observation)));
+    // Localization keeps no scan of its own: the map stays the loaded one.
+    node_scans_.push_back(mode_ == SessionMode::kLocalization
+                              ? nullptr
+                              : std::make_shared<const mrpt::obs::CObservation2DRangeScan>(
+                                    std::move(*result.observation)));
     stats_.nodes = node + 1;
     stats_.submaps = local_.submaps().numSubmaps();
-    if (result.finished_submap) {
+    if (result.finished_submap && mode_ == SessionMode::kMapping) {
       finished_.push_back(result.finished_submap);
       finished_spans_.push_back(
           {result.finished_submap->anchorNode(), result.finished_submap->lastNode()});
@@ -85,11 +94,13 @@ void LaserSlam::searchLoops(int node, const PointCloud& scan_points) {
   if (finished_.empty() || points.size() < 10) return;
   const std::vector<core::Pose2> map = rrr_->mapPoses();
   const core::Pose2& node_pose = map[static_cast<std::size_t>(node)];
-  // While this session is not tied to the earlier ones, its map pose says nothing about where it
-  // is in theirs: their submaps are searched whole (relocalization) instead.
+  // While this session is not tied to the earlier ones, their submaps are searched whole
+  // (relocalization); around its map pose too once accepted loops place it.
   const bool relocalizing = sessions_.size() > 1 && !tied();
+  const bool placed_now = relocalizing && placed();
+  const bool resting = relocalizing && node < relocalization_paused_until_;
   const bool relocalize_now =
-      relocalizing && node >= relocalization_paused_until_ &&
+      relocalizing && !resting &&
       (node - sessions_.back().first_node) % p.relocalization_every_n_nodes == 0;
 
   // Which submaps to search, and from where (in node order, so the result does not depend on
@@ -112,8 +123,8 @@ void LaserSlam::searchLoops(int node, const PointCloud& scan_points) {
   }
   for (const auto& submap : finished_) {
     const bool earlier_session = submap->index() < session_first_submap_;
-    if (relocalizing && earlier_session) {
-      if (!relocalize_now) continue;
+    if (relocalizing && earlier_session && resting) continue;
+    if (relocalizing && earlier_session && relocalize_now) {
       if (!hinted) {
         searches.push_back({submap.get(), core::Pose2::Zero(), true, {}, 0.0});
         continue;
@@ -127,6 +138,7 @@ void LaserSlam::searchLoops(int node, const PointCloud& scan_points) {
                           0.0});
       continue;
     }
+    if (relocalizing && earlier_session && !placed_now) continue;
     if (node - submap->lastNode() < p.min_node_separation) continue;
     const core::Pose2& anchor = map[static_cast<std::size_t>(submap->anchorNode())];
     if ((anchor.head<2>() - node_pose.head<2>()).norm() > p.max_constraint_distance_m) continue;
@@ -167,8 +179,9 @@ void LaserSlam::searchLoops(int node, const PointCloud& scan_points) {
     relocalized = relocalized || (relocalizing && s.submap->index() < session_first_submap_);
   }
   // A cluster is decided once the robot is cluster_gap nodes past its newest link: after a few
-  // nodes matched the map, the whole-map search rests that long, so RRR decides them (ties the
-  // session, or rejects them and the search goes on).
+  // nodes matched the map, its search rests that long, so RRR decides them (places the session,
+  // or rejects them and the search goes on), and the next matches, farther along, make a cluster
+  // of their own that can confirm or contradict them.
   if (relocalized && ++relocalization_matches_ >= p.relocalization_matches) {
     relocalization_matches_ = 0;
     relocalization_paused_until_ = node + params_.rrr.rrr.cluster_gap + 1;
@@ -190,7 +203,7 @@ void LaserSlam::addLoop(const LoopMatch& loop) {
   }
   if (rrr_->numCandidates() > index && std::min(loop.from, loop.to) < first &&
       std::max(loop.from, loop.to) >= first) {
-    crossing_candidates_.push_back(index);
+    crossing_.push_back({index, std::max(loop.from, loop.to)});
   }
   stats_.rrr_seconds += secondsSince(rrr_start);
   ++stats_.candidates;
@@ -204,11 +217,23 @@ void LaserSlam::setInitialPose(const core::Pose2& map_pose) {
   hint_ = Hint{newest >= sessions_.back().first_node ? newest : -1, map_pose};
 }
 
-bool LaserSlam::tied() const {
-  return std::any_of(crossing_candidates_.begin(), crossing_candidates_.end(), [&](int k) {
-    return k < rrr_->numCandidates() && rrr_->verdict(k) == rrr::Verdict::kAccepted;
-  });
+double LaserSlam::acceptedCrossingSpread() const {
+  double nearest = std::numeric_limits<double>::infinity();
+  double farthest = -nearest;
+  for (const Crossing& c : crossing_) {
+    if (rrr_->verdict(c.candidate) != rrr::Verdict::kAccepted) continue;
+    const double travel = node_travel_[static_cast<std::size_t>(c.session_node)];
+    nearest = std::min(nearest, travel);
+    farthest = std::max(farthest, travel);
+  }
+  return farthest - nearest;  // -inf without any
 }
+
+bool LaserSlam::tied() const {
+  return acceptedCrossingSpread() >= params_.loops.relocalization_confirm_distance_m;
+}
+
+bool LaserSlam::placed() const { return acceptedCrossingSpread() >= 0.0; }
 
 void LaserSlam::finish() {
   const auto start = std::chrono::steady_clock::now();
@@ -227,7 +252,13 @@ std::vector<core::Pose2> LaserSlam::scanMapPoses() const {
 }
 
 MapInputs LaserSlam::mapInputs() const {
-  return MapInputs{rrr_->mapPoses(), node_scans_, params_.local.submap};
+  MapInputs inputs{rrr_->mapPoses(), node_scans_, params_.local.submap};
+  if (mode_ == SessionMode::kLocalization) {  // the loaded map alone
+    const auto loaded = static_cast<std::size_t>(sessions_.back().first_node);
+    inputs.poses.resize(loaded);
+    inputs.scans.resize(loaded);
+  }
+  return inputs;
 }
 
 }  // namespace rrr_graphslam::frontend

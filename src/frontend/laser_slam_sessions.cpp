@@ -41,6 +41,10 @@ std::vector<std::pair<std::string, std::string>> LaserSlam::snapshotParams() con
 }
 
 MapSnapshot LaserSlam::snapshot() const {
+  if (mode_ == SessionMode::kLocalization) {
+    throw std::logic_error(
+        "localization leaves the loaded map as it is: there is no new map to save");
+  }
   if (node_local_poses_.empty()) {
     throw std::invalid_argument("the map has no nodes yet: nothing to save");
   }
@@ -90,18 +94,13 @@ MapSnapshot LaserSlam::snapshot() const {
   return map;
 }
 
-std::unique_ptr<LaserSlam> LaserSlam::fromMap(const MapSnapshot& map, const LaserSlamParams& params,
-                                              const std::string& session_name) {
-  map.check();
-  checkContinuable(map, params);
-  auto slam = std::make_unique<LaserSlam>(params, session_name);
-  const int n = static_cast<int>(map.nodes.size());
+namespace {
 
-  // The graph in each session's own frame, replayed into RRR (which decides it again).
+// Mapping: the graph in each session's own frame, replayed into RRR, which decides it again.
+core::PoseGraph graphToContinue(const MapSnapshot& map) {
   core::PoseGraph graph;
-  for (int k = 0; k < n; ++k) {
-    graph.addNode(static_cast<core::PoseGraph::NodeId>(k),
-                  map.nodes[static_cast<std::size_t>(k)].local_pose);
+  for (std::size_t k = 0; k < map.nodes.size(); ++k) {
+    graph.addNode(static_cast<core::PoseGraph::NodeId>(k), map.nodes[k].local_pose);
   }
   for (const MapSnapshot::Edge& e : map.edges) {
     if (e.kind == MapSnapshot::EdgeKind::kMarginal) {
@@ -112,10 +111,52 @@ std::unique_ptr<LaserSlam> LaserSlam::fromMap(const MapSnapshot& map, const Lase
                   e.kind == MapSnapshot::EdgeKind::kOdometry ? core::EdgeKind::kOdometry
                                                              : core::EdgeKind::kLoopCandidate);
   }
-  if (n > 0) slam->rrr_ = rrr::OnlineRrr::fromPoseGraph(graph, params.rrr);
+  return graph;
+}
+
+// Localization: the nodes at their map poses, each joined to the next by the map's own relative
+// pose, so that RRR's tests between two nodes of the map see where the map has them (the map's
+// odometry between them would not: its loops moved them).
+core::PoseGraph graphToLocalizeIn(const MapSnapshot& map) {
+  const Eigen::Matrix3d rigid = Eigen::Vector3d(1e8, 1e8, 1e8).asDiagonal();
+  core::PoseGraph graph;
+  for (std::size_t k = 0; k < map.nodes.size(); ++k) {
+    graph.addNode(static_cast<core::PoseGraph::NodeId>(k), map.nodes[k].map_pose);
+    if (k == 0) continue;
+    graph.addEdge(static_cast<core::PoseGraph::NodeId>(k - 1),
+                  static_cast<core::PoseGraph::NodeId>(k),
+                  core::between(map.nodes[k - 1].map_pose, map.nodes[k].map_pose), rigid,
+                  core::EdgeKind::kOdometry);
+  }
+  return graph;
+}
+
+}  // namespace
+
+std::unique_ptr<LaserSlam> LaserSlam::fromMap(const MapSnapshot& map, const LaserSlamParams& params,
+                                              const std::string& session_name, SessionMode mode) {
+  map.check();
+  checkContinuable(map, params);
+  auto slam = std::make_unique<LaserSlam>(params, session_name);
+  slam->mode_ = mode;
+  const int n = static_cast<int>(map.nodes.size());
+  const bool localizing = mode == SessionMode::kLocalization;
+  if (n > 0) {
+    slam->rrr_ = rrr::OnlineRrr::fromPoseGraph(
+        localizing ? graphToLocalizeIn(map) : graphToContinue(map), params.rrr);
+    if (localizing) slam->rrr_->fixNodes();
+  }
   slam->rrr_->takeChanges();  // the loaded decisions are the starting point, not news
 
   for (const MapSnapshot::Node& node : map.nodes) {
+    const bool session_start =
+        slam->node_local_poses_.empty() ||
+        node.session != map.nodes[slam->node_local_poses_.size() - 1].session;
+    slam->node_travel_.push_back(
+        session_start
+            ? 0.0
+            : slam->node_travel_.back() +
+                  (node.local_pose.head<2>() - slam->node_local_poses_.back().head<2>()).norm());
     slam->node_local_poses_.push_back(node.local_pose);
     slam->node_scans_.push_back(node.scan);
     slam->node_timestamps_.push_back(node.timestamp);

@@ -52,6 +52,11 @@ GraphSlamRos::GraphSlamRos(ros::NodeHandle nh, ros::NodeHandle private_nh)
     throw std::invalid_argument("parameter " + private_nh_.resolveName("map_file") +
                                 " needs input_mode scan (slam mode)");
   }
+  if (params_.mode == "localization" && params_.map_file.empty()) {
+    throw std::invalid_argument("parameter " + private_nh_.resolveName("mode") +
+                                " localization needs a map to localize in: set " +
+                                private_nh_.resolveName("map_file"));
+  }
   if (params_.input_mode == "scan") {
     if (params_.map_file.empty()) {
       startSlam();

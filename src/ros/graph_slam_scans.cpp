@@ -131,9 +131,12 @@ void GraphSlamRos::startSlam(const frontend::MapSnapshot* map) {
   const std::string name =
       private_nh_.getNamespace() + " " + std::to_string(ros::WallTime::now().toSec());
   // Built before anything is replaced: a map that cannot be continued leaves the running one.
-  std::unique_ptr<frontend::LaserSlam> slam = map != nullptr
-                                                  ? frontend::LaserSlam::fromMap(*map, p, name)
-                                                  : std::make_unique<frontend::LaserSlam>(p, name);
+  const frontend::SessionMode mode = params_.mode == "localization"
+                                         ? frontend::SessionMode::kLocalization
+                                         : frontend::SessionMode::kMapping;
+  std::unique_ptr<frontend::LaserSlam> slam =
+      map != nullptr ? frontend::LaserSlam::fromMap(*map, p, name, mode)
+                     : std::make_unique<frontend::LaserSlam>(p, name);
   std::vector<ros::Time> stamps;
   for (double t : slam->nodeTimestamps()) {
     if (!(t >= 0.0 && t < 4294967295.0)) {

@@ -135,6 +135,10 @@ bool GraphSlamRos::saveMap(SaveMap::Request& req, SaveMap::Response& res) {
       [&]() -> std::string {
         if (!slam_) throw std::invalid_argument("~save_map needs slam mode (input_mode scan)");
         if (req.path.empty()) throw std::invalid_argument("path is empty");
+        if (slam_->mode() == frontend::SessionMode::kLocalization) {
+          throw std::invalid_argument(
+              "mode is localization: the loaded map stays as it is, there is no new map to save");
+        }
         const auto start = std::chrono::steady_clock::now();
         const frontend::MapSnapshot map = slam_->snapshot();
         frontend::writeMapFile(map, req.path);

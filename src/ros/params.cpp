@@ -143,6 +143,9 @@ NodeParams loadParams(const ros::NodeHandle& private_nh) {
   r.positive("map_resolution", p.map_resolution);
   r.read<std::string>(
       "map_file", p.map_file, [](const std::string&) { return true; }, "a path");
+  r.read<std::string>(
+      "mode", p.mode, [](const std::string& m) { return m == "mapping" || m == "localization"; },
+      "mapping or localization");
   r.positive("map_publish_period", p.map_publish_period);
   r.positive("tf_timeout", p.tf_timeout);
 

@@ -46,7 +46,11 @@ RrrSummary runBatchRrr(VerificationGraph& graph, const RrrParams& params,
   summary.candidates = graph.numCandidates();
   const std::vector<CandidateEnds> ends = candidateEnds(graph);
   summary.cluster_gap = clusterGapFor(params, ends);
-  const auto clusters = clusterCandidates(ends, summary.cluster_gap);
+  std::vector<int> session_of(static_cast<std::size_t>(graph.numNodes()));
+  for (int n = 0; n < graph.numNodes(); ++n) {
+    session_of[static_cast<std::size_t>(n)] = graph.chain().session(n);
+  }
+  const auto clusters = clusterCandidates(ends, summary.cluster_gap, session_of);
 
   Rrr rrr(graph, params);
   rrr.setProgress(progress);

@@ -33,12 +33,19 @@ std::vector<Ordered> sortByLowEnd(const std::vector<CandidateEnds>& ends) {
 
 }  // namespace
 
-std::vector<std::vector<int>> clusterCandidates(const std::vector<CandidateEnds>& ends, int gap) {
+std::vector<std::vector<int>> clusterCandidates(const std::vector<CandidateEnds>& ends, int gap,
+                                                const std::vector<int>& session_of) {
+  auto same_session = [&](int a, int b) {
+    return session_of.empty() ||
+           session_of[static_cast<std::size_t>(a)] == session_of[static_cast<std::size_t>(b)];
+  };
   const std::vector<Ordered> sorted = sortByLowEnd(ends);
   core::UnionFind sets(ends.size());
   for (std::size_t a = 0; a < sorted.size(); ++a) {
     for (std::size_t b = a + 1; b < sorted.size() && sorted[b].low - sorted[a].low <= gap; ++b) {
-      if (std::abs(sorted[b].high - sorted[a].high) <= gap) {
+      if (std::abs(sorted[b].high - sorted[a].high) <= gap &&
+          same_session(sorted[a].low, sorted[b].low) &&
+          same_session(sorted[a].high, sorted[b].high)) {
         sets.unite(static_cast<std::size_t>(sorted[a].index),
                    static_cast<std::size_t>(sorted[b].index));
       }

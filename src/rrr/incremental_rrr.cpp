@@ -25,7 +25,10 @@ bool IncrementalRrr::addCandidate(int candidate) {
   const LoopCandidate& c = graph_.candidate(candidate);
   const int newest = newestEnd(c);
   bool closed = advanceTo(newest);
-  // Join (and merge) every open cluster with a member whose both ends are within the gap.
+  // Join (and merge) every open cluster with a member whose both ends are within the gap, in
+  // the same session (clustering.h).
+  const OdometryChain& chain = graph_.chain();
+  auto near = [&](int a, int b) { return std::abs(a - b) <= gap_ && chain.sameSession(a, b); };
   OpenCluster joined;
   joined.members.push_back(candidate);
   joined.newest = newest;
@@ -33,8 +36,7 @@ bool IncrementalRrr::addCandidate(int candidate) {
   for (OpenCluster& open : open_) {
     const bool related = std::any_of(open.members.begin(), open.members.end(), [&](int m) {
       const LoopCandidate& o = graph_.candidate(m);
-      return std::abs(oldestEnd(o) - oldestEnd(c)) <= gap_ &&
-             std::abs(newestEnd(o) - newest) <= gap_;
+      return near(oldestEnd(o), oldestEnd(c)) && near(newestEnd(o), newest);
     });
     if (related) {
       joined.members.insert(joined.members.end(), open.members.begin(), open.members.end());

@@ -56,6 +56,15 @@ int OnlineRrr::indexOf(NodeId node) const {
   return it != ids.end() && *it == node ? static_cast<int>(it - ids.begin()) : -1;
 }
 
+void OnlineRrr::fixNodes() {
+  if (numCandidates() > 0) {
+    throw std::logic_error("OnlineRrr::fixNodes: call it before the first loop candidate");
+  }
+  core::Optimizer& opt = graph_.optimizer();
+  opt.setPoses(graph_.initialPoses());
+  for (int k = 0; k < numNodes(); ++k) opt.setFixed(k, true);
+}
+
 int OnlineRrr::appendNode(NodeId node, const core::Pose2& odom_pose) {
   return graph_.addNode(node, odom_pose);
 }

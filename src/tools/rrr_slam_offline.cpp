@@ -83,7 +83,7 @@ const std::string& usage() {
       "                        [--refine-resolution M] [--max-scans N] [--quiet]\n"
       "                        [--load-map IN.rrrmap] [--save-map OUT.rrrmap]\n"
       "                        [--session-name NAME] [--session-trajectory TRAJ.txt]\n"
-      "                        [--initial-pose X,Y,THETA]\n"
+      "                        [--initial-pose X,Y,THETA] [--localization-only]\n"
       "                        [--preset paper|default] [--PARAMETER V ...]\n"
       "  LOG               CARMEN log (FLASER or ROBOTLASER1 lines; the scans carry the odometry)\n"
       "  --output          the pose graph: nodes at their optimized poses, odometry and every "
@@ -103,6 +103,8 @@ const std::string& usage() {
       "  --load-map        start from a saved map: the log is mapped as a new session, in its own\n"
       "                    odometry frame; it joins the map once RRR accepts a loop to it\n"
       "  --save-map        write the map at the end (IN and OUT may be the same file)\n"
+      "  --localization-only  with --load-map: the log is localized in the map, which stays as\n"
+      "                    it is (no submap or scan of the log joins it; no --save-map)\n"
       "  --session-name    this run's session name (default: the log's file name)\n"
       "  --session-trajectory  as --trajectory, for this run's session only\n"
       "  --initial-pose    with --load-map: where the log's first scan is in the map frame (m, m,\n"
@@ -131,6 +133,7 @@ struct Arguments {
   std::size_t max_scans = 0;  ///< 0: all
   std::string load_map;
   std::string save_map;
+  bool localization_only = false;
   std::string session_name;
   std::string session_trajectory;
   std::optional<core::Pose2> initial_pose;
@@ -203,6 +206,8 @@ Arguments parseArguments(int argc, char** argv) {
       args.load_map = cli.value(i, a);
     } else if (a == "--save-map") {
       args.save_map = cli.value(i, a);
+    } else if (a == "--localization-only") {
+      args.localization_only = true;
     } else if (a == "--session-name") {
       args.session_name = cli.value(i, a);
     } else if (a == "--session-trajectory") {
@@ -221,6 +226,12 @@ Arguments parseArguments(int argc, char** argv) {
   }
   if (args.log.empty()) cli.fail("no log file given");
   if (args.initial_pose && args.load_map.empty()) cli.fail("--initial-pose needs --load-map");
+  if (args.localization_only && args.load_map.empty()) {
+    cli.fail("--localization-only needs --load-map (a map to localize in)");
+  }
+  if (args.localization_only && !args.save_map.empty()) {
+    cli.fail("--localization-only leaves the loaded map as it is: there is nothing to --save-map");
+  }
   if (args.session_name.empty()) args.session_name = args.log.substr(args.log.rfind('/') + 1);
   try {
     rrr::validate(p.rrr);
@@ -309,15 +320,40 @@ void printSessions(const frontend::LaserSlam& slam) {
     std::printf("relocalized    at node %d (the session's node %d, %.1f s after its start)%s\n",
                 *tied, *tied - current.first_node,
                 slam.nodeTimestamps()[static_cast<std::size_t>(*tied)] - current.start_time,
-                slam.tied() ? ""
-                            : "; no loop to the map is accepted at the end: this session is a "
-                              "separate component of the map");
+                slam.tied() ? "" : "; not tied at the end");
   } else if (slam.tied()) {
-    std::printf(
-        "relocalized    only by the final decision (a loop to the map accepted at the end)\n");
+    std::printf("relocalized    only by the final decision\n");
   } else {
-    std::printf("relocalized    no: this session is a separate component of the map\n");
+    std::printf("relocalized    no\n");
   }
+  if (!slam.tied() && sessions.size() > 1) {
+    const double spread = slam.acceptedCrossingSpread();
+    if (spread < 0.0) {
+      std::printf(
+          "               no loop to the map is accepted: this session is a separate "
+          "component of the map\n");
+    } else {
+      std::printf(
+          "               the loops to the map RRR accepts lie within %.1f m of each "
+          "other along the session (relocalization_confirm_distance %g m): placed by "
+          "them, not confirmed\n",
+          spread, slam.params().loops.relocalization_confirm_distance_m);
+    }
+  }
+}
+
+// What each scan cost the robot: the time from its arrival to its pose (local SLAM, the loop
+// search of a new node and RRR's decisions it triggered).
+void printLatency(std::vector<double> seconds) {
+  if (seconds.empty()) return;
+  std::sort(seconds.begin(), seconds.end());
+  auto at = [&](double q) {
+    return 1e3 *
+           seconds[std::min(seconds.size() - 1,
+                            static_cast<std::size_t>(q * static_cast<double>(seconds.size())))];
+  };
+  std::printf("latency        per scan p50 %.2f ms, p99 %.2f ms, max %.2f ms (%zu scans)\n",
+              at(0.5), at(0.99), 1e3 * seconds.back(), seconds.size());
 }
 
 std::vector<frontend::LoopLine> loopLines(const frontend::LaserSlam& slam) {
@@ -345,7 +381,10 @@ int main(int argc, char** argv) {
       const auto load_start = std::chrono::steady_clock::now();
       const frontend::MapSnapshot map = frontend::readMapFile(args.load_map);
       try {
-        slam_owner = frontend::LaserSlam::fromMap(map, args.params, args.session_name);
+        slam_owner = frontend::LaserSlam::fromMap(map, args.params, args.session_name,
+                                                  args.localization_only
+                                                      ? frontend::SessionMode::kLocalization
+                                                      : frontend::SessionMode::kMapping);
       } catch (const std::invalid_argument& e) {
         throw std::runtime_error(args.load_map + ": " + e.what());
       }
@@ -370,12 +409,16 @@ int main(int argc, char** argv) {
         args.max_scans > 0 ? std::min(args.max_scans, log.scans.size()) : log.scans.size();
     std::vector<std::size_t> placed;  // log indices of the scans the front end placed
     placed.reserve(n);
+    std::vector<double> latency;  // seconds of each addScan call
+    latency.reserve(n);
     constexpr int kRefusalsShown = 10;
     for (std::size_t k = 0; k < n; ++k) {
       const auto& record = log.scans[k];
+      const auto scan_start = std::chrono::steady_clock::now();
       try {
         slam.addScan(frontend::RangeScan::fromCarmen(record), record.odom_pose);
         placed.push_back(k);
+        latency.push_back(core::secondsSince(scan_start));
       } catch (const frontend::ScanRefused& e) {
         if (slam.stats().refused_scans <= kRefusalsShown) {
           std::fprintf(
@@ -416,6 +459,7 @@ int main(int argc, char** argv) {
     std::printf("accepted       %d\n", status.accepted);
     std::printf("rejected       %d\n", status.rejected);
     printSessions(slam);
+    printLatency(latency);
     std::printf(
         "time           %.2f s (local SLAM %.2f, loop search %.2f, RRR %.2f), %.1fx real time\n",
         seconds, stats.local_slam_seconds, stats.loop_search_seconds, stats.rrr_seconds,

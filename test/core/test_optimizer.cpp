@@ -429,6 +429,27 @@ TEST(Lago, StartsFarOffGraphsNearTheirMinimum) {
   EXPECT_FALSE(farFromMinimum(makeOptimizer(readPoseGraph(kData + "/intel.g2o.gz"))));
 }
 
+TEST(Lago, KeepsTheFixedNodesWhereTheyAre) {
+  // A square loop whose first side is fixed away from the origin (a loaded map held still):
+  // LAGO's estimate leaves those nodes where they are and places the rest around them.
+  std::vector<Pose2> truth;
+  Optimizer opt = squareLoop(5, truth, 3, 0.3);
+  const Pose2 frame(10.0, -4.0, 0.7);
+  std::vector<Pose2> start = opt.poses();
+  for (int k = 0; k < 5; ++k) {
+    start[static_cast<std::size_t>(k)] = compose(frame, truth[static_cast<std::size_t>(k)]);
+    opt.setFixed(k, true);
+  }
+  opt.setPoses(start);
+  const std::vector<Pose2> lago = lagoInitialization(opt);
+  for (int k = 0; k < 5; ++k) EXPECT_EQ(lago[k], start[k]) << "fixed node " << k;
+  for (std::size_t k = 5; k < truth.size(); ++k) {
+    const Pose2 expected = compose(frame, truth[k]);
+    EXPECT_LT((lago[k].head<2>() - expected.head<2>()).norm(), 0.05) << "node " << k;
+    EXPECT_LT(std::abs(normalizeAngle(lago[k].z() - expected.z())), 0.01) << "node " << k;
+  }
+}
+
 TEST(Optimizer, UnanchoredComponentsAreHeldByWeakPriors) {
   // Two sessions: two odometry chains with no link between them.
   Optimizer opt;

@@ -35,6 +35,7 @@ LaserSlamParams smallMaps() {
   p.loops.search_every_n_nodes = 2;
   p.loops.search_min_points = 60;
   p.loops.threads = 1;
+  p.loops.relocalization_confirm_distance_m = 3.0;  // a third of a lap of the room
   return p;
 }
 
@@ -44,9 +45,10 @@ core::Pose2 truthAt(int k) {
   return {7.5 + 1.5 * std::cos(a), 2.5 + 1.5 * std::sin(a), a + M_PI / 2};
 }
 
-// Drives `scans` scans of the circle; the odometry is the truth seen from `odom_frame`.
-void drive(LaserSlam& slam, const core::Pose2& odom_frame, int scans, double t0) {
-  for (int k = 0; k < scans; ++k) {
+// Drives scans first .. first + scans - 1 of the circle; the odometry is the truth seen from
+// `odom_frame`.
+void drive(LaserSlam& slam, const core::Pose2& odom_frame, int scans, double t0, int first = 0) {
+  for (int k = first; k < first + scans; ++k) {
     RangeScan scan = castScan(room(), truthAt(k));
     scan.timestamp = t0 + 0.1 * k;
     slam.addScan(scan, core::compose(odom_frame, truthAt(k)));
@@ -206,7 +208,8 @@ TEST(MapFile, ANewSessionInAnotherOdometryFrameIsTiedToTheMap) {
   const core::Pose2 elsewhere(100.0, -50.0, 2.0);
   drive(*slam, elsewhere, 100, 1000.0);
   ASSERT_TRUE(slam->tiedAt().has_value()) << "the session never joined the map";
-  EXPECT_LT(*slam->tiedAt() - static_cast<int>(map.nodes.size()), 60);
+  // Placed by the first matches, confirmed by those 3 m on (one node per 0.09 m scan here).
+  EXPECT_LT(*slam->tiedAt() - static_cast<int>(map.nodes.size()), 75);
   slam->finish();
   // Tied, the second session's nodes sit where the robot was, in the first session's frame
   // (which is the room's: its first odometry pose was the truth).
@@ -221,6 +224,59 @@ TEST(MapFile, ANewSessionInAnotherOdometryFrameIsTiedToTheMap) {
   const MapSnapshot both = slam->snapshot();
   EXPECT_EQ(both.sessions.size(), 2u);
   EXPECT_EQ(both.nodes.back().session, 1);
+}
+
+TEST(MapFile, LoopsAtOnePlaceOnlyPlaceASessionWithoutTyingIt) {
+  const MapSnapshot map = readMapFile(savedMap());
+  LaserSlamParams params = smallMaps();
+  params.loops.relocalization_confirm_distance_m = 50.0;  // farther than this run goes
+  auto slam = LaserSlam::fromMap(map, params, "second");
+  const core::Pose2 elsewhere(100.0, -50.0, 2.0);
+  drive(*slam, elsewhere, 60, 1000.0);
+  ASSERT_TRUE(slam->placed()) << "no loop to the map was accepted";
+  EXPECT_GE(slam->acceptedCrossingSpread(), 0.0);
+  EXPECT_LT(slam->acceptedCrossingSpread(), 50.0);
+  EXPECT_FALSE(slam->tied());
+  EXPECT_FALSE(slam->tiedAt().has_value());
+  // Not tied, the whole-map search goes on beside the search around where the loops place it.
+  const long long whole = slam->stats().relocalization_searches;
+  const long long windowed = slam->stats().loop_searches;
+  drive(*slam, elsewhere, 40, 1000.0, 60);
+  EXPECT_GT(slam->stats().relocalization_searches, whole);
+  EXPECT_GT(slam->stats().loop_searches, windowed);
+  // With the default distance of the room's scale, the same run ties.
+  auto tied = LaserSlam::fromMap(map, smallMaps(), "third");
+  drive(*tied, elsewhere, 100, 1000.0);
+  EXPECT_TRUE(tied->tied());
+  EXPECT_GE(tied->acceptedCrossingSpread(), 3.0);
+}
+
+TEST(MapFile, LocalizationTracksTheRobotAndLeavesTheMapAsItIs) {
+  const MapSnapshot map = readMapFile(savedMap());
+  auto slam = LaserSlam::fromMap(map, smallMaps(), "localize", SessionMode::kLocalization);
+  const core::Pose2 elsewhere(100.0, -50.0, 2.0);
+  drive(*slam, elsewhere, 100, 1000.0);
+  slam->finish();
+  ASSERT_TRUE(slam->tiedAt().has_value()) << "never localized";
+  const auto poses = slam->rrr().mapPoses();
+  const auto n = map.nodes.size();
+  for (std::size_t k = 0; k < n; ++k) {
+    EXPECT_LT((poses[k] - map.nodes[k].map_pose).norm(), 1e-9) << "map node " << k << " moved";
+  }
+  const auto& stamps = slam->nodeTimestamps();
+  for (std::size_t k = static_cast<std::size_t>(*slam->tiedAt()); k < poses.size(); ++k) {
+    const int scan = static_cast<int>(std::lround((stamps[k] - 1000.0) / 0.1));
+    EXPECT_LT((poses[k].head<2>() - truthAt(scan).head<2>()).norm(), 0.1) << "node " << k;
+  }
+  // Nothing of the run joins the map: no submap to search, no scan to render, nothing to save.
+  EXPECT_EQ(slam->mapInputs().scans.size(), n);
+  EXPECT_EQ(slam->stats().finished_submaps, static_cast<int>(map.submaps.size()));
+  EXPECT_THROW(slam->snapshot(), std::logic_error);
+  // The map's own loops are not decided again: only the run's loops to the map are candidates.
+  for (int k = 0; k < slam->rrr().numCandidates(); ++k) {
+    EXPECT_GE(std::max(slam->rrr().candidate(k).from, slam->rrr().candidate(k).to),
+              static_cast<int>(n));
+  }
 }
 
 // A map big enough that writing it takes a while: thousands of long scans of random ranges

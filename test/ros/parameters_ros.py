@@ -27,6 +27,8 @@ BAD = [
     ({"input_mode": "scan", "map_file": "/nonexistent/map.rrrmap"},
      "/nonexistent/map.rrrmap: cannot open the map file"),
     ({"input_mode": "odom", "map_file": "/tmp/map.rrrmap"}, "map_file needs input_mode scan"),
+    ({"input_mode": "scan", "mode": "localisation"}, "mode must be mapping or localization"),
+    ({"input_mode": "scan", "mode": "localization"}, "mode localization needs a map to localize in"),
 ]
 
 

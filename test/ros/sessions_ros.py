@@ -7,6 +7,7 @@ import tempfile
 import time
 import unittest
 
+import roslib.packages
 import rospy
 import rostest
 from geometry_msgs.msg import PoseWithCovarianceStamped
@@ -92,6 +93,38 @@ class Sessions(unittest.TestCase):
         wrong.pose.pose.orientation.w = 1.0
         publisher.publish(wrong)
         self.assertTrue(wait_for(lambda: self.status.messages_malformed == malformed + 1, 10.0), str(self.status))
+        Sessions.map_path = path
+
+    def test_b_localization_tracks_the_robot_and_leaves_the_map_as_it_is(self):
+        # A second node localizes in the map saved above: mode localization, map_file at start.
+        name = "localizer"
+        for key, value in {"input_mode": "scan", "map_file": self.map_path, "mode": "localization",
+                           "publish_tf": False, "scans_per_submap": 10,
+                           "min_node_separation": 15,
+                           "relocalization_confirm_distance": 2.0}.items():
+            rospy.set_param(f"/{name}/{key}", value)
+        status = {}
+        rospy.Subscriber(f"/{name}/status", RrrStatus, lambda m: status.update(last=m), queue_size=10)
+        binary = roslib.packages.find_node("rrr_graphslam", "rrr_graphslam_node")[0]
+        env = dict(os.environ, ROSCONSOLE_STDOUT_LINE_BUFFERED="1")
+        node = subprocess.Popen([binary, f"__name:={name}"], env=env, stdout=subprocess.PIPE,
+                                stderr=subprocess.STDOUT, text=True)
+        try:
+            self.assertTrue(wait_for(lambda: "last" in status, 30.0), "the localizer did not start")
+            loaded_nodes = status["last"].nodes
+            self.assertEqual(status["last"].session, 1)
+            moved = os.path.join(self.folder, "moved_again.clf")
+            write_moved_log(self.log, moved, (-30.0, 70.0, -1.0), later=300.0)
+            self.play(moved, "replay_third")
+            self.assertTrue(wait_for(lambda: status["last"].tied_to_map, 10.0), str(status["last"]))
+            self.assertGreater(status["last"].nodes, loaded_nodes)
+            save = rospy.ServiceProxy(f"/{name}/save_map", SaveMap)
+            answer = save(path=os.path.join(self.folder, "localized.rrrmap"))
+            self.assertFalse(answer.success)
+            self.assertIn("localization", answer.message)
+        finally:
+            node.terminate()
+            node.wait(timeout=30)
 
 
 if __name__ == "__main__":

@@ -33,6 +33,19 @@ TEST(Clustering, BothEndsMustBeWithinTheGap) {
   EXPECT_EQ(clusters[2], (std::vector<int>{4}));
 }
 
+TEST(Clustering, NeighbouringIdsOfTwoSessionsAreNotNeighbours) {
+  // Nodes 0..99 are one session, 100..199 the next: 98 and 101 are consecutive-ish ids of two
+  // unrelated runs.
+  std::vector<int> session_of(200, 0);
+  std::fill(session_of.begin() + 100, session_of.end(), 1);
+  const std::vector<CandidateEnds> ends = {{10, 98}, {12, 101}, {14, 103}};
+  EXPECT_EQ(clusterCandidates(ends, 3).size(), 1u);  // without sessions: one revisit
+  const auto clusters = clusterCandidates(ends, 3, session_of);
+  ASSERT_EQ(clusters.size(), 2u);
+  EXPECT_EQ(clusters[0], (std::vector<int>{0}));
+  EXPECT_EQ(clusters[1], (std::vector<int>{1, 2}));
+}
+
 TEST(Clustering, DoesNotDependOnOrder) {
   std::mt19937 rng(2);
   std::uniform_int_distribution<int> node(0, 400);

@@ -14,8 +14,9 @@
 namespace rrr_graphslam::core {
 
 /// Poses for the optimizer's active constraints (weights ignored), starting from its current
-/// poses for the angle unwrapping and for nodes no active constraint reaches. Node 0 (or the
-/// optimizer's gauge) keeps its pose. Both linear solves go through CHOLMOD.
+/// poses for the angle unwrapping and for nodes no active constraint reaches. The optimizer's
+/// gauge keeps its poses: its fixed nodes, or node 0 when none is fixed. Both linear solves go
+/// through CHOLMOD.
 std::vector<Pose2> lagoInitialization(const Optimizer& optimizer);
 
 /// True when the optimizer's poses are far from a minimum: chi2 per active constraint above

@@ -9,10 +9,15 @@
 // so the whole trajectory follows the optimized nodes.
 //
 // Sessions: a map saved by snapshot() (map_file.h) is continued by fromMap() as a new session in
-// its own odometry frame. Until one of its loops to the earlier sessions is accepted by RRR (the
-// session is "tied"), every relocalization_every_n_nodes-th node is matched against every submap
-// of the earlier sessions, whole (branch and bound over the submap and all rotations); RRR decides
-// those candidates like any other, so one wrong relocalization cannot bend the map.
+// its own odometry frame. Until it is tied to the earlier sessions, every
+// relocalization_every_n_nodes-th node is matched against every submap of the earlier sessions,
+// whole (branch and bound over the submap and all rotations); RRR decides those candidates like
+// any other, so one wrong relocalization cannot bend the map. A session is tied once RRR accepted
+// loops to the earlier sessions at places of the session at least relocalization_confirm_distance
+// apart along its path: at one place only, nothing in the graph can contradict a self-consistent
+// match with the wrong one of two alike corridors (the first link between two sessions closes no
+// cycle), and a session tied that way would stop searching. While accepted loops place a session
+// but do not yet tie it, its nodes are also searched around where they place it.
 
 #include <memory>
 #include <optional>
@@ -30,6 +35,12 @@
 #include "rrr_graphslam/rrr/online_rrr.h"
 
 namespace rrr_graphslam::frontend {
+
+/// What a session continuing a loaded map does with it.
+enum class SessionMode {
+  kMapping,       ///< extends the map: its nodes, submaps and loops join it
+  kLocalization,  ///< tracks the robot in the map, which stays as it was loaded
+};
 
 /// Counters for progress lines and benchmarks.
 struct LaserSlamStats {
@@ -54,16 +65,22 @@ class LaserSlam {
   /// A new map; its first session is named `session_name`.
   explicit LaserSlam(const LaserSlamParams& params = {}, const std::string& session_name = "");
 
-  /// Continues `map` (read by readMapFile): its nodes, edges and RRR's decisions are restored
-  /// (RRR decides the loaded candidates again with `params`), its submaps rebuilt from their
-  /// nodes' scans, and the next scan starts session `session_name`. Throws std::invalid_argument
-  /// when the map cannot be continued with `params` (a parameter the submaps depend on differs:
-  /// named) or is inconsistent.
+  /// Continues `map` (read by readMapFile): its submaps are rebuilt from their nodes' scans and
+  /// the next scan starts session `session_name`. Mapping: its nodes, edges and RRR's decisions
+  /// are restored (RRR decides the loaded candidates again with `params`). Localization: its
+  /// nodes are held fixed at their map poses (joined by rigid links, so RRR's tests see the map's
+  /// own geometry) and only the new session's loops to them are decided; the session keeps no
+  /// submap and no scan, and snapshot() refuses. Throws std::invalid_argument when the map cannot
+  /// be continued with `params` (a parameter the submaps depend on differs: named) or is
+  /// inconsistent.
   static std::unique_ptr<LaserSlam> fromMap(const MapSnapshot& map, const LaserSlamParams& params,
-                                            const std::string& session_name);
+                                            const std::string& session_name,
+                                            SessionMode mode = SessionMode::kMapping);
   /// Everything fromMap() needs, the current session's unfinished submaps included (they are
-  /// rebuilt finished), and every parameter of both tables it runs with.
+  /// rebuilt finished), and every parameter of both tables it runs with. Throws std::logic_error
+  /// in localization (the loaded map is what there is to save).
   MapSnapshot snapshot() const;
+  SessionMode mode() const { return mode_; }
   /// Every parameter of both tables it runs with, as a map file records them (name, value).
   std::vector<std::pair<std::string, std::string>> snapshotParams() const;
 
@@ -88,11 +105,18 @@ class LaserSlam {
 
   /// The sessions so far; the last is the current one.
   const std::vector<MapSnapshot::Session>& sessions() const { return sessions_; }
-  /// The node at which the current session was first tied to an earlier one (an accepted loop
-  /// between them), if it was; nullopt for the first session.
+  /// The node at which the current session was first tied to the earlier ones, if it was;
+  /// nullopt for the first session.
   std::optional<int> tiedAt() const { return tied_at_; }
-  /// Whether an accepted loop ties the current session to an earlier one now.
+  /// Whether the loops RRR accepts now between the current session and the earlier ones lie at
+  /// least relocalization_confirm_distance apart along the session's path.
   bool tied() const;
+  /// Whether RRR accepts any loop between the current session and the earlier ones now (the
+  /// session is placed in the map, tied or not yet).
+  bool placed() const;
+  /// Travel along the current session (m) between the first and the last of its nodes that loops
+  /// RRR accepts join to the earlier sessions; -infinity if there are none.
+  double acceptedCrossingSpread() const;
   /// Index in scanMapPoses() of the current session's first scan (0 in the first session).
   std::size_t sessionFirstScan() const { return session_first_scan_; }
   /// Timestamp of every node.
@@ -103,7 +127,8 @@ class LaserSlam {
   std::vector<core::Pose2> scanMapPoses() const;
   /// Timestamps of every scan so far.
   const std::vector<double>& scanTimestamps() const { return scan_timestamps_; }
-  /// What the occupancy map is made of now (the scans shared, not copied).
+  /// What the occupancy map is made of now (the scans shared, not copied); in localization, the
+  /// loaded map's nodes only.
   MapInputs mapInputs() const;
   /// The occupancy map: every node's scan inserted at its map pose.
   mrpt::maps::COccupancyGridMap2D renderMap(double resolution_m) const {
@@ -115,6 +140,7 @@ class LaserSlam {
   void addLoop(const LoopMatch& loop);
 
   LaserSlamParams params_;
+  SessionMode mode_ = SessionMode::kMapping;
   LocalSlam local_;
   std::unique_ptr<rrr::OnlineRrr> rrr_;
   Eigen::Matrix3d odometry_information_;
@@ -142,9 +168,14 @@ class LaserSlam {
     core::Pose2 map_pose;
   };
   std::optional<Hint> hint_;
-  int relocalization_matches_ = 0;        // nodes that matched the earlier sessions since the rest
-  int relocalization_paused_until_ = 0;   // no whole-map search before this node
-  std::vector<int> crossing_candidates_;  // candidates between this session and earlier ones
+  int relocalization_matches_ = 0;       // nodes that matched the earlier sessions since the rest
+  int relocalization_paused_until_ = 0;  // no whole-map search before this node
+  struct Crossing {
+    int candidate;     // between this session and an earlier one
+    int session_node;  // its end in this session
+  };
+  std::vector<Crossing> crossing_;
+  std::vector<double> node_travel_;  // path length from the node's session start (m)
 };
 
 }  // namespace rrr_graphslam::frontend

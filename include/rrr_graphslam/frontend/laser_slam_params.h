@@ -106,6 +106,9 @@ void forEachSlamParam(Params& p, F&& f) {
   f(core::ParamInfo{"relocalization_matches", 1, 1e6,
                     "after N nodes matched the loaded map, its search rests until RRR decides"},
     loops.relocalization_matches);
+  f(core::ParamInfo{"relocalization_confirm_distance", 0.0, 1e6,
+                    "m; a session is tied once its accepted loops to the map lie this far apart"},
+    loops.relocalization_confirm_distance_m);
   f(core::ParamInfo{"loop_search_threads", 1, 256, "threads matching a node against its submaps"},
     loops.threads);
   f(core::ParamInfo{"loop_search_max_range", 0.1, 1e3,

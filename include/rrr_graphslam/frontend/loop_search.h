@@ -38,9 +38,14 @@ struct LoopSearchParams {
   /// While a session is not tied to the map it continues, every N-th of its nodes is matched
   /// against every submap of the earlier sessions, whole; default 5.
   int relocalization_every_n_nodes = 5;
-  /// After this many nodes matched the earlier sessions, the whole-map search rests for
-  /// cluster_gap nodes so that RRR decides their cluster; default 3.
+  /// While a session is not tied: after this many nodes matched the earlier sessions, their
+  /// search rests for cluster_gap nodes so that RRR decides their cluster; default 3.
   int relocalization_matches = 3;
+  /// A session counts as tied to the map once its accepted loops to the earlier sessions lie at
+  /// least this far apart along its own path (m): one place alone can match the wrong corridor of
+  /// a building, self-consistently, with nothing in the graph to contradict it. Until then the
+  /// whole-map search goes on beside the search around where those loops place it; default 10 m.
+  double relocalization_confirm_distance_m = 10.0;
   /// Least-squares refinement of a match (weak pull toward the branch-and-bound pose).
   LeastSquaresParams refinement{1.0, 1.0, 1.0, 20, {0.05, 0.05, 0.5 * M_PI / 180}};
 };

@@ -38,8 +38,11 @@ struct NodeParams {
   // Slam mode: the front end (its rrr member is ignored: `rrr` above is used), the map output and
   // how long a scan waits for its tf.
   frontend::LaserSlamParams slam;
-  double map_resolution = 0.05;     ///< m per cell of the published map
-  std::string map_file;             ///< slam mode: a saved map (*.rrrmap) to continue at start
+  double map_resolution = 0.05;  ///< m per cell of the published map
+  std::string map_file;          ///< slam mode: a saved map (*.rrrmap) to continue at start
+  /// slam mode with a map (map_file, ~load_map): "mapping" extends it, "localization" tracks the
+  /// robot in it and leaves it as it was loaded.
+  std::string mode = "mapping";
   double map_publish_period = 5.0;  ///< s between map renderings while scans arrive
   double tf_timeout = 0.2;          ///< s a scan waits for odom_frame -> base_frame
 

@@ -86,6 +86,11 @@ class OnlineRrr {
   static std::unique_ptr<OnlineRrr> fromPoseGraph(const core::PoseGraph& graph,
                                                   const OnlineRrrParams& params = {});
 
+  /// Holds every node it has now where it is (localization against a loaded map that must not
+  /// change): they leave the optimization's variables, and the nodes added later are placed
+  /// against them. Call it before any loop candidate names a node.
+  void fixNodes();
+
   /// Starts a session with node `id` at `odom_pose` (its pose in the odometry frame).
   void startSession(NodeId id, const core::Pose2& odom_pose);
   /// Sequential constraint: `measurement` is the pose of node `to` in the frame of node `from`.
