@@ -1,5 +1,6 @@
 // LaserSlam across runs: the snapshot a map file holds, and a new session continuing one.
 
+#include <exception>
 #include <stdexcept>
 #include <string>
 
@@ -165,20 +166,31 @@ std::unique_ptr<LaserSlam> LaserSlam::fromMap(const MapSnapshot& map, const Lase
     slam->scan_timestamps_.push_back(node.timestamp);
   }
   // The submaps, rebuilt from the scans that made them, in the order and at the poses they were
-  // inserted.
-  for (std::size_t i = 0; i < map.submaps.size(); ++i) {
-    const MapSnapshot::Submap& span = map.submaps[i];
-    auto submap = std::make_shared<Submap>(
-        static_cast<int>(i), span.first_node,
-        map.nodes[static_cast<std::size_t>(span.first_node)].local_pose, params.local.submap);
-    for (int k = span.first_node; k <= span.last_node; ++k) {
-      const auto& node = map.nodes[static_cast<std::size_t>(k)];
-      submap->insert(*node.scan, node.local_pose, k);
+  // inserted; each on its own (the scans are only read), on the loop search's threads.
+  const int submaps = static_cast<int>(map.submaps.size());
+  slam->finished_.resize(map.submaps.size());
+  std::vector<std::exception_ptr> failed(map.submaps.size());  // none leaves a parallel loop
+#pragma omp parallel for schedule(dynamic) num_threads(params.loops.threads) if (submaps > 1)
+  for (int i = 0; i < submaps; ++i) {
+    try {
+      const MapSnapshot::Submap& span = map.submaps[static_cast<std::size_t>(i)];
+      auto submap = std::make_shared<Submap>(
+          i, span.first_node, map.nodes[static_cast<std::size_t>(span.first_node)].local_pose,
+          params.local.submap);
+      for (int k = span.first_node; k <= span.last_node; ++k) {
+        const auto& node = map.nodes[static_cast<std::size_t>(k)];
+        submap->insert(*node.scan, node.local_pose, k);
+      }
+      submap->finish();
+      slam->finished_[static_cast<std::size_t>(i)] = std::move(submap);
+    } catch (...) {
+      failed[static_cast<std::size_t>(i)] = std::current_exception();
     }
-    submap->finish();
-    slam->finished_.push_back(std::move(submap));
-    slam->finished_spans_.push_back(span);
   }
+  for (const std::exception_ptr& e : failed) {
+    if (e) std::rethrow_exception(e);
+  }
+  slam->finished_spans_ = map.submaps;
   slam->sessions_ = map.sessions;
   slam->sessions_.push_back({session_name, 0.0, n});
   slam->session_first_submap_ = static_cast<int>(map.submaps.size());
