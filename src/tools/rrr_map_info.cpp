@@ -1,4 +1,4 @@
-// rrr_map_info MAP.rrrmap [--graph OUT.g2o] [--map OUT] [--map-resolution M]
+// rrr_map_info MAP.rrrmap [--graph OUT.g2o] [--trajectory OUT.txt] [--map OUT] [--map-resolution M]
 // What a saved map holds, as `key value` lines; exports its graph (g2o, map poses) and its
 // occupancy map (map_server PGM + YAML).
 
@@ -15,6 +15,7 @@
 #include "rrr_graphslam/frontend/map_file.h"
 #include "rrr_graphslam/frontend/map_io.h"
 #include "rrr_graphslam/frontend/map_render.h"
+#include "tum_trajectory.h"
 
 namespace {
 
@@ -24,10 +25,13 @@ namespace frontend = rrr_graphslam::frontend;
 namespace rrr = rrr_graphslam::rrr;
 
 const char* const kUsage =
-    "usage: rrr_map_info MAP.rrrmap [--graph OUT.g2o] [--map OUT] [--map-resolution M]\n"
+    "usage: rrr_map_info MAP.rrrmap [--graph OUT.g2o] [--trajectory OUT.txt] [--map OUT]\n"
+    "                    [--map-resolution M]\n"
     "  MAP             a map saved by rrr_slam_offline --save-map (or the node's ~save_map)\n"
     "  --graph         writes the graph: nodes at their map poses, odometry and every loop\n"
     "                  candidate (g2o, or TORO for .graph/.toro)\n"
+    "  --trajectory    writes every node's map pose with its scan's timestamp (TUM format, as\n"
+    "                  rrr_slam_offline --trajectory)\n"
     "  --map           writes OUT.pgm + OUT.yaml (map_server) from every node's scan\n"
     "  --map-resolution  m per cell of --map (default 0.05)\n"
     "Prints 'key value' lines: format_version, sessions, nodes, edges, odometry_edges,\n"
@@ -46,12 +50,14 @@ std::string paramOf(const frontend::MapSnapshot& map, const std::string& name) {
 
 int main(int argc, char** argv) {
   const tools::CommandLine cli(argc, argv, "rrr_map_info", kUsage);
-  std::string path, graph_out, map_out;
+  std::string path, graph_out, trajectory_out, map_out;
   double resolution = 0.05;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--graph") {
       graph_out = cli.value(i, a);
+    } else if (a == "--trajectory") {
+      trajectory_out = cli.value(i, a);
     } else if (a == "--map") {
       map_out = cli.value(i, a);
     } else if (a == "--map-resolution") {
@@ -101,6 +107,16 @@ int main(int argc, char** argv) {
     if (!graph_out.empty()) {
       core::writePoseGraph(frontend::mapPoseGraph(map), graph_out);
       std::printf("graph %s\n", graph_out.c_str());
+    }
+    if (!trajectory_out.empty()) {
+      std::vector<double> stamps;
+      std::vector<core::Pose2> poses;
+      for (const auto& node : map.nodes) {
+        stamps.push_back(node.timestamp);
+        poses.push_back(node.map_pose);
+      }
+      tools::writeTumTrajectory(trajectory_out, "rrr_map_info", stamps, poses);
+      std::printf("trajectory %s\n", trajectory_out.c_str());
     }
     if (!map_out.empty()) {
       frontend::MapInputs inputs;

@@ -30,6 +30,7 @@
 #include "rrr_graphslam/frontend/trajectory_refinement.h"
 #include "rrr_graphslam/rrr/decisions_io.h"
 #include "rrr_params_cli.h"
+#include "tum_trajectory.h"
 
 namespace {
 
@@ -244,15 +245,7 @@ Arguments parseArguments(int argc, char** argv) {
 // Poses from index `first` on, TUM format.
 void writeTrajectory(const std::string& path, const std::vector<double>& stamps,
                      const std::vector<core::Pose2>& poses, std::size_t first) {
-  core::writeFileAtomically(path, [&](std::ostream& out) {
-    out << "# t x y z qx qy qz qw (rrr_slam_offline; t = ipc_timestamp)\n" << std::fixed;
-    for (std::size_t k = first; k < poses.size(); ++k) {
-      const core::Pose2& x = poses[k];
-      out << std::setprecision(6) << stamps[k] << ' ' << std::setprecision(6) << x.x() << ' '
-          << x.y() << " 0 0 0 " << std::setprecision(9) << std::sin(0.5 * x.z()) << ' '
-          << std::cos(0.5 * x.z()) << '\n';
-    }
-  });
+  tools::writeTumTrajectory(path, "rrr_slam_offline", stamps, poses, first);
 }
 
 // The optimized pose of every scan in the map (nodes of loaded sessions one each); this run's

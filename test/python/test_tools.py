@@ -241,7 +241,8 @@ def test_slam_offline_takes_the_ros_parameter_names_and_its_older_flags(tmp_path
 
 MAP_INFO = os.environ.get("RRR_MAP_INFO")
 needs_map_info = pytest.mark.skipif(not (SLAM_OFFLINE and MAP_INFO), reason="rrr_slam_offline/rrr_map_info not given")
-SMALL_SUBMAPS = ("--scans-per-submap", 10, "--min-node-separation", 15)
+# ACES_HEAD drives 6 m: loops to the map 2 m apart along it confirm a tie.
+SMALL_SUBMAPS = ("--scans-per-submap", 10, "--min-node-separation", 15, "--relocalization-confirm-distance", 2)
 
 
 @needs_map_info
@@ -251,7 +252,8 @@ def test_a_saved_map_is_continued_as_a_new_session_from_another_odometry_frame(t
     first = run(SLAM_OFFLINE, ACES_HEAD, "--save-map", first_map, "--trajectory", tmp_path / "t1.txt",
                 "--refine-resolution", 0, "--quiet", *SMALL_SUBMAPS)
     assert first.returncode == 0, first.stderr
-    info = run(MAP_INFO, first_map, "--graph", tmp_path / "g.g2o", "--map", tmp_path / "m")
+    info = run(MAP_INFO, first_map, "--graph", tmp_path / "g.g2o", "--map", tmp_path / "m",
+               "--trajectory", tmp_path / "nodes.txt")
     assert info.returncode == 0, info.stderr
     keys = dict(line.split(" ", 1) for line in info.stdout.splitlines())
     for key in ("format_version", "sessions", "nodes", "edges", "loop_edges_accepted",
@@ -261,6 +263,10 @@ def test_a_saved_map_is_continued_as_a_new_session_from_another_odometry_frame(t
     assert int(keys["bytes"]) == first_map.stat().st_size
     assert len(read_graph(str(tmp_path / "g.g2o")).poses) == int(keys["nodes"])
     assert (tmp_path / "m.pgm").read_bytes().startswith(b"P5")
+    node_stamps, node_poses = read_tum(str(tmp_path / "nodes.txt"))
+    assert len(node_poses) == int(keys["nodes"])
+    run_stamps = set(read_tum(str(tmp_path / "t1.txt"))[0])
+    assert all(t in run_stamps for t in node_stamps)  # each node is one of the run's scans
 
     # The same log again, its odometry 100 m away and turned: a new session tied to the map.
     from rrr_graphslam.carmen import write_moved_log
@@ -283,8 +289,9 @@ def test_a_saved_map_is_continued_as_a_new_session_from_another_odometry_frame(t
     assert stamps1 == stamps2
     errors = [math.hypot(a[0] - b[0], a[1] - b[1]) for t, a, b in zip(stamps1, poses1, poses2)
               if t >= stamps1[0] + tied_after]
-    assert len(errors) > 50
-    assert sorted(errors)[len(errors) // 2] < 0.05 and max(errors) < 0.15, errors
+    assert len(errors) > 40  # tied once loops 2 m apart along the replay were accepted
+    # 2-10 cm apart, depending on which loops the two runs found (a wrong tie: metres).
+    assert sorted(errors)[len(errors) // 2] < 0.1 and max(errors) < 0.15, errors
     stamps_all, _ = read_tum(str(tmp_path / "all.txt"))
     assert len(stamps_all) > len(stamps2)  # the first session's nodes, then this run's scans
 
