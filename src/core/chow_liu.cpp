@@ -1,0 +1,244 @@
+#include "rrr_graphslam/core/chow_liu.h"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+#include <utility>
+
+#include <Eigen/Cholesky>
+#include <Eigen/LU>
+
+#include "rrr_graphslam/core/scoped_single_threaded_openmp.h"
+#include "rrr_graphslam/core/union_find.h"
+
+namespace rrr_graphslam::core {
+namespace {
+
+void checkMarginal(const Marginal& marginal) {
+  const auto n = static_cast<Eigen::Index>(3 * marginal.blanket.size());
+  if (marginal.linearization_point.size() != marginal.blanket.size() ||
+      marginal.information.rows() != n || marginal.information.cols() != n ||
+      marginal.gradient.size() != n) {
+    throw std::invalid_argument("chowLiuTree: the marginal's sizes disagree (" +
+                                std::to_string(marginal.blanket.size()) + " blanket nodes, " +
+                                std::to_string(marginal.linearization_point.size()) + " poses, " +
+                                std::to_string(marginal.information.rows()) + "x" +
+                                std::to_string(marginal.information.cols()) + " information, " +
+                                std::to_string(marginal.gradient.size()) + " gradient)");
+  }
+  if (!marginal.information.allFinite()) {
+    throw std::invalid_argument("chowLiuTree: the marginal's information is not finite");
+  }
+  const double scale = marginal.information.cwiseAbs().maxCoeff();
+  if ((marginal.information - marginal.information.transpose()).cwiseAbs().maxCoeff() >
+      1e-9 * scale) {
+    throw std::invalid_argument("chowLiuTree: the marginal's information is not symmetric");
+  }
+}
+
+// Connected pieces of the blanket: nodes coupled by a nonzero block of the marginal. Each
+// piece's members in blanket order; the first is its root.
+std::vector<std::vector<std::size_t>> blanketPieces(const Marginal& marginal) {
+  const std::size_t n = marginal.blanket.size();
+  UnionFind pieces(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    for (std::size_t j = i + 1; j < n; ++j) {
+      const auto a = static_cast<Eigen::Index>(3 * i), b = static_cast<Eigen::Index>(3 * j);
+      if (!marginal.information.block<3, 3>(a, b).isZero(0.0)) pieces.unite(i, j);
+    }
+  }
+  std::vector<std::vector<std::size_t>> members(n);
+  for (std::size_t i = 0; i < n; ++i) members[pieces.find(i)].push_back(i);
+  members.erase(std::remove_if(members.begin(), members.end(),
+                               [](const std::vector<std::size_t>& m) { return m.empty(); }),
+                members.end());
+  return members;
+}
+
+// Gauge: each piece anchored at its root, the others' joint covariance the inverse of their
+// information (the roots keep zero rows and columns).
+Eigen::MatrixXd anchoredCovariance(const Marginal& marginal,
+                                   const std::vector<std::vector<std::size_t>>& pieces) {
+  const auto size = static_cast<Eigen::Index>(3 * marginal.blanket.size());
+  Eigen::MatrixXd covariance = Eigen::MatrixXd::Zero(size, size);
+  for (const auto& piece : pieces) {
+    if (piece.size() < 2) continue;
+    std::vector<Eigen::Index> rows;
+    for (std::size_t k = 1; k < piece.size(); ++k) {
+      for (int r = 0; r < 3; ++r) rows.push_back(3 * static_cast<Eigen::Index>(piece[k]) + r);
+    }
+    const Eigen::MatrixXd anchored = marginal.information(rows, rows);
+    const Eigen::LLT<Eigen::MatrixXd> llt(anchored);
+    if (llt.info() != Eigen::Success) {
+      std::string ids;
+      for (std::size_t k : piece) {
+        ids += (ids.empty() ? "" : ", ") + std::to_string(marginal.blanket[k]);
+      }
+      throw std::invalid_argument("chowLiuTree: the marginal over blanket nodes {" + ids +
+                                  "} is singular beyond its gauge (rank below 3(n-1) with node " +
+                                  std::to_string(marginal.blanket[piece.front()]) +
+                                  " anchored): some relative pose carries no information");
+    }
+    const Eigen::MatrixXd inverse =
+        llt.solve(Eigen::MatrixXd::Identity(anchored.rows(), anchored.cols()));
+    covariance(rows, rows) = inverse;
+  }
+  return covariance;
+}
+
+// A blanket pair's relative pose as the optimizer's edge error sees it at the linearization
+// point (measurement between(x_i, x_j)): its Jacobians, its covariance propagated from the pair's
+// joint covariance, and the Chow-Liu weight.
+struct Candidate {
+  std::size_t i;
+  std::size_t j;
+  double mutual_information_nats;
+  Eigen::Matrix3d information;
+  EdgeLinearization linearization;
+};
+
+Candidate relativePose(const Marginal& marginal, const Eigen::MatrixXd& covariance, std::size_t i,
+                       std::size_t j) {
+  const Pose2& x_i = marginal.linearization_point[i];
+  const Pose2& x_j = marginal.linearization_point[j];
+  const EdgeLinearization lin = linearizeEdge(x_i, x_j, between(x_i, x_j));
+  const auto a = static_cast<Eigen::Index>(3 * i), b = static_cast<Eigen::Index>(3 * j);
+  const Eigen::Matrix3d sigma = lin.J_from * covariance.block<3, 3>(a, a) * lin.J_from.transpose() +
+                                lin.J_from * covariance.block<3, 3>(a, b) * lin.J_to.transpose() +
+                                lin.J_to * covariance.block<3, 3>(b, a) * lin.J_from.transpose() +
+                                lin.J_to * covariance.block<3, 3>(b, b) * lin.J_to.transpose();
+  const Eigen::LLT<Eigen::Matrix3d> llt(0.5 * (sigma + sigma.transpose()));
+  const double log_det = 2.0 * llt.matrixLLT().diagonal().array().log().sum();
+  const double entropy = 0.5 * (3.0 * std::log(2.0 * M_PI * M_E) + log_det);
+  const Eigen::Matrix3d information = llt.solve(Eigen::Matrix3d::Identity());
+  return {i, j, -entropy, 0.5 * (information + information.transpose()), lin};
+}
+
+// Maximum spanning tree (Kruskal) over the candidates; ties keep the blanket order, so the
+// result is deterministic.
+std::vector<Candidate> maximumSpanningTree(std::vector<Candidate> candidates, std::size_t n) {
+  std::stable_sort(candidates.begin(), candidates.end(),
+                   [](const Candidate& a, const Candidate& b) {
+                     return a.mutual_information_nats > b.mutual_information_nats;
+                   });
+  std::vector<Candidate> tree;
+  UnionFind spanned(n);
+  for (const Candidate& c : candidates) {
+    if (spanned.unite(c.i, c.j)) tree.push_back(c);
+  }
+  return tree;
+}
+
+// The tree's edges as constraints whose gradient at the linearization point is the marginal's
+// g. Edge e with measurement z_e = d_e - delta_e (d_e = between(x_i, x_j), on x, y, theta) has
+// error K_z delta_e there, K_z = diag(R(z_theta)^T, 1), and Jacobians K_z K_d^T A_e with A_e its
+// Jacobians at z_e = d_e; keeping the information A_e^T Omega_e A_e it held at d_e takes
+// Q Omega_e Q^T, Q = K_z K_d^T = diag(R(delta_theta), 1), and its gradient is then
+// A_e^T Omega_e K_d delta_e. Summed over the tree that must be g: A^T v = g with
+// v_e = Omega_e K_d delta_e, A the tree's stacked Jacobians, square and invertible once each
+// piece's root column is left out (a tree determines every pose from its root's); the root's
+// equation then holds too, as both sides are orthogonal to the gauge.
+std::vector<PoseConstraint> gradientMatchingConstraints(
+    const Marginal& marginal, const std::vector<Candidate>& tree,
+    const std::vector<std::vector<std::size_t>>& pieces) {
+  const std::size_t n = marginal.blanket.size();
+  std::vector<Eigen::Index> column(n, -1);  // among the non-root nodes
+  Eigen::Index columns = 0;
+  for (const auto& piece : pieces) {
+    for (std::size_t k = 1; k < piece.size(); ++k) column[piece[k]] = 3 * columns++;
+  }
+  const auto size = static_cast<Eigen::Index>(3 * tree.size());
+  Eigen::MatrixXd A = Eigen::MatrixXd::Zero(size, size);
+  Eigen::VectorXd g(size);
+  for (std::size_t k = 0; k < n; ++k) {
+    if (column[k] >= 0) {
+      g.segment<3>(column[k]) = marginal.gradient.segment<3>(3 * static_cast<Eigen::Index>(k));
+    }
+  }
+  for (std::size_t e = 0; e < tree.size(); ++e) {
+    const Candidate& c = tree[e];
+    const auto row = static_cast<Eigen::Index>(3 * e);
+    if (column[c.i] >= 0) A.block<3, 3>(row, column[c.i]) = c.linearization.J_from;
+    if (column[c.j] >= 0) A.block<3, 3>(row, column[c.j]) = c.linearization.J_to;
+  }
+  const Eigen::VectorXd v = A.transpose().partialPivLu().solve(g);
+
+  std::vector<PoseConstraint> constraints;
+  for (std::size_t e = 0; e < tree.size(); ++e) {
+    const Candidate& c = tree[e];
+    const Pose2 d = between(marginal.linearization_point[c.i], marginal.linearization_point[c.j]);
+    const Eigen::Vector3d k_delta =
+        c.information.ldlt().solve(v.segment<3>(3 * static_cast<Eigen::Index>(e)));
+    Pose2 delta;
+    delta.head<2>() = rotation(d.z()) * k_delta.head<2>();  // K_d^-1
+    delta.z() = k_delta.z();
+    const Pose2 z(d.x() - delta.x(), d.y() - delta.y(), normalizeAngle(d.z() - delta.z()));
+    Eigen::Matrix3d Q = Eigen::Matrix3d::Identity();
+    Q.topLeftCorner<2, 2>() = rotation(delta.z());
+    const Eigen::Matrix3d information = Q * c.information * Q.transpose();
+    constraints.push_back({marginal.blanket[c.i], marginal.blanket[c.j], z,
+                           0.5 * (information + information.transpose())});
+  }
+  return constraints;
+}
+
+}  // namespace
+
+std::vector<ChowLiuEdge> chowLiuTree(const Marginal& marginal, const ChowLiuParams& params) {
+  const ScopedSingleThreadedOpenMp single_threaded;
+  checkMarginal(marginal);
+  const std::vector<std::vector<std::size_t>> pieces = blanketPieces(marginal);
+  const Eigen::MatrixXd covariance = anchoredCovariance(marginal, pieces);
+
+  // Mutual information of every pair within a piece.
+  std::vector<Candidate> candidates;
+  for (const auto& piece : pieces) {
+    for (std::size_t a = 0; a < piece.size(); ++a) {
+      for (std::size_t b = a + 1; b < piece.size(); ++b) {
+        candidates.push_back(relativePose(marginal, covariance, piece[a], piece[b]));
+      }
+    }
+  }
+  const std::vector<Candidate> tree =
+      maximumSpanningTree(std::move(candidates), marginal.blanket.size());
+
+  std::vector<ChowLiuEdge> edges;
+  if (params.match_gradient) {
+    const std::vector<PoseConstraint> constraints =
+        gradientMatchingConstraints(marginal, tree, pieces);
+    for (std::size_t e = 0; e < tree.size(); ++e) {
+      edges.push_back({constraints[e], tree[e].mutual_information_nats});
+    }
+    return edges;
+  }
+  for (const Candidate& c : tree) {
+    const Pose2& x_i = marginal.linearization_point[c.i];
+    const Pose2& x_j = marginal.linearization_point[c.j];
+    edges.push_back(
+        {{marginal.blanket[c.i], marginal.blanket[c.j], between(x_i, x_j), c.information},
+         c.mutual_information_nats});
+  }
+  return edges;
+}
+
+QuadraticModel replacementModel(const Marginal& marginal, MarginalReplacement replacement,
+                                const ChowLiuParams& params) {
+  switch (replacement) {
+    case MarginalReplacement::kChowLiuTree: {
+      std::vector<PoseConstraint> constraints;
+      for (const ChowLiuEdge& edge : chowLiuTree(marginal, params)) {
+        constraints.push_back(edge.constraint);
+      }
+      return linearizeConstraints(constraints, marginal.blanket, marginal.linearization_point);
+    }
+    case MarginalReplacement::kDense:
+      return {marginal.information, marginal.gradient, marginal.chi2_at_linearization};
+    case MarginalReplacement::kDelete:
+      break;
+  }
+  const auto size = static_cast<Eigen::Index>(3 * marginal.blanket.size());
+  return {Eigen::MatrixXd::Zero(size, size), Eigen::VectorXd::Zero(size), 0.0};
+}
+
+}  // namespace rrr_graphslam::core
