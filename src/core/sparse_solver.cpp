@@ -1,34 +1,19 @@
 #include "rrr_graphslam/core/sparse_solver.h"
 
-#include <omp.h>
-
 #include <algorithm>
 #include <cmath>
 #include <numeric>
 
 #include <Eigen/CholmodSupport>
 
+#include "rrr_graphslam/core/scoped_single_threaded_openmp.h"
+
 namespace rrr_graphslam::core {
-namespace {
 
 // Debian's CHOLMOD is built with CHOLMOD_OMP_NUM_THREADS = 4, a num_threads clause that no
 // environment variable overrides. On a 2-core robot computer its thread wake-ups cost more than
-// the parallel loops save (City10000: 0.51 s -> 0.27 s per full solve), so
-// CHOLMOD's parallel regions run inactive (one thread) while we call it.
-class ScopedSingleThreadedOpenMp {
- public:
-  ScopedSingleThreadedOpenMp() : saved_levels_(omp_get_max_active_levels()) {
-    omp_set_max_active_levels(0);
-  }
-  ~ScopedSingleThreadedOpenMp() { omp_set_max_active_levels(saved_levels_); }
-  ScopedSingleThreadedOpenMp(const ScopedSingleThreadedOpenMp&) = delete;
-  ScopedSingleThreadedOpenMp& operator=(const ScopedSingleThreadedOpenMp&) = delete;
-
- private:
-  int saved_levels_;
-};
-
-}  // namespace
+// the parallel loops save (City10000: 0.51 s -> 0.27 s per full solve), so CHOLMOD's parallel
+// regions run inactive (one thread) while we call it: ScopedSingleThreadedOpenMp.
 
 // CHOLMOD_AUTO: supernodal or simplicial. Derived to reach the factor for cholmod_updown
 // (CholmodBase keeps it protected).

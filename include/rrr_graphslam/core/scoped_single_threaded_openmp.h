@@ -5,7 +5,7 @@
 // more than they save: chowLiuTree over a 102-node blanket took 93 ms with Eigen's threads while
 // two other processes kept both cores busy, 11 ms on one thread. Only for the core's own .cpp
 // files (they are compiled with OpenMP); not thread-safe against other code changing the same
-// OpenMP setting. sparse_solver.cpp keeps a private copy of this class for its CHOLMOD calls.
+// OpenMP setting. sparse_solver.cpp holds one around its CHOLMOD calls.
 
 #include <omp.h>
 
