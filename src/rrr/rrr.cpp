@@ -95,7 +95,9 @@ void Rrr::addTestedCluster(const std::vector<int>& members, const LinkResiduals*
 void Rrr::decideFromScratch() {
   syncWithGraph();
   startFromIntraResults();
-  const std::vector<core::Pose2> initial = graph_.initialPoses();
+  const std::vector<core::Pose2> initial =
+      params_.place_sessions ? placeSessions(graph_.initialPoses()) : graph_.initialPoses();
+  base_ = initial;
 
   // Realize: the hypotheses are tested jointly; the consistent ones become the good set. The
   // paper tests those the hypotheses' own map preselects; robust_ordering those a robust map
@@ -138,6 +140,7 @@ void Rrr::decideFromScratch() {
 
   if (params_.leave_one_out_check) leaveOneOutCheck();
   if (params_.joint_link_check) jointLinkCheck();
+  if (params_.place_sessions) unplaceLooseSessions();
 }
 
 void Rrr::startFromIntraResults() {

@@ -24,6 +24,7 @@ void applyPreset(const std::string& name, RrrParams& params) {
     p.far_retry_min_links = 0;
     p.leave_one_out_check = false;
     p.joint_link_check = false;
+    p.place_sessions = false;
     p.online_map_check = false;
     p.incremental_rebatch_every = 0;
     p.incremental_factor_updates = false;

@@ -8,6 +8,7 @@
 
 #include "rrr_graphslam/core/chi2.h"
 #include "rrr_graphslam/core/lago.h"
+#include "rrr_graphslam/core/union_find.h"
 #include "rrr_graphslam/rrr/rrr.h"
 
 namespace rrr_graphslam::rrr {
@@ -89,6 +90,83 @@ std::vector<core::Pose2> Rrr::robustOrderingMap(const std::vector<int>& pending,
   std::vector<core::Pose2> voted =
       robustMap(graph_, links, initial, params_.dcs_phi, optimizations_, one_vote);
   return support(voted, pending) > full_support ? voted : full_weight;
+}
+
+// --- place_sessions
+
+std::vector<core::Pose2> Rrr::placeSessions(const std::vector<core::Pose2>& initial) const {
+  const OdometryChain& chain = graph_.chain();
+  std::vector<core::Pose2> poses = initial;
+  if (chain.numSessions() < 2) return poses;
+  std::vector<char> placed(static_cast<std::size_t>(chain.numSessions()), 0);
+  placed[static_cast<std::size_t>(chain.session(0))] = 1;
+  // Clusters joining two sessions (a cluster's links all join the same two: clustering.h),
+  // largest first by their kept links.
+  struct Joining {
+    int cluster;
+    std::size_t links;
+  };
+  std::vector<Joining> joining;
+  for (std::size_t c = 0; c < clusters_.size(); ++c) {
+    const auto& kept = kept_links_[c];
+    if (kept.empty()) continue;
+    const LoopCandidate& first = graph_.candidate(kept.front());
+    if (!chain.sameSession(first.from, first.to)) {
+      joining.push_back({static_cast<int>(c), kept.size()});
+    }
+  }
+  std::stable_sort(joining.begin(), joining.end(),
+                   [](const Joining& a, const Joining& b) { return a.links > b.links; });
+  for (bool moved = true; moved;) {
+    moved = false;
+    for (const Joining& j : joining) {
+      const LoopCandidate& link =
+          graph_.candidate(kept_links_[static_cast<std::size_t>(j.cluster)].front());
+      const bool from_placed = placed[static_cast<std::size_t>(chain.session(link.from))] != 0;
+      const bool to_placed = placed[static_cast<std::size_t>(chain.session(link.to))] != 0;
+      if (from_placed == to_placed) continue;
+      // Where the link puts its unplaced end, and the rigid motion of that end's session there.
+      const int fixed = from_placed ? link.from : link.to;
+      const int moving = from_placed ? link.to : link.from;
+      const core::Pose2 target =
+          core::compose(poses[static_cast<std::size_t>(fixed)],
+                        from_placed ? link.measurement : core::inverse(link.measurement));
+      const core::Pose2 motion =
+          core::compose(target, core::inverse(poses[static_cast<std::size_t>(moving)]));
+      const int session = chain.session(moving);
+      for (int n = 0; n < graph_.numNodes(); ++n) {
+        if (chain.session(n) == session) {
+          poses[static_cast<std::size_t>(n)] =
+              core::compose(motion, poses[static_cast<std::size_t>(n)]);
+        }
+      }
+      placed[static_cast<std::size_t>(session)] = 1;
+      moved = true;
+      break;  // the largest cluster joining the grown placed part comes next
+    }
+  }
+  return poses;
+}
+
+void Rrr::unplaceLooseSessions() {
+  const OdometryChain& chain = graph_.chain();
+  if (chain.numSessions() < 2) return;
+  core::UnionFind joined(static_cast<std::size_t>(chain.numSessions()));
+  for (int k : acceptedCandidates()) {
+    const LoopCandidate& c = graph_.candidate(k);
+    joined.unite(static_cast<std::size_t>(chain.session(c.from)),
+                 static_cast<std::size_t>(chain.session(c.to)));
+  }
+  const std::size_t first = joined.find(static_cast<std::size_t>(chain.session(0)));
+  const std::vector<core::Pose2>& initial = graph_.initialPoses();
+  bool changed = false;
+  for (int n = 0; n < graph_.numNodes(); ++n) {
+    if (joined.find(static_cast<std::size_t>(chain.session(n))) == first) continue;
+    base_[static_cast<std::size_t>(n)] = initial[static_cast<std::size_t>(n)];
+    changed = true;
+  }
+  // Loose sessions are held only by their weak priors: the good set's optimum is unchanged.
+  if (changed) graph_.optimizer().setPoses(base_);
 }
 
 // --- settle_good_map

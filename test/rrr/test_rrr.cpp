@@ -362,5 +362,66 @@ TEST(Rrr, SessionsJoinOnlyThroughAcceptedLinks) {
   }
 }
 
+// A second session whose odometry frame is 100 m away and turned (a robot restarted elsewhere):
+// its true clusters are accepted and its false ones rejected, although every link starts with a
+// residual of 100 m (place_sessions starts the decision with the session placed by its largest
+// cluster).
+TEST(Rrr, ASessionInAFarOdometryFrameJoinsThroughItsTrueClusters) {
+  core::PoseGraph g;
+  const Eigen::Matrix3d odo = Eigen::Vector3d(400.0, 400.0, 2500.0).asDiagonal();
+  const Eigen::Matrix3d loop = Eigen::Vector3d(100.0, 100.0, 400.0).asDiagonal();
+  auto square = [](int k) {  // pose k along a 10 m square, 1 m steps
+    const int side = (k / 10) % 4, along = k % 10;
+    const double x[] = {double(along), 10.0, 10.0 - along, 0.0};
+    const double y[] = {0.0, double(along), 10.0, 10.0 - along};
+    return core::Pose2(x[side], y[side], core::normalizeAngle(side * M_PI / 2));
+  };
+  const int n = 40;
+  const core::Pose2 frames[] = {core::Pose2(0, 0, 0), core::Pose2(100, -60, 2.5)};
+  for (int s = 0; s < 2; ++s) {
+    for (int k = 0; k < n; ++k) {
+      const auto id = static_cast<core::PoseGraph::NodeId>(s * n + k);
+      g.addNode(id, core::compose(frames[s], square(k)));
+      if (k > 0) {
+        g.addEdge(id - 1, id, core::between(square(k - 1), square(k)), odo,
+                  core::EdgeKind::kOdometry);
+      }
+    }
+  }
+  std::vector<bool> is_true;
+  auto link = [&](int b, int a, const core::Pose2& z, bool truth) {
+    g.addEdge(static_cast<core::PoseGraph::NodeId>(n + b), static_cast<core::PoseGraph::NodeId>(a),
+              z, loop, core::EdgeKind::kLoopCandidate);
+    is_true.push_back(truth);
+  };
+  for (int k = 5; k < 10; ++k) link(k, k, core::Pose2::Zero(), true);  // the same places
+  for (int k = 25; k < 28; ++k) link(k, k, core::Pose2::Zero(), true);
+  for (int k = 15; k < 18; ++k) link(k, k + 20, core::Pose2::Zero(), false);  // the wrong side
+  link(32, 12, core::Pose2(0.5, 0, 0), false);
+  link(36, 2, core::Pose2(0, 1, 0), false);
+  // Relocalization's many false matches: every third node of B to three places of A, scattered.
+  for (int b = 0; b < n; b += 3) {
+    for (int a : {(7 * b + 13) % n, (11 * b + 22) % n, (17 * b + 31) % n}) {
+      if (std::abs(a - b) > 3) link(b, a, core::Pose2::Zero(), false);
+    }
+  }
+  for (const bool incremental : {false, true}) {
+    VerificationGraph graph(g, {});
+    std::vector<Verdict> verdicts;
+    std::vector<int> clusters;
+    if (incremental) {
+      runIncrementalRrr(graph, {}, verdicts, clusters);
+    } else {
+      runBatchRrr(graph, {}, verdicts, clusters);
+    }
+    for (std::size_t k = 0; k < verdicts.size(); ++k) {
+      EXPECT_EQ(verdicts[k] == Verdict::kAccepted, is_true[k])
+          << "candidate " << k << ", incremental " << incremental;
+    }
+    const auto& poses = graph.optimizer().poses();
+    EXPECT_LT((poses[n + 20] - poses[20]).head<2>().norm(), 1e-3) << "incremental " << incremental;
+  }
+}
+
 }  // namespace
 }  // namespace rrr_graphslam::rrr

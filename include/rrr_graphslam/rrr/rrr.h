@@ -132,6 +132,15 @@ class Rrr {
   /// with wins: the larger consensus, as in RANSAC.
   std::vector<core::Pose2> robustOrderingMap(const std::vector<int>& pending,
                                              const std::vector<core::Pose2>& initial);
+  /// place_sessions: `initial` with each session after the first moved rigidly so that the first
+  /// kept link of the largest cluster joining it to the sessions placed so far holds exactly
+  /// (sessions no cluster reaches stay where they are). Only a start: every cluster is tested
+  /// from it as from the odometry.
+  std::vector<core::Pose2> placeSessions(const std::vector<core::Pose2>& initial) const;
+  /// After a decision that started from placeSessions(): the sessions no good cluster joins to
+  /// the first one's go back to their own odometry frame in the map (a rejected cluster placed
+  /// them only to be tested).
+  void unplaceLooseSessions();
   /// Links that make the robust map ordering a batch decision.
   std::vector<int> robustMapLinks(const std::vector<int>& pending) const;
   /// settle_good_map: the joint test that realizes a batch decision starts from the robust map,

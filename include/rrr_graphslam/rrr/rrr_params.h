@@ -75,6 +75,10 @@ struct RrrParams {
   /// After a batch decision, links of good clusters that fail the per-link chi-square test at
   /// the good set's joint solution are dropped; default true.
   bool joint_link_check = true;
+  /// Multi-session graphs: a batch decision starts from an estimate in which each later session
+  /// is moved rigidly onto the placed ones by the largest cluster joining them, instead of its
+  /// own odometry frame (which says nothing of where it lies in the others'); default true.
+  bool place_sessions = true;
 
   // --- Incremental RRR.
   /// A new cluster that fits the good set's map unchanged (index < 1) is accepted, and one whose
@@ -150,6 +154,9 @@ void forEachParam(Params& p, F&& f) {
     p.loo_min_index);
   f(ParamInfo{"joint_link_check", 0, 1, "drop links failing their test at the joint solution"},
     p.joint_link_check);
+  f(ParamInfo{"place_sessions", 0, 1,
+              "batch decisions start with each session placed by its largest joining cluster"},
+    p.place_sessions);
   f(ParamInfo{"online_map_check", 0, 1,
               "incremental: clusters decided against the map before any joint test"},
     p.online_map_check);
