@@ -44,6 +44,7 @@ ABLATION_SWITCHES = (
     ("far-retry-min-links", "0"),
     ("leave-one-out-check", "false"),
     ("joint-link-check", "false"),
+    ("place-sessions", "false"),
 )
 
 
