@@ -4,6 +4,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "rrr_graphslam/core/union_find.h"
 #include "rrr_graphslam/frontend/laser_slam.h"
 
 namespace rrr_graphslam::frontend {
@@ -79,6 +80,8 @@ MapSnapshot LaserSlam::snapshot() const {
     out.information = graph.information(e);
     if (edge.kind == core::EdgeKind::kOdometry) {
       out.kind = MapSnapshot::EdgeKind::kOdometry;
+    } else if (edge.kind == core::EdgeKind::kMarginal) {
+      out.kind = MapSnapshot::EdgeKind::kMarginal;
     } else {
       const rrr::DecisionRow& row = rows.at(candidate++);
       out.kind = MapSnapshot::EdgeKind::kLoopCandidate;
@@ -92,25 +95,59 @@ MapSnapshot LaserSlam::snapshot() const {
   for (const auto& active : local_.submaps().active()) {
     map.submaps.push_back({active->anchorNode(), active->lastNode()});
   }
+  map.lifelong = lifelong_;
   return map;
 }
 
 namespace {
 
-// Mapping: the graph in each session's own frame, replayed into RRR, which decides it again.
-core::PoseGraph graphToContinue(const MapSnapshot& map) {
-  core::PoseGraph graph;
-  for (std::size_t k = 0; k < map.nodes.size(); ++k) {
-    graph.addNode(static_cast<core::PoseGraph::NodeId>(k), map.nodes[k].local_pose);
+// Where RRR starts from for a loaded map's nodes: each session in its own odometry frame, as it
+// was mapped. Nodes that marginal constraints (lifelong trimming) hold together with others
+// start where the map has them instead, as one rigid piece placed in the odometry frame of its
+// first node: the pieces of a trimmed session, and sessions whose loops trimming folded into
+// marginal constraints, are bound by trusted constraints that their own odometry frames would
+// violate.
+std::vector<core::Pose2> startingPoses(const MapSnapshot& map) {
+  const std::size_t n = map.nodes.size();
+  core::UnionFind trusted(n);
+  std::vector<char> has_marginal(n, 0);
+  for (const MapSnapshot::Edge& e : map.edges) {
+    if (e.kind == MapSnapshot::EdgeKind::kLoopCandidate) continue;
+    trusted.unite(static_cast<std::size_t>(e.from), static_cast<std::size_t>(e.to));
   }
   for (const MapSnapshot::Edge& e : map.edges) {
     if (e.kind == MapSnapshot::EdgeKind::kMarginal) {
-      throw std::invalid_argument("the map holds marginal edges, which this build cannot use");
+      has_marginal[trusted.find(static_cast<std::size_t>(e.from))] = 1;
     }
+  }
+  std::vector<core::Pose2> poses(n);
+  std::vector<int> first(n, -1);  // per component root: its first node
+  for (std::size_t k = 0; k < n; ++k) {
+    const std::size_t root = trusted.find(k);
+    if (!has_marginal[root]) {
+      poses[k] = map.nodes[k].local_pose;
+      continue;
+    }
+    if (first[root] < 0) first[root] = static_cast<int>(k);
+    const MapSnapshot::Node& anchor = map.nodes[static_cast<std::size_t>(first[root])];
+    const core::Pose2 map_to_local =
+        core::compose(anchor.local_pose, core::inverse(anchor.map_pose));
+    poses[k] = core::compose(map_to_local, map.nodes[k].map_pose);
+  }
+  return poses;
+}
+
+// Mapping: the graph at startingPoses(), replayed into RRR, which decides it again.
+core::PoseGraph graphToContinue(const MapSnapshot& map) {
+  core::PoseGraph graph;
+  const std::vector<core::Pose2> start = startingPoses(map);
+  for (std::size_t k = 0; k < map.nodes.size(); ++k) {
+    graph.addNode(static_cast<core::PoseGraph::NodeId>(k), start[k]);
+  }
+  for (const MapSnapshot::Edge& e : map.edges) {
     graph.addEdge(static_cast<core::PoseGraph::NodeId>(e.from),
                   static_cast<core::PoseGraph::NodeId>(e.to), e.measurement, e.information,
-                  e.kind == MapSnapshot::EdgeKind::kOdometry ? core::EdgeKind::kOdometry
-                                                             : core::EdgeKind::kLoopCandidate);
+                  toCoreKind(e.kind));
   }
   return graph;
 }
@@ -191,6 +228,7 @@ std::unique_ptr<LaserSlam> LaserSlam::fromMap(const MapSnapshot& map, const Lase
     if (e) std::rethrow_exception(e);
   }
   slam->finished_spans_ = map.submaps;
+  slam->lifelong_ = map.lifelong;
   slam->sessions_ = map.sessions;
   slam->sessions_.push_back({session_name, 0.0, n});
   slam->session_first_submap_ = static_cast<int>(map.submaps.size());

@@ -193,6 +193,10 @@ std::string encodePayload(const MapSnapshot& map) {
     out.put<std::int64_t>(s.first_node);
     out.put<std::int64_t>(s.last_node);
   }
+  if (map.format_version >= 2) {
+    out.put<std::int64_t>(map.lifelong.trimmed_submaps);
+    out.put<std::int64_t>(map.lifelong.marginalized_nodes);
+  }
   return out.bytes();
 }
 
@@ -256,6 +260,10 @@ MapSnapshot decodePayload(const std::vector<std::uint8_t>& bytes, std::uint32_t 
     s.first_node = toInt(in.get<std::int64_t>(), "submap first node");
     s.last_node = toInt(in.get<std::int64_t>(), "submap last node");
   }
+  if (version >= 2) {
+    map.lifelong.trimmed_submaps = toInt(in.get<std::int64_t>(), "trimmed submap count");
+    map.lifelong.marginalized_nodes = toInt(in.get<std::int64_t>(), "marginalized node count");
+  }
   in.expectEnd();
   return map;
 }
@@ -281,6 +289,16 @@ T getRaw(const std::string& in, std::size_t offset) {
 void MapSnapshot::check() const {
   const int n = static_cast<int>(nodes.size());
   auto fail = [](const std::string& what) { throw std::invalid_argument(what); };
+  if (format_version == 0 || format_version > kMapFormatVersion) {
+    fail("format version " + std::to_string(format_version) +
+         " is not one this build writes (1 to " + std::to_string(kMapFormatVersion) + ")");
+  }
+  if (lifelong.trimmed_submaps < 0 || lifelong.marginalized_nodes < 0) {
+    fail("the lifelong counts are negative");
+  }
+  if (format_version < 2 && (lifelong.trimmed_submaps > 0 || lifelong.marginalized_nodes > 0)) {
+    fail("format version 1 cannot hold the lifelong counts");
+  }
   for (std::size_t k = 0; k < sessions.size(); ++k) {
     const int first = sessions[k].first_node;
     const int next = k + 1 < sessions.size() ? sessions[k + 1].first_node : n;
@@ -339,6 +357,9 @@ void MapSnapshot::check() const {
         (std::abs(e.from - e.to) != 1 || nodes[static_cast<std::size_t>(e.from)].session !=
                                              nodes[static_cast<std::size_t>(e.to)].session)) {
       fail("odometry edge " + std::to_string(k) + " does not join consecutive nodes of a session");
+    }
+    if (e.kind == EdgeKind::kMarginal && format_version < 2) {
+      fail("edge " + std::to_string(k) + " is marginal, which format version 1 cannot hold");
     }
     if (!e.measurement.allFinite() || !e.information.allFinite()) {
       fail("edge " + std::to_string(k) + " has a measurement or information that is not finite");
@@ -446,17 +467,27 @@ MapSnapshot readMapFile(const std::string& path) {
   return {};
 }
 
+core::EdgeKind toCoreKind(MapSnapshot::EdgeKind kind) {
+  switch (kind) {
+    case MapSnapshot::EdgeKind::kOdometry:
+      return core::EdgeKind::kOdometry;
+    case MapSnapshot::EdgeKind::kMarginal:
+      return core::EdgeKind::kMarginal;
+    case MapSnapshot::EdgeKind::kLoopCandidate:
+      break;
+  }
+  return core::EdgeKind::kLoopCandidate;
+}
+
 core::PoseGraph mapPoseGraph(const MapSnapshot& map) {
   core::PoseGraph graph;
   for (std::size_t k = 0; k < map.nodes.size(); ++k) {
     graph.addNode(static_cast<core::PoseGraph::NodeId>(k), map.nodes[k].map_pose);
   }
   for (const auto& e : map.edges) {
-    if (e.kind == MapSnapshot::EdgeKind::kMarginal) continue;
     graph.addEdge(static_cast<core::PoseGraph::NodeId>(e.from),
                   static_cast<core::PoseGraph::NodeId>(e.to), e.measurement, e.information,
-                  e.kind == MapSnapshot::EdgeKind::kOdometry ? core::EdgeKind::kOdometry
-                                                             : core::EdgeKind::kLoopCandidate);
+                  toCoreKind(e.kind));
   }
   return graph;
 }

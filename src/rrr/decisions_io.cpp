@@ -87,6 +87,12 @@ void markCandidates(const std::vector<DecisionRow>& rows, const std::string& dec
                                std::to_string(graph.numEdges()) + " edges");
   }
   const std::size_t first = graph.numEdges() - rows.size();
+  for (std::size_t k = 0; k < first; ++k) {
+    const auto& edge = graph.edge(k);
+    if (core::PoseGraph::defaultKind(edge.from, edge.to) != core::EdgeKind::kOdometry) {
+      graph.setEdgeKind(k, core::EdgeKind::kMarginal);
+    }
+  }
   for (std::size_t k = 0; k < rows.size(); ++k) {
     const auto& edge = graph.edge(first + k);
     if (edge.from != rows[k].from || edge.to != rows[k].to) {

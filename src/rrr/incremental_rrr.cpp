@@ -94,16 +94,22 @@ RrrSummary runIncrementalRrr(VerificationGraph& graph, const RrrParams& params,
   // Offline the gap can be derived from every candidate; a robot sets cluster_gap instead.
   summary.cluster_gap = clusterGapFor(params, ends);
 
-  // What arrives with each node: its odometry (the optimizer's constraints that are not
-  // candidates), then the candidates whose newest end it is.
+  // What arrives with each node: its odometry, its marginal constraints, then the candidates
+  // whose newest end it is.
   const auto nodes = static_cast<std::size_t>(graph.numNodes());
   const core::Optimizer& full = graph.optimizer();
   std::vector<int> candidate_of(static_cast<std::size_t>(full.numConstraints()), -1);
   for (int k = 0; k < graph.numCandidates(); ++k)
     candidate_of[static_cast<std::size_t>(graph.candidate(k).constraint)] = k;
+  std::vector<core::EdgeKind> kind(static_cast<std::size_t>(full.numConstraints()),
+                                   core::EdgeKind::kOdometry);
+  for (int k = 0; k < graph.numCandidates(); ++k)
+    kind[static_cast<std::size_t>(graph.candidate(k).constraint)] = core::EdgeKind::kLoopCandidate;
+  for (const MarginalLink& m : graph.marginalLinks())
+    kind[static_cast<std::size_t>(m.constraint)] = core::EdgeKind::kMarginal;
   std::vector<ReplayEdge> edges;
   for (int c = 0; c < full.numConstraints(); ++c)
-    edges.push_back({full.from(c), full.to(c), candidate_of[static_cast<std::size_t>(c)] < 0});
+    edges.push_back({full.from(c), full.to(c), kind[static_cast<std::size_t>(c)]});
   const std::vector<NodeArrivals> arrivals = arrivalsByNode(graph.numNodes(), edges);
 
   // The robot's view: the graph holds the nodes that have arrived, not the whole run, so each
@@ -117,6 +123,9 @@ RrrSummary runIncrementalRrr(VerificationGraph& graph, const RrrParams& params,
     robot.addNode(graph.nodeIds()[n], graph.initialPoses()[n]);
     for (int c : arrivals[n].odometry) {
       robot.addOdometry(full.from(c), full.to(c), full.measurement(c), full.information(c));
+    }
+    for (int c : arrivals[n].marginal) {
+      robot.addMarginal(full.from(c), full.to(c), full.measurement(c), full.information(c));
     }
     for (int constraint : arrivals[n].candidates) {
       const int k = candidate_of[static_cast<std::size_t>(constraint)];

@@ -103,6 +103,17 @@ void OnlineRrr::addOdometry(NodeId from, NodeId to, const core::Pose2& measureme
   admitWaitingCandidates();
 }
 
+void OnlineRrr::addMarginal(NodeId from, NodeId to, const core::Pose2& measurement,
+                            const Eigen::Matrix3d& information) {
+  checkConstraint(measurement, information);
+  const int a = indexOf(from), b = indexOf(to);
+  if (a < 0) throw std::invalid_argument(id("from_id", from) + " is not a node");
+  if (b < 0) throw std::invalid_argument(id("to_id", to) + " is not a node");
+  if (a == b) throw std::invalid_argument(id("from_id", from) + " equals to_id");
+  graph_.addMarginal(a, b, measurement, information);
+  marginal_.push_back({a, b, measurement, information});
+}
+
 OnlineRrr::CandidateStatus OnlineRrr::addCandidate(NodeId from, NodeId to,
                                                    const core::Pose2& measurement,
                                                    const Eigen::Matrix3d& information) {
@@ -219,6 +230,7 @@ OnlineRrrStatus OnlineRrr::status() const {
   s.nodes = numNodes();
   s.sessions = graph_.chain().numSessions();
   s.candidates = numCandidates();
+  s.marginal_edges = static_cast<int>(marginal_.size());
   s.waiting_candidates = static_cast<int>(waiting_.size());
   s.clusters = incremental_.rrr().numClusters();
   s.open_clusters = incremental_.numOpenClusters();
@@ -244,6 +256,10 @@ core::PoseGraph OnlineRrr::poseGraph(const std::vector<core::Pose2>& poses,
   for (const Odometry& o : odometry_) {
     g.addEdge(ids[static_cast<std::size_t>(o.from)], ids[static_cast<std::size_t>(o.to)],
               o.measurement, o.information, core::EdgeKind::kOdometry);
+  }
+  for (const Odometry& m : marginal_) {
+    g.addEdge(ids[static_cast<std::size_t>(m.from)], ids[static_cast<std::size_t>(m.to)],
+              m.measurement, m.information, core::EdgeKind::kMarginal);
   }
   for (int k = 0; k < numCandidates(); ++k) {
     if (accepted_only && verdict(k) != Verdict::kAccepted) continue;
@@ -277,7 +293,7 @@ std::unique_ptr<OnlineRrr> OnlineRrr::fromPoseGraph(const core::PoseGraph& graph
   const std::vector<NodeId> ids = graph.nodeIds();
   const std::vector<ReplayEdge> edges = replayEdges(graph);
   for (std::size_t e = 0; e < edges.size(); ++e) {
-    if (edges[e].odometry && std::abs(edges[e].from - edges[e].to) != 1) {
+    if (edges[e].kind == core::EdgeKind::kOdometry && std::abs(edges[e].from - edges[e].to) != 1) {
       throw std::invalid_argument("odometry edge " + std::to_string(graph.edge(e).from) + " -> " +
                                   std::to_string(graph.edge(e).to) +
                                   " does not join consecutive nodes");
@@ -291,6 +307,12 @@ std::unique_ptr<OnlineRrr> OnlineRrr::fromPoseGraph(const core::PoseGraph& graph
       const ReplayEdge& edge = edges[e];
       online->graph_.addOdometry(edge.from, edge.to, graph.measurement(e), graph.information(e));
       online->odometry_.push_back({edge.from, edge.to, graph.measurement(e), graph.information(e)});
+    }
+    for (int i : arrivals[k].marginal) {
+      const auto e = static_cast<std::size_t>(i);
+      const ReplayEdge& edge = edges[e];
+      online->graph_.addMarginal(edge.from, edge.to, graph.measurement(e), graph.information(e));
+      online->marginal_.push_back({edge.from, edge.to, graph.measurement(e), graph.information(e)});
     }
     online->incremental_.advanceTo(n);
     for (int i : arrivals[k].candidates) {

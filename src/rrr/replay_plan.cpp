@@ -17,7 +17,10 @@ std::vector<NodeArrivals> arrivalsByNode(int num_nodes, const std::vector<Replay
                                   ", outside the " + std::to_string(num_nodes) + " nodes");
     }
     NodeArrivals& node = at[static_cast<std::size_t>(std::max(e.from, e.to))];
-    (e.odometry ? node.odometry : node.candidates).push_back(static_cast<int>(k));
+    (e.kind == core::EdgeKind::kOdometry   ? node.odometry
+     : e.kind == core::EdgeKind::kMarginal ? node.marginal
+                                           : node.candidates)
+        .push_back(static_cast<int>(k));
   }
   return at;
 }
@@ -30,8 +33,7 @@ std::vector<ReplayEdge> replayEdges(const core::PoseGraph& graph) {
   edges.reserve(graph.numEdges());
   for (std::size_t e = 0; e < graph.numEdges(); ++e) {
     const auto& edge = graph.edge(e);
-    edges.push_back(
-        {index_of.at(edge.from), index_of.at(edge.to), edge.kind == core::EdgeKind::kOdometry});
+    edges.push_back({index_of.at(edge.from), index_of.at(edge.to), edge.kind});
   }
   return edges;
 }

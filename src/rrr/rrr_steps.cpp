@@ -95,11 +95,15 @@ std::vector<core::Pose2> Rrr::robustOrderingMap(const std::vector<int>& pending,
 // --- place_sessions
 
 std::vector<core::Pose2> Rrr::placeSessions(const std::vector<core::Pose2>& initial) const {
-  const OdometryChain& chain = graph_.chain();
+  // Sessions are what trusted constraints hold together (a trimmed session's chains, joined by
+  // its marginal constraints, move as one).
+  const std::vector<int> session = graph_.trustedComponents();
+  const int sessions = session.empty() ? 0 : *std::max_element(session.begin(), session.end()) + 1;
   std::vector<core::Pose2> poses = initial;
-  if (chain.numSessions() < 2) return poses;
-  std::vector<char> placed(static_cast<std::size_t>(chain.numSessions()), 0);
-  placed[static_cast<std::size_t>(chain.session(0))] = 1;
+  if (sessions < 2) return poses;
+  auto of = [&](int node) { return session[static_cast<std::size_t>(node)]; };
+  std::vector<char> placed(static_cast<std::size_t>(sessions), 0);
+  placed[static_cast<std::size_t>(of(0))] = 1;
   // Clusters joining two sessions (a cluster's links all join the same two: clustering.h),
   // largest first by their kept links.
   struct Joining {
@@ -111,9 +115,7 @@ std::vector<core::Pose2> Rrr::placeSessions(const std::vector<core::Pose2>& init
     const auto& kept = kept_links_[c];
     if (kept.empty()) continue;
     const LoopCandidate& first = graph_.candidate(kept.front());
-    if (!chain.sameSession(first.from, first.to)) {
-      joining.push_back({static_cast<int>(c), kept.size()});
-    }
+    if (of(first.from) != of(first.to)) joining.push_back({static_cast<int>(c), kept.size()});
   }
   std::stable_sort(joining.begin(), joining.end(),
                    [](const Joining& a, const Joining& b) { return a.links > b.links; });
@@ -122,8 +124,8 @@ std::vector<core::Pose2> Rrr::placeSessions(const std::vector<core::Pose2>& init
     for (const Joining& j : joining) {
       const LoopCandidate& link =
           graph_.candidate(kept_links_[static_cast<std::size_t>(j.cluster)].front());
-      const bool from_placed = placed[static_cast<std::size_t>(chain.session(link.from))] != 0;
-      const bool to_placed = placed[static_cast<std::size_t>(chain.session(link.to))] != 0;
+      const bool from_placed = placed[static_cast<std::size_t>(of(link.from))] != 0;
+      const bool to_placed = placed[static_cast<std::size_t>(of(link.to))] != 0;
       if (from_placed == to_placed) continue;
       // Where the link puts its unplaced end, and the rigid motion of that end's session there.
       const int fixed = from_placed ? link.from : link.to;
@@ -133,14 +135,14 @@ std::vector<core::Pose2> Rrr::placeSessions(const std::vector<core::Pose2>& init
                         from_placed ? link.measurement : core::inverse(link.measurement));
       const core::Pose2 motion =
           core::compose(target, core::inverse(poses[static_cast<std::size_t>(moving)]));
-      const int session = chain.session(moving);
+      const int moved_session = of(moving);
       for (int n = 0; n < graph_.numNodes(); ++n) {
-        if (chain.session(n) == session) {
+        if (of(n) == moved_session) {
           poses[static_cast<std::size_t>(n)] =
               core::compose(motion, poses[static_cast<std::size_t>(n)]);
         }
       }
-      placed[static_cast<std::size_t>(session)] = 1;
+      placed[static_cast<std::size_t>(moved_session)] = 1;
       moved = true;
       break;  // the largest cluster joining the grown placed part comes next
     }
@@ -149,19 +151,22 @@ std::vector<core::Pose2> Rrr::placeSessions(const std::vector<core::Pose2>& init
 }
 
 void Rrr::unplaceLooseSessions() {
-  const OdometryChain& chain = graph_.chain();
-  if (chain.numSessions() < 2) return;
-  core::UnionFind joined(static_cast<std::size_t>(chain.numSessions()));
+  const std::vector<int> session = graph_.trustedComponents();
+  const int sessions = session.empty() ? 0 : *std::max_element(session.begin(), session.end()) + 1;
+  if (sessions < 2) return;
+  auto of = [&](int node) {
+    return static_cast<std::size_t>(session[static_cast<std::size_t>(node)]);
+  };
+  core::UnionFind joined(static_cast<std::size_t>(sessions));
   for (int k : acceptedCandidates()) {
     const LoopCandidate& c = graph_.candidate(k);
-    joined.unite(static_cast<std::size_t>(chain.session(c.from)),
-                 static_cast<std::size_t>(chain.session(c.to)));
+    joined.unite(of(c.from), of(c.to));
   }
-  const std::size_t first = joined.find(static_cast<std::size_t>(chain.session(0)));
+  const std::size_t first = joined.find(of(0));
   const std::vector<core::Pose2>& initial = graph_.initialPoses();
   bool changed = false;
   for (int n = 0; n < graph_.numNodes(); ++n) {
-    if (joined.find(static_cast<std::size_t>(chain.session(n))) == first) continue;
+    if (joined.find(of(n)) == first) continue;
     base_[static_cast<std::size_t>(n)] = initial[static_cast<std::size_t>(n)];
     changed = true;
   }

@@ -5,6 +5,8 @@
 #include <string>
 #include <unordered_map>
 
+#include "rrr_graphslam/core/union_find.h"
+
 namespace rrr_graphslam::rrr {
 namespace {
 
@@ -45,8 +47,11 @@ VerificationGraph::VerificationGraph(const core::PoseGraph& graph,
   const auto index_of = indexIds(node_ids_);
   for (std::size_t k = 0; k < graph.numEdges(); ++k) {
     const auto& e = graph.edge(k);
-    if (e.kind != core::EdgeKind::kLoopCandidate) continue;
     const int c = static_cast<int>(k);  // makeOptimizer: constraint k is edge k
+    if (e.kind == core::EdgeKind::kMarginal) {
+      marginal_.push_back({index_of.at(e.from), index_of.at(e.to), c});
+    }
+    if (e.kind != core::EdgeKind::kLoopCandidate) continue;
     optimizer_.setActive(c, false);
     candidates_.push_back(LoopCandidate{k, index_of.at(e.from), index_of.at(e.to), c,
                                         graph.measurement(k), graph.information(k)});
@@ -64,6 +69,34 @@ void VerificationGraph::addOdometry(int from, int to, const core::Pose2& measure
                                     const Eigen::Matrix3d& information) {
   chain_.linkNewestNode({from, to, measurement, information});  // validates the pair first
   optimizer_.addConstraint(from, to, measurement, information, true);
+}
+
+int VerificationGraph::addMarginal(int from, int to, const core::Pose2& measurement,
+                                   const Eigen::Matrix3d& information) {
+  if (from < 0 || to < 0 || from >= numNodes() || to >= numNodes() || from == to) {
+    throw std::invalid_argument("marginal constraint " + std::to_string(from) + " -> " +
+                                std::to_string(to) + " needs two distinct existing nodes");
+  }
+  const int c = optimizer_.addConstraint(from, to, measurement, information, true);
+  marginal_.push_back({from, to, c});
+  return static_cast<int>(marginal_.size()) - 1;
+}
+
+std::vector<int> VerificationGraph::trustedComponents() const {
+  core::UnionFind joined(static_cast<std::size_t>(chain_.numSessions()));
+  for (const MarginalLink& m : marginal_) {
+    joined.unite(static_cast<std::size_t>(chain_.session(m.from)),
+                 static_cast<std::size_t>(chain_.session(m.to)));
+  }
+  std::vector<int> number(static_cast<std::size_t>(chain_.numSessions()), -1);
+  std::vector<int> component(static_cast<std::size_t>(numNodes()));
+  int next = 0;
+  for (int n = 0; n < numNodes(); ++n) {
+    int& c = number[joined.find(static_cast<std::size_t>(chain_.session(n)))];
+    if (c < 0) c = next++;
+    component[static_cast<std::size_t>(n)] = c;
+  }
+  return component;
 }
 
 int VerificationGraph::addCandidate(int from, int to, const core::Pose2& measurement,

@@ -35,8 +35,9 @@ const char* const kUsage =
     "  --map           writes OUT.pgm + OUT.yaml (map_server) from every node's scan\n"
     "  --map-resolution  m per cell of --map (default 0.05)\n"
     "Prints 'key value' lines: format_version, sessions, nodes, edges, odometry_edges,\n"
-    "loop_edges, loop_edges_accepted, loop_edges_rejected, loop_edges_pending, submaps, scans,\n"
-    "bytes, then 'session K nodes N start_time T name NAME' per session and every parameter the\n"
+    "loop_edges, loop_edges_accepted, loop_edges_rejected, loop_edges_pending, marginal_edges,\n"
+    "submaps, scans, trimmed_submaps, marginalized_nodes, bytes, then 'session K nodes N "
+    "start_time T name NAME' per session and every parameter the\n"
     "map was made with as 'param NAME VALUE'.\n";
 
 std::string paramOf(const frontend::MapSnapshot& map, const std::string& name) {
@@ -69,7 +70,7 @@ int main(int argc, char** argv) {
   if (path.empty()) cli.fail("no map file given");
   try {
     const frontend::MapSnapshot map = frontend::readMapFile(path);
-    std::size_t odometry = 0, loops = 0, accepted = 0, rejected = 0, pending = 0;
+    std::size_t odometry = 0, loops = 0, accepted = 0, rejected = 0, pending = 0, marginal = 0;
     for (const auto& e : map.edges) {
       if (e.kind == frontend::MapSnapshot::EdgeKind::kOdometry) {
         ++odometry;
@@ -78,6 +79,8 @@ int main(int argc, char** argv) {
         accepted += e.verdict == rrr::Verdict::kAccepted;
         rejected += e.verdict == rrr::Verdict::kRejected;
         pending += e.verdict == rrr::Verdict::kPending;
+      } else {
+        ++marginal;
       }
     }
     struct stat info {};
@@ -91,8 +94,11 @@ int main(int argc, char** argv) {
     std::printf("loop_edges_accepted %zu\n", accepted);
     std::printf("loop_edges_rejected %zu\n", rejected);
     std::printf("loop_edges_pending %zu\n", pending);
+    std::printf("marginal_edges %zu\n", marginal);
     std::printf("submaps %zu\n", map.submaps.size());
     std::printf("scans %zu\n", map.nodes.size());  // one scan per node
+    std::printf("trimmed_submaps %d\n", map.lifelong.trimmed_submaps);
+    std::printf("marginalized_nodes %d\n", map.lifelong.marginalized_nodes);
     std::printf("bytes %lld\n", bytes);
     for (std::size_t s = 0; s < map.sessions.size(); ++s) {
       const int end = s + 1 < map.sessions.size() ? map.sessions[s + 1].first_node

@@ -27,6 +27,7 @@
 #include "rrr_graphslam/frontend/laser_slam.h"
 #include "rrr_graphslam/frontend/map_file.h"
 #include "rrr_graphslam/frontend/map_io.h"
+#include "rrr_graphslam/frontend/map_trimming.h"
 #include "rrr_graphslam/frontend/trajectory_refinement.h"
 #include "rrr_graphslam/rrr/decisions_io.h"
 #include "rrr_params_cli.h"
@@ -85,6 +86,8 @@ const std::string& usage() {
       "                        [--load-map IN.rrrmap] [--save-map OUT.rrrmap]\n"
       "                        [--session-name NAME] [--session-trajectory TRAJ.txt]\n"
       "                        [--initial-pose X,Y,THETA] [--localization-only]\n"
+      "                        [--lifelong [--trim-overlap R] [--keep-recent-submaps N]\n"
+      "                                    [--sparsification clt|dense|delete]]\n"
       "                        [--preset paper|default] [--PARAMETER V ...]\n"
       "  LOG               CARMEN log (FLASER or ROBOTLASER1 lines; the scans carry the odometry)\n"
       "  --output          the pose graph: nodes at their optimized poses, odometry and every "
@@ -110,6 +113,14 @@ const std::string& usage() {
       "  --session-trajectory  as --trajectory, for this run's session only\n"
       "  --initial-pose    with --load-map: where the log's first scan is in the map frame (m, m,\n"
       "                    rad); the map is searched around it instead of whole\n"
+      "  --lifelong        with --save-map: before the map is saved, the submaps that newer ones\n"
+      "                    cover are trimmed; their nodes are marginalized into marginal edges\n"
+      "                    (doc/lifelong.md)\n"
+      "  --trim-overlap R  a submap is trimmed when newer kept submaps cover this fraction of its\n"
+      "                    observed cells (default 0.9)\n"
+      "  --keep-recent-submaps N  the newest N submaps are never trimmed (default 4)\n"
+      "  --sparsification  what replaces a trimmed submap's constraints: clt (Chow-Liu tree,\n"
+      "                    default) or delete (nothing; dense is not storable yet and refused)\n"
       "  --quiet           no progress line\n"
       "The front end's parameters (the same names and units as the ROS parameters, with "
       "dashes):\n" +
@@ -138,6 +149,8 @@ struct Arguments {
   std::string session_name;
   std::string session_trajectory;
   std::optional<core::Pose2> initial_pose;
+  bool lifelong = false;
+  frontend::TrimParams trim;
   frontend::LaserSlamParams params;
 };
 
@@ -184,6 +197,7 @@ Arguments parseArguments(int argc, char** argv) {
   const tools::CommandLine cli(argc, argv, "rrr_slam_offline", usage().c_str());
   Arguments args;
   auto& p = args.params;
+  std::vector<std::string> trim_flags;
   tools::applyPresetArgument(cli, argc, argv, p.rrr.rrr);
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
@@ -209,6 +223,23 @@ Arguments parseArguments(int argc, char** argv) {
       args.save_map = cli.value(i, a);
     } else if (a == "--localization-only") {
       args.localization_only = true;
+    } else if (a == "--lifelong") {
+      args.lifelong = true;
+    } else if (a == "--trim-overlap") {
+      args.trim.trim_overlap_ratio = cli.number(a, cli.value(i, a), 1e-6, 1.0);
+      trim_flags.push_back(a);
+    } else if (a == "--keep-recent-submaps") {
+      const double v = cli.number(a, cli.value(i, a), 1, 1e9);
+      if (v != std::floor(v)) cli.fail(a + " must be an integer");
+      args.trim.keep_recent_submaps = static_cast<int>(v);
+      trim_flags.push_back(a);
+    } else if (a == "--sparsification") {
+      try {
+        args.trim.sparsification = frontend::parseSparsification(cli.value(i, a));
+      } catch (const std::invalid_argument& e) {
+        cli.fail(std::string("--sparsification: ") + e.what());
+      }
+      trim_flags.push_back(a);
     } else if (a == "--session-name") {
       args.session_name = cli.value(i, a);
     } else if (a == "--session-trajectory") {
@@ -233,6 +264,18 @@ Arguments parseArguments(int argc, char** argv) {
   if (args.localization_only && !args.save_map.empty()) {
     cli.fail("--localization-only leaves the loaded map as it is: there is nothing to --save-map");
   }
+  if (!trim_flags.empty() && !args.lifelong) cli.fail(trim_flags.front() + " needs --lifelong");
+  if (args.lifelong && args.save_map.empty()) {
+    cli.fail("--lifelong trims the map when it is saved: it needs --save-map");
+  }
+  if (args.lifelong) {
+    args.trim.threads = p.loops.threads;
+    try {
+      frontend::validate(args.trim);
+    } catch (const std::invalid_argument& e) {
+      cli.fail(e.what());
+    }
+  }
   if (args.session_name.empty()) args.session_name = args.log.substr(args.log.rfind('/') + 1);
   try {
     rrr::validate(p.rrr);
@@ -240,6 +283,40 @@ Arguments parseArguments(int argc, char** argv) {
     cli.fail(e.what());
   }
   return args;
+}
+
+// The trim's summary line, then one 'key value' line per figure (bench_lifelong reads them).
+void printTrimReport(const frontend::TrimReport& report, const frontend::TrimParams& params) {
+  std::vector<double> ms;
+  double kl = 0.0, kl_clt = 0.0, kl_delete = 0.0, worst_ratio = 0.0;
+  for (const frontend::TrimRecord& t : report.trims) {
+    ms.push_back(1e3 * t.seconds);
+    kl += t.kl_nats;
+    kl_clt += t.kl_clt_nats;
+    kl_delete += t.kl_delete_nats;
+    if (t.kl_delete_nats > 0.0) {
+      worst_ratio = std::max(worst_ratio, t.kl_clt_nats / t.kl_delete_nats);
+    }
+  }
+  std::sort(ms.begin(), ms.end());
+  auto quantile = [&](double q) {
+    return ms.empty() ? 0.0 : ms[static_cast<std::size_t>(q * static_cast<double>(ms.size() - 1))];
+  };
+  std::printf(
+      "lifelong       trimmed %d submaps (%s, %s): %d nodes marginalized into %d marginal "
+      "edges in %.2f s; %d submaps wait for pending loops\n",
+      report.trimmed_submaps,
+      frontend::OverlapRatioTrimming(params.trim_overlap_ratio).describe().c_str(),
+      frontend::toString(params.sparsification).c_str(), report.removedNodes(),
+      report.marginalEdges(), report.seconds, report.waiting_submaps);
+  std::printf(
+      "trim_submaps %d\ntrim_nodes %d\ntrim_marginal_edges %d\n"
+      "trim_dropped_rejected_loops %d\ntrim_seconds %.4f\ntrim_coverage_seconds %.4f\n"
+      "trim_p50_ms %.2f\ntrim_p99_ms %.2f\ntrim_kl %.6g\ntrim_kl_clt %.6g\n"
+      "trim_kl_delete %.6g\ntrim_kl_ratio_max %.6g\n",
+      report.trimmed_submaps, report.removedNodes(), report.marginalEdges(),
+      report.dropped_rejected_loops, report.seconds, report.coverage_seconds, quantile(0.5),
+      quantile(0.99), kl, kl_clt, kl_delete, worst_ratio);
 }
 
 // Poses from index `first` on, TUM format.
@@ -484,8 +561,14 @@ int main(int argc, char** argv) {
       }
     }
     if (!args.save_map.empty()) {
+      frontend::MapSnapshot map = slam.snapshot();
+      if (args.lifelong) {
+        frontend::TrimResult trimmed = frontend::trimMap(map, args.trim, args.params.local.submap);
+        printTrimReport(trimmed.report, args.trim);
+        map = std::move(trimmed.map);
+      }
       const auto save_start = std::chrono::steady_clock::now();
-      frontend::writeMapFile(slam.snapshot(), args.save_map);
+      frontend::writeMapFile(map, args.save_map);
       std::printf("saved map      %s in %.2f s\n", args.save_map.c_str(),
                   core::secondsSince(save_start));
     }

@@ -150,10 +150,33 @@ TEST(MapFile, DamagedFilesAreRefusedNamingFileAndFault) {
   refused("flipped.rrrmap", flipped, "checksum mismatch");
   std::string newer = good;
   newer[8] = 99;  // the version's low byte
-  refused("newer.rrrmap", newer, "format version 99 is newer than this build reads (1)");
+  refused("newer.rrrmap", newer, "format version 99 is newer than this build reads (2)");
   refused("text.rrrmap", "VERTEX_SE2 0 0 0 0\n", "not an rrr_graphslam map file");
   refused("empty.rrrmap", "", "not an rrr_graphslam map file");
   EXPECT_THROW(readMapFile(tempPath("does_not_exist.rrrmap")), core::InputError);
+}
+
+TEST(MapFile, AVersionOneMapIsReadAsItIsAndContinuedAsVersionTwo) {
+  MapSnapshot old = readMapFile(savedMap());
+  old.format_version = 1;
+  const std::string path = tempPath("version1.rrrmap");
+  writeMapFile(old, path);
+  const std::string bytes = readBytes(path);
+  ASSERT_GT(bytes.size(), 12u);
+  EXPECT_EQ(bytes[8], 1);  // the header says version 1
+  const MapSnapshot read = readMapFile(path);
+  EXPECT_EQ(read.format_version, 1u);
+  EXPECT_EQ(read.lifelong.trimmed_submaps, 0);
+  EXPECT_EQ(read.nodes.size(), old.nodes.size());
+  auto slam = LaserSlam::fromMap(read, smallMaps(), "next");
+  EXPECT_EQ(slam->snapshot().format_version, kMapFormatVersion);
+  // What version 1 cannot hold is refused when written as version 1.
+  MapSnapshot marginal = old;
+  marginal.edges.front().kind = MapSnapshot::EdgeKind::kMarginal;
+  EXPECT_THROW(writeMapFile(marginal, tempPath("bad_version1.rrrmap")), std::invalid_argument);
+  MapSnapshot counted = old;
+  counted.lifelong.trimmed_submaps = 3;
+  EXPECT_THROW(writeMapFile(counted, tempPath("bad_version1.rrrmap")), std::invalid_argument);
 }
 
 TEST(MapFile, ImplausibleContentIsRefusedBeforeAnyGridIsBuiltFromIt) {

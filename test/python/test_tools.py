@@ -259,7 +259,7 @@ def test_a_saved_map_is_continued_as_a_new_session_from_another_odometry_frame(t
     for key in ("format_version", "sessions", "nodes", "edges", "loop_edges_accepted",
                 "loop_edges_rejected", "submaps", "scans", "bytes"):
         assert key in keys, key
-    assert keys["format_version"] == "1" and keys["sessions"] == "1"
+    assert keys["format_version"] == "2" and keys["sessions"] == "1"
     assert int(keys["bytes"]) == first_map.stat().st_size
     assert len(read_graph(str(tmp_path / "g.g2o")).poses) == int(keys["nodes"])
     assert (tmp_path / "m.pgm").read_bytes().startswith(b"P5")
@@ -313,3 +313,46 @@ def test_damaged_or_incompatible_maps_are_refused_naming_the_file(tmp_path):
     assert result.returncode == 1 and "submap_resolution is 0.1 here but the map was made with 0.05" in result.stderr
     result = run(MAP_INFO, ACES_HEAD)
     assert result.returncode == 1 and "not an rrr_graphslam map file" in result.stderr
+
+
+@needs_map_info
+def test_lifelong_trims_covered_submaps_when_the_map_is_saved(tmp_path):
+    # The head of ACES twice as two sessions: the second covers the first, whose submaps go.
+    from rrr_graphslam.carmen import write_moved_log
+    first_map = tmp_path / "lifelong.rrrmap"
+    first = run(SLAM_OFFLINE, ACES_HEAD, "--save-map", first_map, "--refine-resolution", 0, "--quiet",
+                *SMALL_SUBMAPS)
+    assert first.returncode == 0, first.stderr
+    before = dict(line.split(" ", 1) for line in run(MAP_INFO, first_map).stdout.splitlines())
+    moved = tmp_path / "moved.clf"
+    write_moved_log(ACES_HEAD, str(moved), (30.0, 10.0, -1.0))
+    second = run(SLAM_OFFLINE, moved, "--load-map", first_map, "--save-map", first_map, "--lifelong",
+                 "--trim-overlap", 0.5, "--keep-recent-submaps", 2, "--refine-resolution", 0, "--quiet",
+                 *SMALL_SUBMAPS)
+    assert second.returncode == 0, second.stderr
+    assert "lifelong       trimmed" in second.stdout, second.stdout
+    trim = dict(line.split(" ", 1) for line in second.stdout.splitlines() if line.startswith("trim_"))
+    assert int(trim["trim_submaps"]) > 0 and int(trim["trim_nodes"]) > 0, second.stdout
+    assert float(trim["trim_kl_delete"]) > 0.0
+    after = dict(line.split(" ", 1) for line in run(MAP_INFO, first_map).stdout.splitlines())
+    assert int(after["trimmed_submaps"]) == int(trim["trim_submaps"])
+    assert int(after["marginalized_nodes"]) == int(trim["trim_nodes"])
+    assert int(after["marginal_edges"]) > 0
+    assert int(after["nodes"]) < 2 * int(before["nodes"])
+    # The trimmed map is continued like any other.
+    third = run(SLAM_OFFLINE, moved, "--load-map", first_map, "--max-scans", 40, "--refine-resolution", 0,
+                "--quiet", *SMALL_SUBMAPS)
+    assert third.returncode == 0, third.stderr
+
+
+@needs_slam
+def test_lifelong_flags_are_checked(tmp_path):
+    out = tmp_path / "m.rrrmap"
+    for args, message in (
+            (("--trim-overlap", 0.5, "--save-map", out), "--trim-overlap needs --lifelong"),
+            (("--lifelong",), "--lifelong trims the map when it is saved: it needs --save-map"),
+            (("--lifelong", "--save-map", out, "--sparsification", "tree"), "is not clt, dense or delete"),
+            (("--lifelong", "--save-map", out, "--sparsification", "dense"), "use clt or delete"),
+            (("--lifelong", "--save-map", out, "--keep-recent-submaps", 0), "--keep-recent-submaps")):
+        result = run(SLAM_OFFLINE, ACES_HEAD, *args)
+        assert result.returncode != 0 and message in result.stderr, (args, result.stderr)

@@ -220,14 +220,19 @@ TEST(Rrr, RebatchDecidesTheClosedClustersFromScratch) {
 }
 
 TEST(Rrr, ArrivalsByNodeSayWhatArrivesWithEachNode) {
-  const std::vector<ReplayEdge> edges{{0, 1, true},  {3, 1, false}, {2, 3, true},
-                                      {1, 0, false}, {0, 3, false}, {3, 4, true}};
+  constexpr auto kOdometry = core::EdgeKind::kOdometry;
+  constexpr auto kLoop = core::EdgeKind::kLoopCandidate;
+  constexpr auto kMarginal = core::EdgeKind::kMarginal;
+  const std::vector<ReplayEdge> edges{{0, 1, kOdometry}, {3, 1, kLoop}, {2, 3, kOdometry},
+                                      {1, 0, kLoop},     {0, 3, kLoop}, {3, 4, kOdometry},
+                                      {1, 3, kMarginal}};
   const std::vector<NodeArrivals> at = arrivalsByNode(5, edges);
   ASSERT_EQ(at.size(), 5u);
   const std::vector<std::vector<int>> odometry{{}, {0}, {}, {2}, {5}},
-      candidates{{}, {3}, {}, {1, 4}, {}};
+      marginal{{}, {}, {}, {6}, {}}, candidates{{}, {3}, {}, {1, 4}, {}};
   for (std::size_t n = 0; n < 5; ++n) {
     EXPECT_EQ(at[n].odometry, odometry[n]) << n;
+    EXPECT_EQ(at[n].marginal, marginal[n]) << n;
     EXPECT_EQ(at[n].candidates, candidates[n]) << n;
   }
   EXPECT_THROW(arrivalsByNode(4, edges), std::invalid_argument);  // edge 5 ends at node 4

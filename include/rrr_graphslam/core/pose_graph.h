@@ -1,7 +1,8 @@
 #pragma once
 // An SE(2) pose graph stored in MRPT's CNetworkOfPoses2DInf, plus what MRPT does not keep:
-// the order edges were added in (file order), and each edge's kind (trusted odometry or an
-// unverified loop candidate). Duplicate edges between the same pair are separate edges.
+// the order edges were added in (file order), and each edge's kind (trusted odometry, an
+// unverified loop candidate, or a trusted marginal constraint left by node removal). Duplicate
+// edges between the same pair are separate edges.
 //
 // Node ids are MRPT's TNodeID and need not be contiguous. Edge indices are positions in
 // edges(), i.e. insertion order; RRR and the tools key everything on them.
@@ -20,6 +21,10 @@ namespace rrr_graphslam::core {
 enum class EdgeKind : std::uint8_t {
   kOdometry,       ///< sequential constraint, trusted
   kLoopCandidate,  ///< loop closure to be verified (RRR decides)
+  /// Trusted relative-pose constraint between any two nodes that replaced the constraints of
+  /// marginalized nodes (lifelong trimming, chow_liu.h): always active, never decided, and not
+  /// part of an odometry chain.
+  kMarginal,
 };
 
 class PoseGraph {

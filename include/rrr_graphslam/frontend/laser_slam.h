@@ -160,6 +160,7 @@ class LaserSlam {
   std::vector<MapSnapshot::Session> sessions_;
   std::vector<double> node_timestamps_;
   std::vector<MapSnapshot::Submap> finished_spans_;  // nodes of each finished submap
+  MapSnapshot::Lifelong lifelong_;                   // what trimming removed, as loaded
   int session_first_submap_ = 0;  // submaps of earlier sessions have smaller indices
   std::size_t session_first_scan_ = 0;
   std::optional<int> tied_at_;

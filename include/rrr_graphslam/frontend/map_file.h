@@ -27,8 +27,10 @@
 
 namespace rrr_graphslam::frontend {
 
-/// The format version this build writes; it reads versions 1 to this one.
-constexpr std::uint32_t kMapFormatVersion = 1;
+/// The format version this build writes; it reads versions 1 to this one. Version 2 added
+/// marginal edges and the lifelong counters (a version-1 map holds neither; it is read as is and
+/// continued as version 2).
+constexpr std::uint32_t kMapFormatVersion = 2;
 
 /// What a map file holds. Node k has id k; sessions' nodes are consecutive.
 struct MapSnapshot {
@@ -44,7 +46,8 @@ struct MapSnapshot {
     core::Pose2 map_pose = core::Pose2::Zero();    ///< in the map frame, when saved
     std::shared_ptr<const mrpt::obs::CObservation2DRangeScan> scan;
   };
-  /// Edge kinds in the file; kMarginal is reserved for the lifelong work's marginal factors.
+  /// Edge kinds in the file. kMarginal: a trusted constraint that replaced the constraints of
+  /// nodes lifelong trimming removed (map_trimming.h), between any two nodes.
   enum class EdgeKind : std::uint8_t { kOdometry = 0, kLoopCandidate = 1, kMarginal = 2 };
   struct Edge {
     int from = 0;
@@ -61,6 +64,11 @@ struct MapSnapshot {
     int first_node = 0;
     int last_node = 0;
   };
+  /// What lifelong trimming removed over the map's life (version 2 on).
+  struct Lifelong {
+    int trimmed_submaps = 0;
+    int marginalized_nodes = 0;
+  };
 
   std::uint32_t format_version = kMapFormatVersion;
   /// Every parameter it was made with, as `name` = value text (the parameter tables).
@@ -69,18 +77,25 @@ struct MapSnapshot {
   std::vector<Node> nodes;
   std::vector<Edge> edges;
   std::vector<Submap> submaps;
+  Lifelong lifelong;
 
   /// Throws std::invalid_argument naming the first inconsistency (node indices out of range,
-  /// sessions out of order, a node without a scan, ...).
+  /// sessions out of order, a node without a scan, a version that cannot hold what the map
+  /// holds, ...).
   void check() const;
 };
 
-/// Writes `map` to `path` atomically. Throws std::runtime_error naming the path.
+/// Writes `map` to `path` atomically, in its format_version. Throws std::runtime_error naming the
+/// path.
 void writeMapFile(const MapSnapshot& map, const std::string& path);
 /// Reads a map file. Throws core::InputError naming the file and what is wrong.
 MapSnapshot readMapFile(const std::string& path);
 
-/// The graph of the map: nodes at their map poses, odometry and loop candidates in file order.
+/// The PoseGraph kind of a file's edge kind.
+core::EdgeKind toCoreKind(MapSnapshot::EdgeKind kind);
+
+/// The graph of the map: nodes at their map poses, its edges (odometry, marginal constraints and
+/// loop candidates) in file order.
 core::PoseGraph mapPoseGraph(const MapSnapshot& map);
 
 }  // namespace rrr_graphslam::frontend

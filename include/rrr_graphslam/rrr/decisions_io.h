@@ -34,8 +34,10 @@ std::vector<DecisionRow> readDecisions(const std::string& path);
 /// g2o has no edge kinds: its reader takes an edge between id-consecutive nodes for odometry, so
 /// a loop between the last node of one session and the first of the next would come back as
 /// trusted odometry. A graph saved with its decisions (the node's ~save) holds its loop
-/// candidates last, in the table's order: this marks the last rows.size() edges as candidates.
-/// Throws core::InputError naming `decisions_path` when the rows do not match those edges.
+/// candidates last, in the table's order: this marks the last rows.size() edges as candidates,
+/// and the edges before them that do not join consecutive ids as marginal constraints (~save
+/// writes odometry, then marginal constraints, then the candidates). Throws core::InputError naming
+/// `decisions_path` when the rows do not match those edges.
 void markCandidates(const std::vector<DecisionRow>& rows, const std::string& decisions_path,
                     core::PoseGraph& graph);
 

@@ -61,6 +61,7 @@ struct OnlineRrrStatus {
   int nodes = 0;
   int sessions = 0;
   int candidates = 0;
+  int marginal_edges = 0;
   int waiting_candidates = 0;  ///< naming nodes not arrived yet
   int clusters = 0;            ///< closed
   int open_clusters = 0;
@@ -104,6 +105,13 @@ class OnlineRrr {
   CandidateStatus addCandidate(NodeId from, NodeId to, const core::Pose2& measurement,
                                const Eigen::Matrix3d& information);
 
+  /// A marginal constraint (core::EdgeKind::kMarginal: what lifelong trimming left of removed
+  /// nodes' constraints) between two existing nodes, trusted like odometry: always active and
+  /// never decided. Throws std::invalid_argument for unknown ids, a self-loop or a bad
+  /// measurement or information.
+  void addMarginal(NodeId from, NodeId to, const core::Pose2& measurement,
+                   const Eigen::Matrix3d& information);
+
   /// Every optimization checks `*flag` and stops (kCancelled) once it is raised, so that a long
   /// decision ends within a step; the verdicts reached meanwhile are not to be trusted: raise it
   /// only to throw this graph away (a reset, a shutdown). nullptr (default): never cancelled.
@@ -138,18 +146,19 @@ class OnlineRrr {
   const LoopCandidate& candidate(int k) const { return graph_.candidate(k); }
   Verdict verdict(int candidate) const { return reported_[static_cast<std::size_t>(candidate)]; }
 
-  /// Nodes at their odometry-frame poses, the odometry, then every candidate in arrival order:
-  /// the input, which rrr_offline decides again.
+  /// Nodes at their odometry-frame poses, the odometry, the marginal constraints, then every
+  /// candidate in arrival order: the input, which rrr_offline decides again.
   core::PoseGraph toPoseGraph() const;
   /// One row per candidate in arrival order, as in DECISIONS.tsv.
   std::vector<DecisionRow> decisionRows() const;
-  /// Odometry + accepted loops at the map poses.
+  /// Odometry + marginal constraints + accepted loops at the map poses.
   core::PoseGraph optimizedPoseGraph() const;
-  /// Odometry + every candidate at the map poses (what a SLAM run produced, for rrr_offline).
+  /// Odometry + marginal constraints + every candidate at the map poses (what a SLAM run
+  /// produced, for rrr_offline).
   core::PoseGraph mapPoseGraph() const;
 
  private:
-  struct Odometry {
+  struct Odometry {  // an odometry or a marginal constraint
     int from;
     int to;
     core::Pose2 measurement;
@@ -174,6 +183,7 @@ class OnlineRrr {
   VerificationGraph graph_;
   IncrementalRrr incremental_;
   std::vector<Odometry> odometry_;
+  std::vector<Odometry> marginal_;
   std::map<std::pair<NodeId, NodeId>, std::vector<int>> candidates_by_ends_;
   std::deque<Waiting> waiting_;
   std::vector<Verdict> reported_;

@@ -1,8 +1,9 @@
 #pragma once
 // The order in which a robot would have built a stored graph: nodes in id order, each with the
-// odometry edges into it, then the loop candidates whose newest end it is (input order within a
-// node). rrr_offline --mode incremental, OnlineRrr::fromPoseGraph (~load) and the tests replay
-// graphs in this one order; the Python module's plan_replay does the same for ROS replays.
+// odometry edges into it, then the marginal constraints and the loop candidates whose newest end
+// it is (input order within a node). rrr_offline --mode incremental, OnlineRrr::fromPoseGraph
+// (~load) and the tests replay graphs in this one order; the Python module's plan_replay does the
+// same for ROS replays.
 
 #include <vector>
 
@@ -14,12 +15,13 @@ namespace rrr_graphslam::rrr {
 struct ReplayEdge {
   int from;
   int to;
-  bool odometry;
+  core::EdgeKind kind;
 };
 
 /// What arrives with one node: indices into the edge list.
 struct NodeArrivals {
   std::vector<int> odometry;    ///< odometry edges whose newest end the node is
+  std::vector<int> marginal;    ///< then the marginal constraints whose newest end it is
   std::vector<int> candidates;  ///< then the loop candidates whose newest end it is
 };
 

@@ -3,6 +3,11 @@
 // active and every loop candidate can be switched on and off, plus the odometry chain for the
 // intra-cluster tests. Node k is the k-th smallest node id of the PoseGraph; candidate k is the
 // k-th loop-candidate edge in edge order.
+//
+// Marginal constraints (core::EdgeKind::kMarginal, left where lifelong trimming removed nodes)
+// are trusted like odometry and always active, but join any two nodes and are no part of the
+// odometry chain: a session whose middle was trimmed is two chains, held together by them.
+// trustedComponents() says which nodes odometry and marginal constraints hold together.
 
 #include <cstddef>
 #include <vector>
@@ -12,6 +17,13 @@
 #include "rrr_graphslam/rrr/odometry_chain.h"
 
 namespace rrr_graphslam::rrr {
+
+/// A marginal constraint, always active.
+struct MarginalLink {
+  int from;        ///< dense node index
+  int to;          ///< dense node index
+  int constraint;  ///< index in the optimizer
+};
 
 struct LoopCandidate {
   std::size_t edge;  ///< index in the PoseGraph's edges
@@ -25,7 +37,8 @@ struct LoopCandidate {
 class VerificationGraph {
  public:
   /// Uses the graph's edge kinds: odometry edges must join consecutive node ids (in id order);
-  /// throws std::invalid_argument naming the edge otherwise. Candidates start switched off.
+  /// throws std::invalid_argument naming the edge otherwise. Candidates start switched off;
+  /// marginal constraints are always on.
   VerificationGraph(const core::PoseGraph& graph, const core::OptimizerParams& params);
 
   /// An empty graph that grows online (a robot, a replay): nodes in order, each with its
@@ -37,6 +50,10 @@ class VerificationGraph {
   /// std::invalid_argument for any other pair.
   void addOdometry(int from, int to, const core::Pose2& measurement,
                    const Eigen::Matrix3d& information);
+  /// A marginal constraint between two distinct existing nodes, always active. Returns its
+  /// index in marginalLinks().
+  int addMarginal(int from, int to, const core::Pose2& measurement,
+                  const Eigen::Matrix3d& information);
   /// A loop candidate between existing nodes, switched off; `edge` is the caller's id for it.
   /// Returns the candidate index.
   int addCandidate(int from, int to, const core::Pose2& measurement,
@@ -45,7 +62,12 @@ class VerificationGraph {
   int numNodes() const { return static_cast<int>(node_ids_.size()); }
   int numCandidates() const { return static_cast<int>(candidates_.size()); }
   const LoopCandidate& candidate(int k) const { return candidates_[static_cast<std::size_t>(k)]; }
+  const std::vector<MarginalLink>& marginalLinks() const { return marginal_; }
   const std::vector<core::PoseGraph::NodeId>& nodeIds() const { return node_ids_; }
+  /// Per node, the component that odometry and marginal constraints (the trusted ones) hold it
+  /// in: 0, 1, ... in order of their first nodes. Without marginal constraints these are the
+  /// odometry chain's sessions.
+  std::vector<int> trustedComponents() const;
   const std::vector<core::Pose2>& initialPoses() const { return initial_poses_; }
 
   core::Optimizer& optimizer() { return optimizer_; }
@@ -66,6 +88,7 @@ class VerificationGraph {
   std::vector<core::PoseGraph::NodeId> node_ids_;
   std::vector<core::Pose2> initial_poses_;
   std::vector<LoopCandidate> candidates_;
+  std::vector<MarginalLink> marginal_;
   core::Optimizer optimizer_;
   OdometryChain chain_;
 };

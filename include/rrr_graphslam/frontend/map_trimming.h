@@ -1,0 +1,151 @@
+#pragma once
+// Lifelong trimming of a map (Zhao et al., "A General Framework for Lifelong Localization and
+// Mapping in Changing Environment", IROS 2021): a finished submap that newer submaps cover is
+// trimmed, the nodes it owns leave the graph, and the information their constraints held about
+// the rest stays as marginal constraints, so the map grows with the area it covers and not with
+// the time spent in it.
+//
+// Steps, with the papers' names:
+//   1. Coverage: every submap's observed cells (known in a grid of its scans inserted at their
+//      map poses, at coverage_resolution_m). From the newest submap back, a submap is judged
+//      against the union of the cells of the newer submaps that are kept: the overlap ratio
+//      (Zhao et al.) or the fresh area (Cartographer's OverlappingSubmapsTrimmer2D), a
+//      TrimmingStrategy. The newest keep_recent_submaps are never trimmed.
+//   2. Owned nodes: a node leaves when every submap it was inserted into is trimmed (consecutive
+//      submaps share half their scans: the nodes of a kept neighbour stay).
+//   3. Marginalization (core/marginalization.h) of each group of removed nodes that trusted
+//      constraints join (the nodes of neighbouring trimmed submaps go together, so that no tree
+//      is approximated again), at the optimum of the trusted graph (odometry, accepted loops and
+//      earlier marginal constraints): the Schur complement over their Markov blanket.
+//   4. Sparsification: the Chow-Liu tree of that marginal (core/chow_liu.h) replaces it as
+//      marginal constraints (kClt), or nothing does (kDelete, Cartographer's trimmer).
+//
+// RRR's verdicts: only trusted information is folded into marginal constraints. A submap with a
+// node that a pending loop candidate touches waits (it is not trimmed until the loop is decided);
+// rejected loops touching a removed node are dropped with it (they are no part of the map). An
+// accepted loop folded into a marginal constraint can no longer be reversed: trim after the
+// decisions are final (the end of a session, after RRR's decision from scratch).
+//
+// KL: for each trim, the Kullback-Leibler divergence of the graph with the replacement (and with
+// plain deletion, for comparison) from the graph with the exact marginal (core/gaussian_kl.h),
+// from the graph's covariance over the blanket.
+
+#include <cstddef>
+#include <string>
+#include <vector>
+
+#include "rrr_graphslam/frontend/map_file.h"
+#include "rrr_graphslam/frontend/submap.h"
+
+namespace rrr_graphslam::frontend {
+
+/// What replaces a trimmed submap's constraints.
+enum class Sparsification {
+  kClt,     ///< the Chow-Liu tree of the marginal (default)
+  kDense,   ///< the exact marginal, one factor over the blanket (not storable yet: refused)
+  kDelete,  ///< nothing: their information is lost (Cartographer's trimmer)
+};
+/// "clt", "dense", "delete".
+std::string toString(Sparsification sparsification);
+/// Parses "clt", "dense" or "delete"; std::invalid_argument otherwise.
+Sparsification parseSparsification(const std::string& text);
+
+struct TrimParams {
+  /// A finished submap is trimmed when the newer kept submaps cover at least this fraction of its
+  /// observed cells (Zhao et al.'s overlap ratio), in (0, 1].
+  double trim_overlap_ratio = 0.9;
+  /// The newest submaps are never trimmed; at least 1 (the submap being built).
+  int keep_recent_submaps = 4;
+  Sparsification sparsification = Sparsification::kClt;
+  /// Cell size of the coverage grids (m).
+  double coverage_resolution_m = 0.1;
+  /// Whether each trim's KL divergences are computed (one covariance of the graph per trim).
+  bool report_kl = true;
+  /// Threads that build the coverage grids.
+  int threads = 2;
+};
+
+/// Throws std::invalid_argument naming the parameter out of range.
+void validate(const TrimParams& params);
+
+/// A submap's coverage by the newer submaps that are kept.
+struct SubmapCoverage {
+  int submap = 0;
+  std::size_t observed_cells = 0;
+  std::size_t covered_cells = 0;  ///< of its observed cells, those a newer kept submap observed
+  double cell_area_m2 = 0.0;
+};
+
+/// The rule that decides from its coverage whether a submap is trimmed.
+class TrimmingStrategy {
+ public:
+  virtual ~TrimmingStrategy() = default;
+  virtual bool trim(const SubmapCoverage& coverage) const = 0;
+  virtual std::string describe() const = 0;
+};
+
+/// Zhao et al.: trimmed when covered / observed >= ratio.
+class OverlapRatioTrimming : public TrimmingStrategy {
+ public:
+  explicit OverlapRatioTrimming(double ratio) : ratio_(ratio) {}
+  bool trim(const SubmapCoverage& coverage) const override;
+  std::string describe() const override;
+
+ private:
+  double ratio_;
+};
+
+/// Cartographer's OverlappingSubmapsTrimmer2D (one fresh submap per cell): trimmed when the area
+/// it alone observes, among itself and the newer kept submaps, is below `min_fresh_area_m2`.
+class FreshAreaTrimming : public TrimmingStrategy {
+ public:
+  explicit FreshAreaTrimming(double min_fresh_area_m2) : min_area_(min_fresh_area_m2) {}
+  bool trim(const SubmapCoverage& coverage) const override;
+  std::string describe() const override;
+
+ private:
+  double min_area_;
+};
+
+/// One marginalization: the nodes of neighbouring trimmed submaps that trusted constraints join.
+struct TrimRecord {
+  int submap = 0;               ///< the oldest of them (index in the map before trimming)
+  int submaps = 0;              ///< how many trimmed submaps owned the nodes
+  int removed_nodes = 0;        ///< nodes it owned that left the graph
+  int blanket_nodes = 0;        ///< their Markov blanket
+  int removed_constraints = 0;  ///< trusted constraints folded into the marginal
+  int marginal_edges = 0;       ///< what replaced them
+  double kl_nats = 0.0;         ///< KL(exact marginal || the replacement used)
+  double kl_clt_nats = 0.0;     ///< KL(exact marginal || Chow-Liu tree)
+  double kl_delete_nats = 0.0;  ///< KL(exact marginal || deletion)
+  double seconds = 0.0;         ///< optimization, marginalization, sparsification and KL
+};
+
+struct TrimReport {
+  int trimmed_submaps = 0;               ///< some own no node (their kept neighbours hold them all)
+  std::vector<TrimRecord> trims;         ///< one per group of removed nodes, oldest first
+  std::vector<SubmapCoverage> coverage;  ///< every submap judged, newest first
+  int waiting_submaps = 0;         ///< would be trimmed but a pending loop touches their nodes
+  int dropped_rejected_loops = 0;  ///< rejected candidates that touched a removed node
+  double coverage_seconds = 0.0;
+  double seconds = 0.0;  ///< everything
+  int removedNodes() const;
+  int marginalEdges() const;
+};
+
+struct TrimResult {
+  MapSnapshot map;  ///< the trimmed map; its nodes renumbered in order
+  TrimReport report;
+};
+
+/// Trims `map` (see above). `submap_params` are those the map's submaps were made with (their
+/// insertion rules make the coverage grids). Throws std::invalid_argument for parameters out of
+/// range, kDense (the map file and RRR hold pairwise constraints only), or a map that fails
+/// MapSnapshot::check().
+TrimResult trimMap(const MapSnapshot& map, const TrimParams& params,
+                   const TrimmingStrategy& strategy, const SubmapParams& submap_params);
+/// The same with OverlapRatioTrimming(params.trim_overlap_ratio).
+TrimResult trimMap(const MapSnapshot& map, const TrimParams& params,
+                   const SubmapParams& submap_params);
+
+}  // namespace rrr_graphslam::frontend

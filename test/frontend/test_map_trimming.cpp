@@ -1,0 +1,232 @@
+// Lifelong trimming of a map: submaps that newer ones cover leave with their nodes, whose
+// information stays as marginal edges; the trimmed map saves, loads and continues like any other;
+// pending loops make their submaps wait; the Chow-Liu tree loses far less than deletion.
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+
+#include "rrr_graphslam/frontend/laser_slam.h"
+#include "rrr_graphslam/frontend/map_file.h"
+#include "rrr_graphslam/frontend/map_trimming.h"
+#include "synthetic_room.h"
+
+namespace rrr_graphslam::frontend {
+namespace {
+
+using testing::castScan;
+using testing::room;
+
+LaserSlamParams smallMaps() {
+  LaserSlamParams p;
+  p.local.submap.scans_per_submap = 20;
+  p.loops.min_node_separation = 15;
+  p.loops.search_every_n_nodes = 2;
+  p.loops.search_min_points = 60;
+  p.loops.threads = 1;
+  return p;
+}
+
+// The robot's true pose k on a circle in the free part of the room (a lap is 105 scans).
+core::Pose2 truthAt(int k) {
+  const double a = 0.06 * k;
+  return {7.5 + 1.5 * std::cos(a), 2.5 + 1.5 * std::sin(a), a + M_PI / 2};
+}
+
+void drive(LaserSlam& slam, const core::Pose2& odom_frame, int scans, double t0, int first = 0) {
+  for (int k = first; k < first + scans; ++k) {
+    RangeScan scan = castScan(room(), truthAt(k));
+    scan.timestamp = t0 + 0.1 * k;
+    slam.addScan(scan, core::compose(odom_frame, truthAt(k)));
+  }
+}
+
+// Three laps of the room: the last laps' submaps cover the first lap's.
+const MapSnapshot& threeLaps() {
+  static const MapSnapshot map = [] {
+    LaserSlam slam(smallMaps(), "laps");
+    drive(slam, core::Pose2::Zero(), 320, 0.0);
+    slam.finish();
+    return slam.snapshot();
+  }();
+  return map;
+}
+
+TrimParams trimParams() {
+  TrimParams p;
+  p.trim_overlap_ratio = 0.8;
+  p.keep_recent_submaps = 3;
+  p.threads = 1;
+  return p;
+}
+
+int countKind(const MapSnapshot& map, MapSnapshot::EdgeKind kind) {
+  int n = 0;
+  for (const auto& e : map.edges) n += e.kind == kind;
+  return n;
+}
+
+TEST(MapTrimming, CoveredSubmapsLeaveAndTheirNodesBecomeMarginalEdges) {
+  const MapSnapshot& map = threeLaps();
+  ASSERT_GT(map.submaps.size(), 10u);
+  const TrimResult trimmed = trimMap(map, trimParams(), smallMaps().local.submap);
+  const TrimReport& report = trimmed.report;
+  EXPECT_GT(report.trimmed_submaps, 0);
+  ASSERT_FALSE(report.trims.empty());
+  EXPECT_EQ(trimmed.map.submaps.size() + static_cast<std::size_t>(report.trimmed_submaps),
+            map.submaps.size());
+  EXPECT_EQ(trimmed.map.nodes.size() + static_cast<std::size_t>(report.removedNodes()),
+            map.nodes.size());
+  EXPECT_EQ(countKind(trimmed.map, MapSnapshot::EdgeKind::kMarginal), report.marginalEdges());
+  EXPECT_GT(report.marginalEdges(), 0);
+  EXPECT_EQ(trimmed.map.lifelong.trimmed_submaps, report.trimmed_submaps);
+  EXPECT_EQ(trimmed.map.lifelong.marginalized_nodes, report.removedNodes());
+  // The newest submaps stay; every kept submap keeps all its nodes (check() holds the spans).
+  EXPECT_NO_THROW(trimmed.map.check());
+  EXPECT_EQ(trimmed.map.submaps.back().last_node + 1, static_cast<int>(trimmed.map.nodes.size()));
+  for (const TrimRecord& t : report.trims) {
+    EXPECT_LT(t.submap, static_cast<int>(map.submaps.size()) - trimParams().keep_recent_submaps);
+    EXPECT_GT(t.removed_nodes, 0);
+    // A tree over the blanket: |B| - 1 edges per connected piece.
+    EXPECT_LE(t.marginal_edges, t.blanket_nodes - 1);
+    // Both divergences are measured. Which is smaller depends on the map: in this room (three
+    // laps of near-perfect scans) the later laps hold the blanket so tightly that deleting loses
+    // little, and the tree, whose largest information eigenvalue is 2-10x the marginal's, costs
+    // more in most trims (doc/lifelong.md).
+    EXPECT_GT(t.kl_delete_nats, 0.0) << "submap " << t.submap;
+    EXPECT_TRUE(std::isfinite(t.kl_delete_nats)) << "submap " << t.submap;
+    EXPECT_GT(t.kl_clt_nats, 0.0) << "submap " << t.submap;
+    EXPECT_TRUE(std::isfinite(t.kl_clt_nats)) << "submap " << t.submap;
+    EXPECT_EQ(t.kl_nats, t.kl_clt_nats);
+  }
+  // Trimming again with the same rule finds nothing more to trim among the kept submaps' cover.
+  const TrimResult again = trimMap(trimmed.map, trimParams(), smallMaps().local.submap);
+  EXPECT_LE(again.report.trimmed_submaps, report.trimmed_submaps);
+}
+
+TEST(MapTrimming, TrimmedMapSavesLoadsAndContinues) {
+  const TrimResult trimmed = trimMap(threeLaps(), trimParams(), smallMaps().local.submap);
+  const std::string path = ::testing::TempDir() + "trimmed.rrrmap";
+  writeMapFile(trimmed.map, path);
+  const MapSnapshot read = readMapFile(path);
+  ASSERT_EQ(read.edges.size(), trimmed.map.edges.size());
+  for (std::size_t k = 0; k < read.edges.size(); ++k) {
+    EXPECT_EQ(read.edges[k].kind, trimmed.map.edges[k].kind) << k;
+    EXPECT_EQ(read.edges[k].from, trimmed.map.edges[k].from) << k;
+    EXPECT_EQ(read.edges[k].measurement, trimmed.map.edges[k].measurement) << k;
+  }
+  EXPECT_EQ(read.lifelong.trimmed_submaps, trimmed.map.lifelong.trimmed_submaps);
+  EXPECT_EQ(read.lifelong.marginalized_nodes, trimmed.map.lifelong.marginalized_nodes);
+
+  // A new session continues it: the marginal edges stay what they were, the map where it was.
+  auto slam = LaserSlam::fromMap(read, smallMaps(), "next");
+  EXPECT_EQ(slam->rrr().status().marginal_edges, countKind(read, MapSnapshot::EdgeKind::kMarginal));
+  const core::Pose2 odom_frame(3.0, -2.0, 0.7);
+  drive(*slam, odom_frame, 150, 1000.0, 320);
+  slam->finish();
+  const MapSnapshot next = slam->snapshot();
+  EXPECT_EQ(countKind(next, MapSnapshot::EdgeKind::kMarginal),
+            countKind(read, MapSnapshot::EdgeKind::kMarginal));
+  EXPECT_EQ(next.lifelong.trimmed_submaps, read.lifelong.trimmed_submaps);
+  ASSERT_TRUE(slam->tiedAt().has_value()) << "the new session did not tie to the trimmed map";
+  // The loaded nodes stay where the trimmed map had them (up to the map's own gauge motion).
+  const core::Pose2 motion =
+      core::compose(next.nodes[0].map_pose, core::inverse(read.nodes[0].map_pose));
+  for (std::size_t k = 0; k < read.nodes.size(); ++k) {
+    const core::Pose2 expected = core::compose(motion, read.nodes[k].map_pose);
+    EXPECT_LT((next.nodes[k].map_pose.head<2>() - expected.head<2>()).norm(), 0.05) << k;
+  }
+  // The new session's nodes lie on the truth (the map's frame is the first lap's odometry).
+  const int first = next.sessions.back().first_node;
+  for (std::size_t k = static_cast<std::size_t>(first); k < next.nodes.size(); k += 10) {
+    const core::Pose2 truth =
+        core::compose(motion, core::compose(core::inverse(odom_frame), next.nodes[k].local_pose));
+    EXPECT_LT((next.nodes[k].map_pose.head<2>() - truth.head<2>()).norm(), 0.1) << k;
+  }
+}
+
+TEST(MapTrimming, SubmapsWithPendingLoopsWaitAndRejectedLoopsGoWithTheirNodes) {
+  MapSnapshot map = threeLaps();
+  const TrimResult plain = trimMap(map, trimParams(), smallMaps().local.submap);
+  ASSERT_FALSE(plain.report.trims.empty());
+  // A pending loop touching a node of the first trimmed submap holds it back.
+  const MapSnapshot::Submap span =
+      map.submaps[static_cast<std::size_t>(plain.report.trims[0].submap)];
+  bool marked = false;
+  for (auto& e : map.edges) {
+    if (e.kind != MapSnapshot::EdgeKind::kLoopCandidate) continue;
+    if (e.from >= span.first_node && e.from <= span.last_node) {
+      e.verdict = rrr::Verdict::kPending;
+      marked = true;
+      break;
+    }
+  }
+  if (!marked) {  // no loop there: add a pending one
+    MapSnapshot::Edge e;
+    e.from = span.first_node;
+    e.to = static_cast<int>(map.nodes.size()) - 1;
+    e.kind = MapSnapshot::EdgeKind::kLoopCandidate;
+    e.verdict = rrr::Verdict::kPending;
+    e.measurement = core::between(map.nodes[e.from].map_pose, map.nodes[e.to].map_pose);
+    map.edges.push_back(e);
+  }
+  const TrimResult waiting = trimMap(map, trimParams(), smallMaps().local.submap);
+  EXPECT_GE(waiting.report.waiting_submaps, 1);
+  for (const TrimRecord& t : waiting.report.trims)
+    EXPECT_NE(t.submap, plain.report.trims[0].submap);
+  int pending = 0;
+  for (const auto& e : waiting.map.edges) {
+    pending +=
+        e.kind == MapSnapshot::EdgeKind::kLoopCandidate && e.verdict == rrr::Verdict::kPending;
+  }
+  EXPECT_EQ(pending, 1);  // never folded, never dropped
+
+  // Rejected loops touching a removed node leave with it; the others stay.
+  MapSnapshot with_rejected = threeLaps();
+  auto rejected_loop = [&](int from, int to) {
+    MapSnapshot::Edge e;
+    e.from = from;
+    e.to = to;
+    e.kind = MapSnapshot::EdgeKind::kLoopCandidate;
+    e.verdict = rrr::Verdict::kRejected;
+    e.measurement = core::Pose2(1.0, 0.0, 0.0);
+    with_rejected.edges.push_back(e);
+  };
+  const int last = static_cast<int>(with_rejected.nodes.size()) - 1;
+  rejected_loop(span.first_node, span.first_node + 5);  // both ends leave
+  rejected_loop(span.first_node, last);                 // one end leaves
+  rejected_loop(last - 20, last);                       // both stay
+  const TrimResult dropped = trimMap(with_rejected, trimParams(), smallMaps().local.submap);
+  EXPECT_EQ(dropped.report.dropped_rejected_loops, 2);
+  int rejected_out = 0;
+  for (const auto& e : dropped.map.edges) rejected_out += e.verdict == rrr::Verdict::kRejected;
+  EXPECT_EQ(rejected_out, 1);
+}
+
+TEST(MapTrimming, DeletionAndTheFreshAreaRuleAreTheAlternatives) {
+  TrimParams params = trimParams();
+  params.sparsification = Sparsification::kDelete;
+  const TrimResult deleted = trimMap(threeLaps(), params, smallMaps().local.submap);
+  EXPECT_EQ(deleted.report.marginalEdges(), 0);
+  EXPECT_EQ(countKind(deleted.map, MapSnapshot::EdgeKind::kMarginal), 0);
+  for (const TrimRecord& t : deleted.report.trims) EXPECT_EQ(t.kl_nats, t.kl_delete_nats);
+
+  // Cartographer's rule: nothing is fresh enough to keep below a huge area, everything old goes;
+  // with no area required nothing goes.
+  const SubmapParams submap = smallMaps().local.submap;
+  const TrimResult all = trimMap(threeLaps(), trimParams(), FreshAreaTrimming(1e6), submap);
+  EXPECT_EQ(all.report.trimmed_submaps, static_cast<int>(threeLaps().submaps.size()) -
+                                            trimParams().keep_recent_submaps -
+                                            all.report.waiting_submaps);
+  const TrimResult none = trimMap(threeLaps(), trimParams(), FreshAreaTrimming(0.0), submap);
+  EXPECT_EQ(none.report.trimmed_submaps, 0);
+
+  params.sparsification = Sparsification::kDense;
+  EXPECT_THROW(trimMap(threeLaps(), params, submap), std::invalid_argument);
+  EXPECT_EQ(parseSparsification("clt"), Sparsification::kClt);
+  EXPECT_THROW(parseSparsification("tree"), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace rrr_graphslam::frontend
