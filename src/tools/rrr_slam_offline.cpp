@@ -285,7 +285,8 @@ Arguments parseArguments(int argc, char** argv) {
   return args;
 }
 
-// The trim's summary line, then one 'key value' line per figure (bench_lifelong reads them).
+// The trim's summary line, one 'key value' line per figure, then a 'trim_record' line per
+// marginalization (bench_lifelong reads them).
 void printTrimReport(const frontend::TrimReport& report, const frontend::TrimParams& params) {
   std::vector<double> ms;
   double kl = 0.0, kl_clt = 0.0, kl_delete = 0.0, worst_ratio = 0.0;
@@ -317,6 +318,13 @@ void printTrimReport(const frontend::TrimReport& report, const frontend::TrimPar
       report.trimmed_submaps, report.removedNodes(), report.marginalEdges(),
       report.dropped_rejected_loops, report.seconds, report.coverage_seconds, quantile(0.5),
       quantile(0.99), kl, kl_clt, kl_delete, worst_ratio);
+  for (const frontend::TrimRecord& t : report.trims) {
+    std::printf(
+        "trim_record submap %d submaps %d nodes %d blanket %d constraints %d edges %d "
+        "kl %.6g kl_clt %.6g kl_delete %.6g ms %.3f\n",
+        t.submap, t.submaps, t.removed_nodes, t.blanket_nodes, t.removed_constraints,
+        t.marginal_edges, t.kl_nats, t.kl_clt_nats, t.kl_delete_nats, 1e3 * t.seconds);
+  }
 }
 
 // Poses from index `first` on, TUM format.
