@@ -470,7 +470,11 @@ void GraphSlamRos::publishStatus() {
   }
   msg.last_update_sec = last_update_sec_;
   msg.tied_after_sec = -1.0;
+  msg.marginal_edges = static_cast<std::uint32_t>(s.marginal_edges);
+  msg.lifelong = params_.lifelong;
   if (slam_) {
+    msg.trimmed_submaps = static_cast<std::uint32_t>(slam_->lifelong().trimmed_submaps);
+    msg.marginalized_nodes = static_cast<std::uint32_t>(slam_->lifelong().marginalized_nodes);
     const auto& sessions = slam_->sessions();
     msg.session = static_cast<std::uint32_t>(sessions.size() - 1);
     msg.tied_to_map = slam_->tied();

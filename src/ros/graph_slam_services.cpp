@@ -140,12 +140,22 @@ bool GraphSlamRos::saveMap(SaveMap::Request& req, SaveMap::Response& res) {
               "mode is localization: the loaded map stays as it is, there is no new map to save");
         }
         const auto start = std::chrono::steady_clock::now();
-        const frontend::MapSnapshot map = slam_->snapshot();
+        frontend::MapSnapshot map = slam_->snapshot();
+        std::string trimmed;
+        if (params_.lifelong) {
+          frontend::TrimResult result =
+              frontend::trimMap(map, params_.trim, params_.slam.local.submap);
+          const frontend::TrimReport& r = result.report;
+          trimmed = " (lifelong: trimmed " + std::to_string(r.trimmed_submaps) +
+                    " submaps, marginalized " + std::to_string(r.removedNodes()) + " nodes into " +
+                    std::to_string(r.marginalEdges()) + " marginal edges)";
+          map = std::move(result.map);
+        }
         frontend::writeMapFile(map, req.path);
         return "saved " + std::to_string(map.sessions.size()) + " sessions, " +
                std::to_string(map.nodes.size()) + " nodes and " +
                std::to_string(map.submaps.size()) + " submaps to " + req.path + " in " +
-               std::to_string(secondsSince(start)) + " s";
+               std::to_string(secondsSince(start)) + " s" + trimmed;
       },
       res.message);
   logServiceResult("~save_map", res.success, res.message);

@@ -146,6 +146,21 @@ NodeParams loadParams(const ros::NodeHandle& private_nh) {
   r.read<std::string>(
       "mode", p.mode, [](const std::string& m) { return m == "mapping" || m == "localization"; },
       "mapping or localization");
+  r.read<bool>(
+      "lifelong", p.lifelong, [](const bool&) { return true; }, "a boolean");
+  r.read<double>(
+      "trim_overlap_ratio", p.trim.trim_overlap_ratio,
+      [](const double& v) { return v > 0.0 && v <= 1.0; }, "in (0, 1]");
+  r.read<int>(
+      "keep_recent_submaps", p.trim.keep_recent_submaps, [](const int& v) { return v >= 1; },
+      "at least 1");
+  std::string sparsification = frontend::toString(p.trim.sparsification);
+  r.read<std::string>(
+      "sparsification", sparsification,
+      [](const std::string& s) { return s == "clt" || s == "delete"; },
+      "clt or delete (dense keeps one factor over a whole blanket, which the map cannot hold)");
+  p.trim.sparsification = frontend::parseSparsification(sparsification);
+  p.trim.threads = p.slam.loops.threads;
   r.positive("map_publish_period", p.map_publish_period);
   r.positive("tf_timeout", p.tf_timeout);
 

@@ -58,6 +58,7 @@ visualization_msgs::MarkerArray buildMarkers(const rrr::OnlineRrr& graph,
       lineList("loops_rejected", frame, stamp, 0.9f, 0.1f, 0.1f, 0.04);
   visualization_msgs::Marker pending =
       lineList("loops_pending", frame, stamp, 1.0f, 0.85f, 0.0f, 0.06);
+  visualization_msgs::Marker marginal = lineList("marginal", frame, stamp, 0.6f, 0.2f, 0.8f, 0.05);
   visualization_msgs::Marker nodes = lineList("nodes", frame, stamp, 0.2f, 0.4f, 1.0f, 0.12);
   nodes.type = visualization_msgs::Marker::POINTS;
   nodes.scale.y = nodes.scale.x;
@@ -83,8 +84,12 @@ visualization_msgs::MarkerArray buildMarkers(const rrr::OnlineRrr& graph,
     m.points.push_back(point(map_poses[static_cast<std::size_t>(c.from)]));
     m.points.push_back(point(map_poses[static_cast<std::size_t>(c.to)]));
   }
+  for (const rrr::MarginalLink& m : graph.marginalLinks()) {
+    marginal.points.push_back(point(map_poses[static_cast<std::size_t>(m.from)]));
+    marginal.points.push_back(point(map_poses[static_cast<std::size_t>(m.to)]));
+  }
   visualization_msgs::MarkerArray array;
-  array.markers = {odometry, accepted, rejected, pending, nodes};
+  array.markers = {odometry, accepted, rejected, pending, marginal, nodes};
   // rviz reports an empty line list as an error; an empty namespace is deleted instead.
   for (auto& m : array.markers) {
     if (m.points.empty()) m.action = visualization_msgs::Marker::DELETE;

@@ -29,6 +29,9 @@ BAD = [
     ({"input_mode": "odom", "map_file": "/tmp/map.rrrmap"}, "map_file needs input_mode scan"),
     ({"input_mode": "scan", "mode": "localisation"}, "mode must be mapping or localization"),
     ({"input_mode": "scan", "mode": "localization"}, "mode localization needs a map to localize in"),
+    ({"trim_overlap_ratio": 1.5}, "trim_overlap_ratio must be in (0, 1], got 1.5"),
+    ({"keep_recent_submaps": 0}, "keep_recent_submaps must be at least 1, got 0"),
+    ({"sparsification": "dense"}, "sparsification must be clt or delete"),
 ]
 
 

@@ -1,6 +1,7 @@
 #!/usr/bin/python3
 """rostest: ~save_map, ~load_map and a new session from another odometry frame, tied to the map."""
 import os
+import re
 import subprocess
 import sys
 import tempfile
@@ -11,6 +12,7 @@ import roslib.packages
 import rospy
 import rostest
 from geometry_msgs.msg import PoseWithCovarianceStamped
+from visualization_msgs.msg import MarkerArray
 
 from rrr_graphslam.carmen import write_moved_log  # noqa: E402
 from rrr_graphslam.msg import LoopClosureDecision, RrrStatus  # noqa: E402
@@ -122,6 +124,43 @@ class Sessions(unittest.TestCase):
             answer = save(path=os.path.join(self.folder, "localized.rrrmap"))
             self.assertFalse(answer.success)
             self.assertIn("localization", answer.message)
+        finally:
+            node.terminate()
+            node.wait(timeout=30)
+
+    def test_c_lifelong_trims_the_map_it_saves(self):
+        # A third node continues the two-session map with lifelong on: ~save_map trims the
+        # submaps that the second session covers; loading the file back shows what it removed.
+        name = "lifelong"
+        for key, value in {"input_mode": "scan", "map_file": self.map_path, "publish_tf": False,
+                           "scans_per_submap": 10, "min_node_separation": 15, "lifelong": True,
+                           "trim_overlap_ratio": 0.5, "keep_recent_submaps": 2}.items():
+            rospy.set_param(f"/{name}/{key}", value)
+        status, markers = {}, {}
+        rospy.Subscriber(f"/{name}/status", RrrStatus, lambda m: status.update(last=m), queue_size=10)
+        rospy.Subscriber(f"/{name}/markers", MarkerArray,
+                         lambda m: markers.update({k.ns: k for k in m.markers}), queue_size=10)
+        binary = roslib.packages.find_node("rrr_graphslam", "rrr_graphslam_node")[0]
+        env = dict(os.environ, ROSCONSOLE_STDOUT_LINE_BUFFERED="1")
+        node = subprocess.Popen([binary, f"__name:={name}"], env=env, stdout=subprocess.PIPE,
+                                stderr=subprocess.STDOUT, text=True)
+        try:
+            self.assertTrue(wait_for(lambda: "last" in status, 30.0), "the lifelong node did not start")
+            self.assertTrue(status["last"].lifelong)
+            self.assertEqual(status["last"].trimmed_submaps, 0)
+            rospy.wait_for_service(f"/{name}/save_map", timeout=30.0)
+            trimmed = os.path.join(self.folder, "trimmed.rrrmap")
+            answer = rospy.ServiceProxy(f"/{name}/save_map", SaveMap)(path=trimmed)
+            self.assertTrue(answer.success, answer.message)
+            submaps = int(re.search(r"lifelong: trimmed (\d+) submaps", answer.message).group(1))
+            self.assertGreater(submaps, 0, answer.message)
+            answer = rospy.ServiceProxy(f"/{name}/load_map", LoadMap)(path=trimmed)
+            self.assertTrue(answer.success, answer.message)
+            self.assertTrue(wait_for(lambda: status["last"].trimmed_submaps == submaps, 10.0), str(status["last"]))
+            self.assertGreater(status["last"].marginalized_nodes, 0)
+            self.assertGreater(status["last"].marginal_edges, 0)
+            self.assertTrue(wait_for(lambda: "marginal" in markers and markers["marginal"].points, 10.0),
+                            sorted(markers))
         finally:
             node.terminate()
             node.wait(timeout=30)

@@ -119,6 +119,8 @@ class LaserSlam {
   double acceptedCrossingSpread() const;
   /// Index in scanMapPoses() of the current session's first scan (0 in the first session).
   std::size_t sessionFirstScan() const { return session_first_scan_; }
+  /// What lifelong trimming removed from the map over its life, as loaded (map_trimming.h).
+  const MapSnapshot::Lifelong& lifelong() const { return lifelong_; }
   /// Timestamp of every node.
   const std::vector<double>& nodeTimestamps() const { return node_timestamps_; }
 

@@ -9,6 +9,7 @@
 
 #include "rrr_graphslam/core/keyframe_selector.h"
 #include "rrr_graphslam/frontend/laser_slam.h"
+#include "rrr_graphslam/frontend/map_trimming.h"
 #include "rrr_graphslam/rrr/online_rrr.h"
 
 namespace rrr_graphslam::ros_adapter {
@@ -43,6 +44,11 @@ struct NodeParams {
   /// slam mode with a map (map_file, ~load_map): "mapping" extends it, "localization" tracks the
   /// robot in it and leaves it as it was loaded.
   std::string mode = "mapping";
+  /// slam mode: ~save_map trims the map it writes (doc/lifelong.md): the submaps newer ones cover
+  /// leave, their nodes marginalized into marginal edges. trim: trim_overlap_ratio,
+  /// keep_recent_submaps, sparsification (clt or delete).
+  bool lifelong = false;
+  frontend::TrimParams trim;
   double map_publish_period = 5.0;  ///< s between map renderings while scans arrive
   double tf_timeout = 0.2;          ///< s a scan waits for odom_frame -> base_frame
 

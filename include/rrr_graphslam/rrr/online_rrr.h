@@ -144,6 +144,8 @@ class OnlineRrr {
   /// True if nodes k - 1 and k are joined by odometry.
   bool odometryBefore(int k) const { return k > 0 && graph_.chain().sameSession(k - 1, k); }
   const LoopCandidate& candidate(int k) const { return graph_.candidate(k); }
+  /// The marginal constraints, by dense node index.
+  const std::vector<MarginalLink>& marginalLinks() const { return graph_.marginalLinks(); }
   Verdict verdict(int candidate) const { return reported_[static_cast<std::size_t>(candidate)]; }
 
   /// Nodes at their odometry-frame poses, the odometry, the marginal constraints, then every
