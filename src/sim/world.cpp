@@ -161,6 +161,9 @@ World readWorld(const std::string& yaml_path) {
 
   std::filesystem::path image_path(image);
   if (image_path.is_relative()) image_path = std::filesystem::path(yaml_path).parent_path() / image;
+  if (!std::ifstream(image_path)) {
+    map.fail("image", "names " + image_path.string() + ", which cannot be opened");
+  }
   const PgmImage pgm = readPgm(image_path.string());
   World world(pgm.width, pgm.height, resolution, {origin[0], origin[1]});
   for (int row = 0; row < pgm.height; ++row) {

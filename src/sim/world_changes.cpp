@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <sstream>
 
 #include "rrr_graphslam/core/input_error.h"
 #include "rrr_graphslam/sim/yaml_fields.h"
@@ -62,9 +63,11 @@ bool covers(const WorldChange& c, const Eigen::Vector2d& p, double resolution_m)
     const Eigen::Vector2d local(cs * d.x() + sn * d.y(), -sn * d.x() + cs * d.y());
     return std::abs(local.x()) <= 0.5 * c.size_m.x() && std::abs(local.y()) <= 0.5 * c.size_m.y();
   }
-  // A door is at least 1.5 cells thick, so that no beam slips between its cells on a diagonal.
+  // A door spans from its one post to the other (no further: opening it leaves the walls), and
+  // is at least 1.5 cells thick, so that no beam slips between its cells on a diagonal.
   const Eigen::Vector2d ab = c.to_m - c.from_m;
-  const double t = std::clamp((p - c.from_m).dot(ab) / ab.squaredNorm(), 0.0, 1.0);
+  const double t = (p - c.from_m).dot(ab) / ab.squaredNorm();
+  if (t < 0.0 || t > 1.0) return false;
   const double distance = (p - (c.from_m + t * ab)).norm();
   return distance <= std::max(0.5 * c.thickness_m, 0.75 * resolution_m);
 }
@@ -118,11 +121,10 @@ void validateChanges(const ChangeSet& changes, const World& world) {
     if (forEachCoveredCell(world, c, [](int, int) {}) == 0) {
       const Eigen::Vector2d hi =
           world.origin_m + world.resolution_m * Eigen::Vector2d(world.width, world.height);
-      throw core::InputError(
-          changes.path, c.line,
-          c.label + ": covers no cell of the world, which spans x [" +
-              std::to_string(world.origin_m.x()) + ", " + std::to_string(hi.x()) + "], y [" +
-              std::to_string(world.origin_m.y()) + ", " + std::to_string(hi.y()) + "] m");
+      std::ostringstream what;
+      what << c.label << ": covers no cell of the world, which spans x [" << world.origin_m.x()
+           << ", " << hi.x() << "], y [" << world.origin_m.y() << ", " << hi.y() << "] m";
+      throw core::InputError(changes.path, c.line, what.str());
     }
   }
 }

@@ -26,6 +26,9 @@ struct LaserParams {
   double max_range_m = 30.0;                         ///< m (default 30)
   double range_stddev_m = 0.01;                      ///< m; Gaussian range noise (default 0.01)
   core::Pose2 laser_in_robot = core::Pose2::Zero();  ///< mounting pose (default: the origin)
+  /// m; rays are cast in a copy of the world at least this fine (default 0.01: MRPT returns
+  /// ranges in steps of 0.8 of its cells).
+  double ray_cast_resolution_m = 0.01;
 };
 
 class LaserSimulator {
