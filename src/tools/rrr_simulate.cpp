@@ -49,7 +49,7 @@ const char* const kUsage =
     "  --max-range     m; 'no return' reads this (default 30)\n"
     "  --range-stddev  m; Gaussian range noise (default 0.01)\n"
     "  --odometry-noise F,L,YT,YM  odometry drift: forward and lateral m per sqrt(m), yaw rad\n"
-    "                  per sqrt(rad turned) and per sqrt(m) (default 0.02,0.01,0.03,0.01;\n"
+    "                  per sqrt(rad turned) and per sqrt(m) (default 0.02,0.01,0.02,0.005;\n"
     "                  0,0,0,0: exact odometry)\n"
     "  --start-time    Unix time of session 0's first scan (default 1700000000)\n"
     "  --session-gap   s between the starts of consecutive sessions (default 86400, a day)\n"

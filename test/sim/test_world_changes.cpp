@@ -4,6 +4,8 @@
 #include <gtest/gtest.h>
 
 #include "rrr_graphslam/core/input_error.h"
+#include "rrr_graphslam/sim/clearance_map.h"
+#include "rrr_graphslam/sim/grid_planner.h"
 #include "rrr_graphslam/sim/world_changes.h"
 #include "test_worlds.h"
 
@@ -141,6 +143,33 @@ TEST(WorldChanges, AChangeOutsideTheWorldIsRefused) {
     EXPECT_EQ(e.line(), 3U);
     EXPECT_NE(e.reason().find("change 2: covers no cell of the world"), std::string::npos)
         << e.what();
+  }
+}
+
+TEST(WorldChanges, TheBundledChangeSetsFitTheBundledWorld) {
+  const std::string dir = std::string(RRR_TEST_DATA_DIR) + "/../../worlds/intel_lab/";
+  const World base = readWorld(dir + "intel_lab.yaml");
+  EXPECT_EQ(base.width, 291);
+  EXPECT_EQ(base.height, 292);
+  for (const char* name : {"furniture.yaml", "doors.yaml"}) {
+    SCOPED_TRACE(name);
+    const ChangeSet set = readChanges(dir + name);
+    validateChanges(set, base);
+    for (int session = 1; session <= 3; ++session) {
+      EXPECT_FALSE(worldOfSession(base, set, session).cells ==
+                   worldOfSession(base, set, session - 1).cells)
+          << "session " << session;
+    }
+  }
+  // The doors: from the south corridor east of its door to the same corridor west of it, the
+  // way round the ring is open in sessions 0, 1 and 3 and cut in session 2.
+  const ChangeSet doors = readChanges(dir + "doors.yaml");
+  for (int session = 0; session <= 3; ++session) {
+    const World w = worldOfSession(base, doors, session);
+    const ClearanceMap clearance(w);
+    const GridPlanner planner(clearance, PlannerParams{});
+    const auto path = planner.plan(w.cellOf({9.0, -18.8}), w.cellOf({0.0, -18.65}));
+    EXPECT_EQ(path.has_value(), session != 2) << "session " << session;
   }
 }
 
