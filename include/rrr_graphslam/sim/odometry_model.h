@@ -13,10 +13,10 @@
 namespace rrr_graphslam::sim {
 
 struct OdometryNoise {
-  double forward_stddev = 0.02;        ///< m per sqrt(m driven) (default 0.02)
-  double lateral_stddev = 0.01;        ///< m per sqrt(m driven) (default 0.01)
-  double yaw_per_turn_stddev = 0.03;   ///< rad per sqrt(rad turned) (default 0.03)
-  double yaw_per_meter_stddev = 0.01;  ///< rad per sqrt(m driven) (default 0.01)
+  double forward_stddev = 0.02;         ///< m per sqrt(m driven) (default 0.02)
+  double lateral_stddev = 0.01;         ///< m per sqrt(m driven) (default 0.01)
+  double yaw_per_turn_stddev = 0.02;    ///< rad per sqrt(rad turned) (default 0.02)
+  double yaw_per_meter_stddev = 0.005;  ///< rad per sqrt(m driven) (default 0.005)
 
   bool isZero() const {
     return forward_stddev == 0.0 && lateral_stddev == 0.0 && yaw_per_turn_stddev == 0.0 &&
