@@ -2,8 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <stdexcept>
 
+#include "rrr_graphslam/core/input_error.h"
 #include "rrr_graphslam/sim/clearance_map.h"
 
 namespace rrr_graphslam::sim {
@@ -50,6 +52,44 @@ std::vector<Eigen::Vector2i> startComponent(const GridPlanner& planner, const Cl
   return best;
 }
 
+// The traversable cell nearest to `p_m` within `radius_m`, if any.
+std::optional<Eigen::Vector2i> nearestTraversable(const World& world, const GridPlanner& planner,
+                                                  const Eigen::Vector2d& p_m, double radius_m) {
+  const Eigen::Vector2i c = world.cellOf(p_m);
+  const int r = static_cast<int>(std::ceil(radius_m / world.resolution_m));
+  std::optional<Eigen::Vector2i> best;
+  double best_d = radius_m;
+  for (int dy = -r; dy <= r; ++dy) {
+    for (int dx = -r; dx <= r; ++dx) {
+      if (!planner.traversable(c.x() + dx, c.y() + dy)) continue;
+      const double d = (world.centerOf(c.x() + dx, c.y() + dy) - p_m).norm();
+      if (d <= best_d) {
+        best_d = d;
+        best = Eigen::Vector2i(c.x() + dx, c.y() + dy);
+      }
+    }
+  }
+  return best;
+}
+
+// The cells of the route's waypoints in this world.
+std::vector<Eigen::Vector2i> routeCells(const World& world, const GridPlanner& planner,
+                                        const Route& route, int session) {
+  std::vector<Eigen::Vector2i> cells;
+  for (std::size_t k = 0; k < route.waypoints_m.size(); ++k) {
+    const auto cell = nearestTraversable(world, planner, route.waypoints_m[k], 1.0);
+    if (!cell) {
+      throw core::InputError(route.path, route.lines[k],
+                             "waypoint " + std::to_string(k + 1) +
+                                 " has no cell with the planner's clearance within 1 m in the "
+                                 "world of session " +
+                                 std::to_string(session));
+    }
+    cells.push_back(*cell);
+  }
+  return cells;
+}
+
 }  // namespace
 
 std::vector<LogRecord> SimulatedSession::logRecords(double period_s) const {
@@ -69,7 +109,7 @@ std::vector<LogRecord> SimulatedSession::logRecords(double period_s) const {
 }
 
 SimulatedSession simulateSession(const World& world, int index, const SimulationParams& params,
-                                 std::uint64_t seed) {
+                                 std::uint64_t seed, const Route* route) {
   if (!(params.scan_rate_hz > 0.0)) throw std::invalid_argument("scan_rate_hz must be positive");
   const double period_s = 1.0 / params.scan_rate_hz;
   const ClearanceMap clearance(world);
@@ -78,20 +118,42 @@ SimulatedSession simulateSession(const World& world, int index, const Simulation
 
   SimulatedSession session;
   session.index = index;
+  // The start and the waypoints: the route's, or random cells of the start's component.
+  std::vector<Eigen::Vector2i> goals;
   Eigen::Vector2i at;
-  const std::vector<Eigen::Vector2i> component = startComponent(planner, clearance, route_rng, at);
+  if (route != nullptr) {
+    goals = routeCells(world, planner, *route, index);
+    at = goals.front();
+    goals.erase(goals.begin());
+  } else {
+    const std::vector<Eigen::Vector2i> component =
+        startComponent(planner, clearance, route_rng, at);
+    Eigen::Vector2i previous = at;
+    for (int w = 0; w < params.waypoints; ++w) {
+      Eigen::Vector2i goal = pick(component, route_rng);
+      for (int attempt = 0; attempt < 100; ++attempt) {
+        const double d = world.resolution_m * (goal - previous).cast<double>().norm();
+        if (d >= params.min_waypoint_separation_m) break;
+        goal = pick(component, route_rng);
+      }
+      if (goal == previous) continue;
+      goals.push_back(goal);
+      previous = goal;
+    }
+  }
   session.waypoints_m.push_back(world.centerOf(at.x(), at.y()));
   std::vector<Eigen::Vector2d> path{session.waypoints_m.front()};
-  for (int w = 0; w < params.waypoints; ++w) {
-    Eigen::Vector2i goal = pick(component, route_rng);
-    for (int attempt = 0; attempt < 100; ++attempt) {
-      const double d = world.resolution_m * (goal - at).cast<double>().norm();
-      if (d >= params.min_waypoint_separation_m) break;
-      goal = pick(component, route_rng);
-    }
-    if (goal == at) continue;
+  for (std::size_t w = 0; w < goals.size(); ++w) {
+    const Eigen::Vector2i& goal = goals[w];
     const auto cells = planner.plan(at, goal);
-    if (!cells) continue;  // cannot happen within one component; kept for safety
+    if (!cells) {
+      // Random waypoints share the start's component: only a route's can be cut off.
+      throw core::InputError(route->path, route->lines[w + 1],
+                             "waypoint " + std::to_string(w + 2) +
+                                 " cannot be reached from the one before it in the world of "
+                                 "session " +
+                                 std::to_string(index));
+    }
     for (std::size_t k = 1; k < cells->size(); ++k) {
       path.push_back(world.centerOf((*cells)[k].x(), (*cells)[k].y()));
     }

@@ -30,6 +30,34 @@ bool parseNumber(const std::string& text, double& v) {
   return end != text.c_str() && *end == '\0' && std::isfinite(v);
 }
 
+// A sequence of exactly `count` finite numbers; `error` says what is wrong otherwise.
+std::vector<double> numberList(const yaml& value, std::size_t count, std::string& error) {
+  std::vector<double> out;
+  if (!value.isSequence() || value.asSequence().size() != count) {
+    error = "must be a list of " + std::to_string(count) + " numbers, e.g. [" +
+            (count == 2 ? "1.0, 2.0" : "1.0, 2.0, 0.0") + "]";
+    return out;
+  }
+  for (const yaml::node_t& item : value.asSequence()) {
+    const yaml element(item);
+    double v = 0.0;
+    std::string text;
+    if (element.isScalar()) {
+      try {
+        text = element.as<std::string>();
+      } catch (const std::exception&) {
+      }
+    }
+    if (!parseNumber(text, v)) {
+      error =
+          "element " + std::to_string(out.size() + 1) + " is not a finite number: '" + text + "'";
+      return out;
+    }
+    out.push_back(v);
+  }
+  return out;
+}
+
 }  // namespace
 
 YamlEntry::YamlEntry(const std::string& path, const yaml& node, std::string label)
@@ -95,27 +123,27 @@ long YamlEntry::integer(const std::string& key, long low, long high) const {
 }
 
 std::vector<double> YamlEntry::numbers(const std::string& key, std::size_t count) const {
+  std::string error;
+  std::vector<double> out = numberList(field(key), count, error);
+  if (!error.empty()) fail(key, error);
+  return out;
+}
+
+std::vector<YamlEntry::Point> YamlEntry::points(const std::string& key,
+                                                const std::string& item_label) const {
   const yaml value = field(key);
-  if (!value.isSequence() || value.asSequence().size() != count) {
-    fail(key, "must be a list of " + std::to_string(count) + " numbers, e.g. [" +
-                  (count == 2 ? "1.0, 2.0" : "1.0, 2.0, 0.0") + "]");
-  }
-  std::vector<double> out;
+  if (!value.isSequence()) fail(key, "must be a list of points, e.g. [[1.0, 2.0], [3.0, 4.0]]");
+  std::vector<Point> out;
   for (const yaml::node_t& item : value.asSequence()) {
-    const yaml element(item);
-    double v = 0.0;
-    std::string text;
-    if (element.isScalar()) {
-      try {
-        text = element.as<std::string>();
-      } catch (const std::exception&) {
-      }
+    std::string error;
+    const std::vector<double> xy = numberList(yaml(item), 2, error);
+    const std::string label = item_label + " " + std::to_string(out.size() + 1);
+    const std::size_t line = static_cast<std::size_t>(item.marks.line) + 1;
+    if (!error.empty()) {
+      throw core::InputError(path_, line,
+                             (label_.empty() ? "" : label_ + ": ") + label + " " + error);
     }
-    if (!parseNumber(text, v)) {
-      fail(key,
-           "element " + std::to_string(out.size() + 1) + " is not a finite number: '" + text + "'");
-    }
-    out.push_back(v);
+    out.push_back({Eigen::Vector2d(xy[0], xy[1]), line});
   }
   return out;
 }

@@ -3,6 +3,7 @@
 // CARMEN log (own odometry frame, own date), its ground-truth poses (TUM) and its true world
 // (map_server). doc/simulation.md describes the formats.
 
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
@@ -15,6 +16,7 @@
 #include "command_line.h"
 #include "rrr_graphslam/core/stopwatch.h"
 #include "rrr_graphslam/sim/carmen_writer.h"
+#include "rrr_graphslam/sim/route.h"
 #include "rrr_graphslam/sim/session_simulator.h"
 #include "rrr_graphslam/sim/world.h"
 #include "rrr_graphslam/sim/world_changes.h"
@@ -28,7 +30,8 @@ namespace sim = rrr_graphslam::sim;
 
 const char* const kUsage =
     "usage: rrr_simulate WORLD.yaml --out DIR [--sessions N] [--changes CHANGES.yaml]\n"
-    "                    [--seed S] [--waypoints N] [--max-scans N] [--scan-rate HZ]\n"
+    "                    [--seed S] [--waypoints N | --route ROUTE.yaml] [--max-scans N]\n"
+    "                    [--scan-rate HZ]\n"
     "                    [--speed M_PER_S] [--clearance M] [--beams N]\n"
     "                    [--angle-increment-deg D] [--max-range M] [--range-stddev M]\n"
     "                    [--odometry-noise F,L,YT,YM] [--start-time S] [--session-gap S]\n"
@@ -40,6 +43,8 @@ const char* const kUsage =
     "  --seed          seed of every random draw (default 1); a session depends only on the\n"
     "                  seed, its index and its world\n"
     "  --waypoints     random waypoints visited per session (default 8)\n"
+    "  --route         visit these waypoints in order in every session instead\n"
+    "                  ('waypoints: [[x, y], ...]', world frame; doc/simulation.md)\n"
     "  --max-scans     stop each session after N scans (default 0: at its last waypoint)\n"
     "  --scan-rate     scans per second (default 5)\n"
     "  --speed         top speed, m/s (default 0.4)\n"
@@ -70,6 +75,14 @@ std::vector<double> numberList(const tools::CommandLine& cli, const std::string&
   return out;
 }
 
+// `text` as an integer in [low, high], or a usage error naming `option`.
+long integer(const tools::CommandLine& cli, const std::string& option, const std::string& text,
+             double low, double high) {
+  const double v = cli.number(option, text, low, high);
+  if (v != std::floor(v)) cli.fail(option + " must be an integer, not '" + text + "'");
+  return static_cast<long>(v);
+}
+
 std::string sessionName(int k, int sessions) {
   const int digits = std::max(2, static_cast<int>(std::to_string(sessions - 1).size()));
   std::string number = std::to_string(k);
@@ -80,7 +93,7 @@ std::string sessionName(int k, int sessions) {
 
 int main(int argc, char** argv) {
   const tools::CommandLine cli(argc, argv, "rrr_simulate", kUsage);
-  std::string world_path, changes_path, out_dir;
+  std::string world_path, changes_path, route_path, out_dir;
   int sessions = 1;
   std::uint64_t seed = 1;
   sim::SimulationParams params;
@@ -91,13 +104,15 @@ int main(int argc, char** argv) {
     } else if (a == "--changes") {
       changes_path = cli.value(i, a);
     } else if (a == "--sessions") {
-      sessions = static_cast<int>(cli.number(a, cli.value(i, a), 1, 1000));
+      sessions = static_cast<int>(integer(cli, a, cli.value(i, a), 1, 1000));
     } else if (a == "--seed") {
-      seed = static_cast<std::uint64_t>(cli.number(a, cli.value(i, a), 0, 4294967295.0));
+      seed = static_cast<std::uint64_t>(integer(cli, a, cli.value(i, a), 0, 4294967295.0));
     } else if (a == "--waypoints") {
-      params.waypoints = static_cast<int>(cli.number(a, cli.value(i, a), 1, 1e5));
+      params.waypoints = static_cast<int>(integer(cli, a, cli.value(i, a), 1, 1e5));
+    } else if (a == "--route") {
+      route_path = cli.value(i, a);
     } else if (a == "--max-scans") {
-      params.max_scans = static_cast<std::size_t>(cli.number(a, cli.value(i, a), 0, 1e8));
+      params.max_scans = static_cast<std::size_t>(integer(cli, a, cli.value(i, a), 0, 1e8));
     } else if (a == "--scan-rate") {
       params.scan_rate_hz = cli.number(a, cli.value(i, a), 0.1, 1000.0);
     } else if (a == "--speed") {
@@ -106,7 +121,7 @@ int main(int argc, char** argv) {
       params.planner.clearance_m = cli.number(a, cli.value(i, a), 0.0, 10.0);
       params.planner.comfort_m = std::max(params.planner.comfort_m, params.planner.clearance_m);
     } else if (a == "--beams") {
-      params.laser.beam_count = static_cast<int>(cli.number(a, cli.value(i, a), 2, 100000));
+      params.laser.beam_count = static_cast<int>(integer(cli, a, cli.value(i, a), 2, 100000));
     } else if (a == "--angle-increment-deg") {
       params.laser.angle_increment_rad = cli.number(a, cli.value(i, a), 1e-3, 180.0) * M_PI / 180;
     } else if (a == "--max-range") {
@@ -137,6 +152,8 @@ int main(int argc, char** argv) {
       changes = sim::readChanges(changes_path);
       sim::validateChanges(changes, base);
     }
+    sim::Route route;
+    if (!route_path.empty()) route = sim::readRoute(route_path);
     std::size_t due = 0;
     for (const auto& c : changes.changes) due += c.session < sessions;
     std::printf("world          %s (%d x %d cells, %g m)\n", world_path.c_str(), base.width,
@@ -148,7 +165,8 @@ int main(int argc, char** argv) {
     std::size_t scans = 0;
     for (int k = 0; k < sessions; ++k) {
       const sim::World world = sim::worldOfSession(base, changes, k);
-      const sim::SimulatedSession s = sim::simulateSession(world, k, params, seed);
+      const sim::SimulatedSession s =
+          sim::simulateSession(world, k, params, seed, route_path.empty() ? nullptr : &route);
       const std::string base_path =
           (std::filesystem::path(out_dir) / sessionName(k, sessions)).string();
       std::ostringstream comment;

@@ -5,6 +5,7 @@
 
 #include <cmath>
 
+#include "rrr_graphslam/core/input_error.h"
 #include "rrr_graphslam/frontend/carmen_log.h"
 #include "rrr_graphslam/sim/clearance_map.h"
 #include "rrr_graphslam/sim/session_simulator.h"
@@ -95,6 +96,51 @@ TEST(SessionSimulator, EachSessionDrivesInItsOwnWorld) {
     EXPECT_FALSE(crosses(simulateSession(worldOfSession(base, changes, 1), 1, p, seed)));
   }
   EXPECT_GE(crossed, 2);
+}
+
+TEST(SessionSimulator, FollowsAGivenRouteInItsOwnWorld) {
+  const World base = testing::twoRooms();
+  const Route route = readRoute(testing::writeTemp(
+      "route.yaml",
+      "waypoints:\n  - [0.0, 1.0]\n  - [8.5, 2.0]  # the other room\n  - [0.0, 1.0]\n"));
+  ASSERT_EQ(route.waypoints_m.size(), 3U);
+  EXPECT_EQ(route.lines[1], 3U);
+  SimulationParams p = shortSessions();
+  p.max_scans = 0;
+  const SimulatedSession s = simulateSession(base, 0, p, 1, &route);
+  ASSERT_EQ(s.waypoints_m.size(), 3U);
+  EXPECT_LT((s.truth.front().head<2>() - route.waypoints_m[0]).norm(), 0.1);
+  double nearest = 1e9;
+  for (const core::Pose2& x : s.truth) {
+    nearest = std::min(nearest, (x.head<2>() - route.waypoints_m[1]).norm());
+  }
+  EXPECT_LT(nearest, 0.6);  // pure pursuit passes a waypoint within its lookahead
+  EXPECT_LT((s.truth.back().head<2>() - route.waypoints_m[2]).norm(), 0.1);
+  // A closed door cuts the route: the error names the route's file and the waypoint.
+  ChangeSet changes;
+  WorldChange door;
+  door.kind = WorldChange::Kind::kDoor;
+  door.from_m = {4.1, 2.9};
+  door.to_m = {4.1, 4.3};
+  changes.changes.push_back(door);
+  try {
+    simulateSession(worldOfSession(base, changes, 0), 0, p, 1, &route);
+    ADD_FAILURE() << "no error";
+  } catch (const core::InputError& e) {
+    EXPECT_EQ(e.source(), route.path);
+    EXPECT_EQ(e.line(), 3U);
+    EXPECT_NE(e.reason().find("waypoint 2 cannot be reached"), std::string::npos) << e.what();
+  }
+  // A waypoint inside the pillar moves to free space nearby; one far inside a block does not.
+  const Route pillar =
+      readRoute(testing::writeTemp("pillar.yaml", "waypoints: [[0.0, 1.0], [8.0, 5.0]]\n"));
+  EXPECT_NO_THROW(simulateSession(base, 0, p, 1, &pillar));
+  World walled = base;
+  WorldChange block;
+  block.center_m = {8.0, 5.0};
+  block.size_m = {3.0, 3.0};
+  applyChange(walled, block);
+  EXPECT_THROW(simulateSession(walled, 0, p, 1, &pillar), core::InputError);
 }
 
 TEST(SessionSimulator, WritesALogTheProductReads) {

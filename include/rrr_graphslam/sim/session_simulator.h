@@ -1,11 +1,11 @@
 #pragma once
 // One simulated mapping session in a world: the robot starts at a random free place, visits
-// random waypoints (free cells with clearance, each reached by the grid planner's path and pure
-// pursuit), and records a scan and its odometry every 1 / scan_rate_hz seconds. Each session has
-// its own odometry frame (a random SE(2) start pose) and its own date (session k starts
-// k * session_gap_s after start_time_s). Everything random comes from (seed, session index): a
-// session is the same whatever the number of sessions simulated with it, and the route does not
-// depend on the noise settings.
+// random waypoints (or those of a given route) (free cells with clearance, each reached by the grid
+// planner's path and pure pursuit), and records a scan and its odometry every 1 / scan_rate_hz
+// seconds. Each session has its own odometry frame (a random SE(2) start pose) and its own date
+// (session k starts k * session_gap_s after start_time_s). Everything random comes from (seed,
+// session index): a session is the same whatever the number of sessions simulated with it, and the
+// route does not depend on the noise settings.
 
 #include <cstddef>
 #include <cstdint>
@@ -18,6 +18,7 @@
 #include "rrr_graphslam/sim/laser_simulator.h"
 #include "rrr_graphslam/sim/odometry_model.h"
 #include "rrr_graphslam/sim/path_follower.h"
+#include "rrr_graphslam/sim/route.h"
 #include "rrr_graphslam/sim/world.h"
 
 namespace rrr_graphslam::sim {
@@ -52,9 +53,12 @@ struct SimulatedSession {
   std::vector<LogRecord> logRecords(double period_s) const;
 };
 
-/// Throws std::runtime_error when the world has no free place with the planner's clearance to
-/// start from.
+/// With a `route`, the session starts at its first waypoint and visits the others in order
+/// (params.waypoints is then unused). Throws std::runtime_error when the world has no free place
+/// with the planner's clearance to start from, and core::InputError naming the route's file and
+/// waypoint when a waypoint has no traversable cell within 1 m or cannot be reached in this
+/// session's world.
 SimulatedSession simulateSession(const World& world, int index, const SimulationParams& params,
-                                 std::uint64_t seed);
+                                 std::uint64_t seed, const Route* route = nullptr);
 
 }  // namespace rrr_graphslam::sim

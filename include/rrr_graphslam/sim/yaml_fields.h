@@ -9,6 +9,7 @@
 #include <vector>
 
 #include <mrpt/containers/yaml.h>
+#include <Eigen/Core>
 
 namespace rrr_graphslam::sim {
 
@@ -26,6 +27,12 @@ class YamlEntry {
   long integer(const std::string& key, long low, long high) const;
   /// A sequence of exactly `count` finite numbers, e.g. [x, y].
   std::vector<double> numbers(const std::string& key, std::size_t count) const;
+  struct Point {
+    Eigen::Vector2d xy;
+    std::size_t line;  ///< 1-based
+  };
+  /// A sequence of [x, y] pairs; an error names the bad one as "`item_label` k".
+  std::vector<Point> points(const std::string& key, const std::string& item_label) const;
   /// The maps of a sequence, each labelled "`item_label` k" (k from 1).
   std::vector<YamlEntry> entries(const std::string& key, const std::string& item_label) const;
   /// Fails on a key not in `known` (a misspelt field would otherwise be ignored silently).
