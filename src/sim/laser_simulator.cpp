@@ -21,8 +21,11 @@ LaserSimulator::LaserSimulator(const World& world, const LaserParams& params)
   }
   // MRPT starts and steps its rays in fixed point at 1/1024 of a cell but returns whole steps
   // (0.8 cells): a finer copy of the world keeps that quantization below a centimetre.
-  const int factor = std::max(
+  // At most 64 million fine cells (64 MB): a large world is cast coarser.
+  int factor = std::max(
       1, static_cast<int>(std::ceil(world.resolution_m / params.ray_cast_resolution_m - 1e-9)));
+  const double cells = static_cast<double>(world.width) * static_cast<double>(world.height);
+  while (factor > 1 && cells * factor * factor > 64e6) --factor;
   const double fine_m = world.resolution_m / factor;
   // The grid's corner at (0, 0): MRPT rounds a grid's limits to whole cells, the world's origin
   // need not be a multiple of its resolution.

@@ -27,7 +27,7 @@ struct LaserParams {
   double range_stddev_m = 0.01;                      ///< m; Gaussian range noise (default 0.01)
   core::Pose2 laser_in_robot = core::Pose2::Zero();  ///< mounting pose (default: the origin)
   /// m; rays are cast in a copy of the world at least this fine (default 0.01: MRPT returns
-  /// ranges in steps of 0.8 of its cells).
+  /// ranges in steps of 0.8 of its cells), unless that copy would exceed 64 million cells.
   double ray_cast_resolution_m = 0.01;
 };
 
