@@ -89,6 +89,18 @@ std::string sessionName(int k, int sessions) {
   return "session_" + std::string(static_cast<std::size_t>(digits) - number.size(), '0') + number;
 }
 
+// NAME.clf, NAME_truth.txt and NAME_world.{pgm,yaml} in `out_dir`, each written atomically.
+void writeSession(const sim::SimulatedSession& s, const sim::World& world,
+                  const sim::SimulationParams& params, const std::string& out_dir,
+                  const std::string& name, const std::string& comment) {
+  const std::string base = (std::filesystem::path(out_dir) / name).string();
+  sim::writeCarmenLog(base + ".clf", s.logRecords(1.0 / params.scan_rate_hz), params.laser,
+                      comment);
+  tools::writeTumTrajectory(base + "_truth.txt", "rrr_simulate ground truth, world frame", s.stamps,
+                            s.truth);
+  sim::writeWorld(world, base + "_world");
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -96,6 +108,7 @@ int main(int argc, char** argv) {
   std::string world_path, changes_path, route_path, out_dir;
   int sessions = 1;
   std::uint64_t seed = 1;
+  bool waypoints_given = false;
   sim::SimulationParams params;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
@@ -109,6 +122,7 @@ int main(int argc, char** argv) {
       seed = static_cast<std::uint64_t>(integer(cli, a, cli.value(i, a), 0, 4294967295.0));
     } else if (a == "--waypoints") {
       params.waypoints = static_cast<int>(integer(cli, a, cli.value(i, a), 1, 1e5));
+      waypoints_given = true;
     } else if (a == "--route") {
       route_path = cli.value(i, a);
     } else if (a == "--max-scans") {
@@ -141,6 +155,8 @@ int main(int argc, char** argv) {
   }
   if (world_path.empty()) cli.fail("no world given");
   if (out_dir.empty()) cli.fail("--out is required");
+  if (waypoints_given && !route_path.empty())
+    cli.fail("--waypoints and --route exclude each other");
   const double fov = (params.laser.beam_count - 1) * params.laser.angle_increment_rad;
   if (fov > 2 * M_PI + 1e-9) cli.fail("--beams x --angle-increment-deg exceeds 360 degrees");
   params.laser.angle_min_rad = -0.5 * fov;
@@ -162,23 +178,20 @@ int main(int argc, char** argv) {
                 static_cast<unsigned long long>(seed));
     std::printf("changes        %zu (%zu for later sessions)\n", due, changes.changes.size() - due);
     std::filesystem::create_directories(out_dir);
+    const auto comment = [&](int k) {
+      std::ostringstream text;
+      text << "rrr_simulate session " << k << " of " << sessions << " in " << world_path
+           << ", seed " << seed
+           << "\nodometry in the session's own frame; ground truth: " << sessionName(k, sessions)
+           << "_truth.txt";
+      return text.str();
+    };
     std::size_t scans = 0;
     for (int k = 0; k < sessions; ++k) {
       const sim::World world = sim::worldOfSession(base, changes, k);
       const sim::SimulatedSession s =
           sim::simulateSession(world, k, params, seed, route_path.empty() ? nullptr : &route);
-      const std::string base_path =
-          (std::filesystem::path(out_dir) / sessionName(k, sessions)).string();
-      std::ostringstream comment;
-      comment << "rrr_simulate session " << k << " of " << sessions << " in " << world_path
-              << ", seed " << seed << "\n"
-              << "odometry in the session's own frame; ground truth: " << sessionName(k, sessions)
-              << "_truth.txt";
-      sim::writeCarmenLog(base_path + ".clf", s.logRecords(1.0 / params.scan_rate_hz), params.laser,
-                          comment.str());
-      tools::writeTumTrajectory(base_path + "_truth.txt", "rrr_simulate ground truth, world frame",
-                                s.stamps, s.truth);
-      sim::writeWorld(world, base_path + "_world");
+      writeSession(s, world, params, out_dir, sessionName(k, sessions), comment(k));
       std::size_t session_changes = 0;
       for (const auto& c : changes.changes) session_changes += c.session == k;
       const core::Pose2 drift = core::between(core::between(s.odometry.front(), s.odometry.back()),
@@ -187,7 +200,8 @@ int main(int argc, char** argv) {
           "session %d scans %zu length_m %.1f duration_s %.1f changes %zu odometry_drift_m %.2f "
           "log %s.clf\n",
           k, s.truth.size(), s.length_m, s.stamps.back() - s.stamps.front(), session_changes,
-          drift.head<2>().norm(), base_path.c_str());
+          drift.head<2>().norm(),
+          (std::filesystem::path(out_dir) / sessionName(k, sessions)).string().c_str());
       scans += s.truth.size();
     }
     std::printf("scans          %zu\ntime           %.2f s\n", scans, core::secondsSince(start));

@@ -20,7 +20,7 @@ struct MotionParams {
   double turn_gain = 2.0;            ///< 1/s; turn rate per radian of heading error (default 2)
   /// rad; beyond this heading error the robot turns in place (default 1.0, ~57 degrees).
   double turn_in_place_rad = 1.0;
-  double goal_tolerance_m = 0.05;  ///< m; the path's end counts as reached within this
+  double goal_tolerance_m = 0.05;  ///< m; the end counts as reached within this (default 0.05)
 };
 
 /// A pose every `period_s` from `start` until the end of `path` (world points) is reached or

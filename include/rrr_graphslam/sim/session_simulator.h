@@ -32,9 +32,9 @@ struct SimulationParams {
   int waypoints = 8;          ///< random waypoints per session after the start (default 8)
   /// m; consecutive waypoints are at least this far apart in a straight line (default 3).
   double min_waypoint_separation_m = 3.0;
-  std::size_t max_scans = 0;           ///< a session stops after this many scans (0: at its end)
-  double start_time_s = 1700000000.0;  ///< s; the first session's first timestamp (Unix time)
-  double session_gap_s = 86400.0;      ///< s between the starts of consecutive sessions (a day)
+  std::size_t max_scans = 0;  ///< a session stops after this many scans (default 0: at its end)
+  double start_time_s = 1700000000.0;  ///< s; session 0's first timestamp (default 1.7e9)
+  double session_gap_s = 86400.0;      ///< s between session starts (default 86400, a day)
   /// m; each session's odometry frame puts its first pose uniformly in [-this, this]^2 with a
   /// uniform yaw (default 50).
   double odom_start_range_m = 50.0;
