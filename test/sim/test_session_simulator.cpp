@@ -147,6 +147,7 @@ TEST(SessionSimulator, WritesALogTheProductReads) {
   const World w = testing::twoRooms();
   SimulationParams p = shortSessions();
   p.max_scans = 50;
+  p.laser.laser_in_robot = {0.2, -0.05, 0.1};  // mounted off the robot's origin
   const SimulatedSession s = simulateSession(w, 0, p, 2);
   const std::string path = ::testing::TempDir() + "session.clf";
   writeCarmenLog(path, s.logRecords(1.0 / p.scan_rate_hz), p.laser, "test\nsecond line");
@@ -158,8 +159,10 @@ TEST(SessionSimulator, WritesALogTheProductReads) {
     EXPECT_NEAR(r.angle_min, -M_PI / 2, 1e-6);
     EXPECT_NEAR(r.angle_increment, M_PI / 180, 1e-6);
     EXPECT_DOUBLE_EQ(r.max_range, p.laser.max_range_m);
-    EXPECT_TRUE(r.odom_pose.isApprox(s.odometry[k], 1e-5) ||
-                (r.odom_pose - s.odometry[k]).cwiseAbs().maxCoeff() < 1e-5);
+    const core::Pose2 odom_error = core::between(s.odometry[k], r.odom_pose);
+    EXPECT_LT(odom_error.cwiseAbs().maxCoeff(), 2e-6);  // written to the microunit
+    const core::Pose2 mount_error = core::between(p.laser.laser_in_robot, r.laserInRobot());
+    EXPECT_LT(mount_error.cwiseAbs().maxCoeff(), 1e-5);
     ASSERT_EQ(r.ranges.size(), 181U);
     for (std::size_t i = 0; i < r.ranges.size(); ++i) {
       EXPECT_NEAR(r.ranges[i], s.ranges[k][i], 6e-4);
