@@ -39,7 +39,8 @@ const char* const kUsage =
     "  --out           output folder (created); per session K (2 digits): session_K.clf,\n"
     "                  session_K_truth.txt, session_K_world.pgm + .yaml\n"
     "  --sessions      number of sessions (default 1)\n"
-    "  --changes       boxes and doors that change between sessions (doc/simulation.md)\n"
+    "  --changes       boxes and doors that change between sessions (doc/simulation.md);\n"
+    "                  repeat it to apply several change sets\n"
     "  --seed          seed of every random draw (default 1); a session depends only on the\n"
     "                  seed, its index and its world\n"
     "  --waypoints     random waypoints visited per session (default 8)\n"
@@ -105,7 +106,8 @@ void writeSession(const sim::SimulatedSession& s, const sim::World& world,
 
 int main(int argc, char** argv) {
   const tools::CommandLine cli(argc, argv, "rrr_simulate", kUsage);
-  std::string world_path, changes_path, route_path, out_dir;
+  std::string world_path, route_path, out_dir;
+  std::vector<std::string> changes_paths;
   int sessions = 1;
   std::uint64_t seed = 1;
   bool waypoints_given = false;
@@ -115,7 +117,7 @@ int main(int argc, char** argv) {
     if (a == "--out") {
       out_dir = cli.value(i, a);
     } else if (a == "--changes") {
-      changes_path = cli.value(i, a);
+      changes_paths.push_back(cli.value(i, a));
     } else if (a == "--sessions") {
       sessions = static_cast<int>(integer(cli, a, cli.value(i, a), 1, 1000));
     } else if (a == "--seed") {
@@ -163,10 +165,12 @@ int main(int argc, char** argv) {
   try {
     const auto start = core::Clock::now();
     const sim::World base = sim::readWorld(world_path);
+    // Several change sets apply as one, in the order given.
     sim::ChangeSet changes;
-    if (!changes_path.empty()) {
-      changes = sim::readChanges(changes_path);
-      sim::validateChanges(changes, base);
+    for (const std::string& path : changes_paths) {
+      const sim::ChangeSet set = sim::readChanges(path);
+      sim::validateChanges(set, base);
+      changes.changes.insert(changes.changes.end(), set.changes.begin(), set.changes.end());
     }
     sim::Route route;
     if (!route_path.empty()) route = sim::readRoute(route_path);

@@ -96,6 +96,19 @@ def test_two_sessions_with_their_own_frames_dates_and_worlds(tmp_path):
 
 
 @needs_simulate
+def test_change_sets_apply_together(tmp_path):
+    base = read_pgm(os.path.join(WORLDS, "intel_lab.pgm"))
+    changed = {}
+    for name, sets in (("furniture", ["furniture"]), ("doors", ["doors"]), ("both", ["furniture", "doors"])):
+        args = [a for s in sets for a in ("--changes", os.path.join(WORLDS, f"{s}.yaml"))]
+        result = run(SIMULATE, WORLD, "--sessions", 2, "--max-scans", 10, "--out", tmp_path / name, *args)
+        assert result.returncode == 0, result.stderr
+        changed[name] = read_pgm(tmp_path / name / "session_01_world.pgm") != base
+    assert changed["furniture"].any() and changed["doors"].any()
+    assert np.array_equal(changed["both"], changed["furniture"] | changed["doors"])
+
+
+@needs_simulate
 def test_the_seed_decides_everything(tmp_path):
     def simulate(seed, folder):
         result = run(SIMULATE, WORLD, "--seed", seed, "--max-scans", 60, "--out", tmp_path / folder)
