@@ -22,7 +22,6 @@ Eigen::Vector2d point(const YamlEntry& e, const std::string& key) {
 
 WorldChange readChange(const YamlEntry& e) {
   WorldChange c;
-  c.label = "";
   c.line = e.line();
   c.session = static_cast<int>(e.integer("session", 0, 1000000));
   const std::string kind = e.string("kind");
