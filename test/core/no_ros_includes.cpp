@@ -29,6 +29,8 @@ const char* const kCoreFolders[] = {"include/rrr_graphslam/core",
                                     "src/rrr",
                                     "include/rrr_graphslam/frontend",
                                     "src/frontend",
+                                    "include/rrr_graphslam/sim",
+                                    "src/sim",
                                     "src/tools",
                                     "src/bench"};
 
