@@ -1,0 +1,613 @@
+"""Lifelong benchmark (scripts/bench_lifelong, issue 20): a CARMEN log replayed as N sessions,
+each the whole log again with its odometry moved by a seeded random SE(2), each mapped by
+`rrr_slam_offline --load-map` from the map the previous session saved. The same moved logs are
+run in several configurations: `untrimmed` (no --lifelong), `clt` (--lifelong, Chow-Liu tree)
+and `delete` (--lifelong --sparsification delete).
+
+Per session and configuration: the saved map's nodes, edges, marginal edges, submaps and file
+size (rrr_map_info); the trim's time and KL divergences (the tool's `trim_*` lines); the time of
+one re-optimization of the map's trusted graph (see below); the relation error of the session's
+own trajectory (--session-trajectory) on ACES (Kümmerle et al. 2009); the inter-session loops RRR
+accepted and how many are false against the corrected log (bench_sessions' ground truth); the
+wall time of the run. Prints a Markdown table, the issue's targets as pass/fail lines, and writes
+PNG plots.
+
+Re-optimization: the saved map's graph (rrr_map_info --graph: nodes at their map poses,
+odometry, marginal edges, every loop candidate) without the candidates RRR did not accept. The
+map's g2o carries no verdicts; a candidate is recognised by its measurement and information,
+written digit for digit as in the run's --output, whose last edges are the candidates in the
+order of --decisions. The count is checked against the map's own odometry + marginal + accepted
+counts. rrr_optimize then runs on it twice: from LAGO (a cold re-optimization: its work does not
+depend on how good the stored poses are) and from the stored poses (what loading the map and
+optimizing again costs); the time rrr_optimize prints (initialization + optimization, not
+reading the file), the least of `--repeats` runs.
+
+Ground truth for loops: every session is the same log, so a node's true pose is that of its
+scan (same stamp) in any session. A node of run K's --output gets its stamp from the map it
+loaded (the first lines of run K's --trajectory are the loaded nodes, in id order), or, for the
+session's own nodes, from the saved map's node with the same pose (digit for digit); a node the
+save trimmed takes the stamp of the session's scan (--session-trajectory) nearest to it in
+pose, between the stamps of its kept neighbours."""
+
+import argparse
+import bisect
+import math
+import os
+import re
+import subprocess
+import sys
+import time
+from dataclasses import dataclass, field
+from typing import Dict, List, Optional, Sequence, Tuple
+
+from .bench_sessions import (LOGS, Criteria, LogData, LoopCheck, MapInfo, RunSummary, accepted_loops,
+                             check_loops, parse_map_info, parse_summary, random_transforms)
+from .carmen import write_moved_log
+from .evaluation import read_decisions
+from .graph_io import Pose, write_text_atomically
+from .relations import RelationError, read_tum, relation_error
+
+CONFIGS = {
+    "untrimmed": [],
+    "clt": ["--lifelong"],
+    "delete": ["--lifelong", "--sparsification", "delete"],
+}
+
+
+# ---------------------------------------------------------------------------------------------
+# The tool's trim lines
+
+
+@dataclass
+class TrimRecord:
+    """One marginalization: `trim_record submap S submaps K nodes N blanket B constraints C
+    edges E kl X kl_clt Y kl_delete Z ms T`."""
+    submap: int
+    submaps: int
+    nodes: int
+    blanket: int
+    constraints: int
+    edges: int
+    kl: float
+    kl_clt: float
+    kl_delete: float
+    ms: float
+
+
+@dataclass
+class Trim:
+    values: Dict[str, float] = field(default_factory=dict)  # trim_X -> value, without "trim_"
+    records: List[TrimRecord] = field(default_factory=list)
+
+    def get(self, key: str) -> float:
+        return self.values.get(key, math.nan)
+
+
+RECORD = re.compile(r"^trim_record submap (\d+) submaps (\d+) nodes (\d+) blanket (\d+) constraints (\d+) "
+                    r"edges (\d+) kl (\S+) kl_clt (\S+) kl_delete (\S+) ms (\S+)\s*$")
+
+
+def parse_trim(text: str) -> Optional[Trim]:
+    """The `trim_*` lines of a --lifelong run; None if the run printed no `lifelong` line."""
+    if not re.search(r"^lifelong\s", text, re.M):
+        return None
+    trim = Trim()
+    for line in text.splitlines():
+        if line.startswith("trim_record"):
+            m = RECORD.match(line)
+            if not m:
+                raise ValueError(f"unreadable line: {line!r}")
+            g = m.groups()
+            trim.records.append(TrimRecord(*(int(v) for v in g[:6]), *(float(v) for v in g[6:])))
+        elif line.startswith("trim_"):
+            f = line.split()
+            if len(f) == 2:
+                trim.values[f[0][len("trim_"):]] = float(f[1])
+    return trim
+
+
+def percentile(values: Sequence[float], q: float) -> float:
+    """The q-th percentile (0-100), linear between order statistics; nan for none."""
+    v = sorted(values)
+    if not v:
+        return math.nan
+    pos = (len(v) - 1) * q / 100.0
+    lo = math.floor(pos)
+    hi = min(lo + 1, len(v) - 1)
+    return v[lo] + (v[hi] - v[lo]) * (pos - lo)
+
+
+# ---------------------------------------------------------------------------------------------
+# The map's trusted graph
+
+
+def _edge_lines(lines: Sequence[str]) -> List[int]:
+    return [k for k, line in enumerate(lines) if line.startswith("EDGE_SE2 ")]
+
+
+def edge_key(line: str) -> Tuple[str, ...]:
+    """An edge's measurement and information as written (without its node ids)."""
+    return tuple(line.split()[3:])
+
+
+def untrusted_candidates(run_graph_lines: Sequence[str], decisions) -> Dict[Tuple[str, ...], int]:
+    """The candidates of a run RRR did not accept, by edge_key (with multiplicity): the run's
+    --output lists them as its last edges, in the order of its --decisions; each row's nodes
+    must be the edge's."""
+    edges = _edge_lines(run_graph_lines)
+    if len(decisions) > len(edges):
+        raise ValueError(f"{len(decisions)} decisions but {len(edges)} edges")
+    first = len(edges) - len(decisions)
+    out: Dict[Tuple[str, ...], int] = {}
+    for d, k in zip(decisions, edges[first:]):
+        f = run_graph_lines[k].split()
+        if (int(f[1]), int(f[2])) != (d.source, d.target):
+            raise ValueError(f"decision {d.source}-{d.target} is not the edge {f[1]}-{f[2]} of the graph")
+        if d.verdict != "accepted":
+            key = edge_key(run_graph_lines[k])
+            out[key] = out.get(key, 0) + 1
+    return out
+
+
+def trusted_graph_lines(map_graph_lines: Sequence[str], untrusted: Dict[Tuple[str, ...], int]) -> Tuple[List[str], int]:
+    """The map's graph without the edges that are candidates RRR did not accept; (lines, edges
+    kept)."""
+    left = dict(untrusted)
+    out, kept = [], 0
+    for line in map_graph_lines:
+        if line.startswith("EDGE_SE2 "):
+            key = edge_key(line)
+            if left.get(key, 0) > 0:
+                left[key] -= 1
+                continue
+            kept += 1
+        out.append(line)
+    return out, kept
+
+
+def expected_trusted_edges(info: MapInfo) -> int:
+    v = info.values
+    return int(v["odometry_edges"]) + int(v.get("marginal_edges", 0)) + int(v["loop_edges_accepted"])
+
+
+def read_lines(path: str) -> List[str]:
+    with open(path) as f:
+        return f.read().splitlines(keepends=True)
+
+
+def parse_optimize_time(text: str) -> float:
+    m = re.search(r"^time\s+([0-9.eE+-]+) s", text, re.M)
+    if not m:
+        raise ValueError("rrr_optimize printed no 'time' line")
+    return float(m.group(1))
+
+
+# ---------------------------------------------------------------------------------------------
+# Node stamps for the loop check
+
+
+def node_stamps(run_graph_lines: Sequence[str], loaded_stamps: Sequence[float], loaded: int,
+                map_graph_lines: Sequence[str], map_stamps: Sequence[float],
+                session_stamps: Sequence[float], session_poses: Sequence[Pose]) -> List[Optional[float]]:
+    """The stamp of every node of a run's --output (ids 0..n-1): the loaded nodes' from the map
+    the run loaded; the session's own from the saved map's node at the same pose, or, where the
+    save trimmed it, from the session scan nearest in pose between its kept neighbours' stamps."""
+    def vertices(lines):
+        out = {}
+        for line in lines:
+            if line.startswith("VERTEX_SE2 "):
+                f = line.split()
+                out[int(f[1])] = tuple(f[2:5])
+        return out
+    run = vertices(run_graph_lines)
+    by_pose = {pose: k for k, pose in vertices(map_graph_lines).items()}
+    n = max(run) + 1 if run else 0
+    stamps: List[Optional[float]] = [None] * n
+    for k in range(min(loaded, n)):
+        stamps[k] = loaded_stamps[k]
+    for k in range(loaded, n):
+        m = by_pose.get(run.get(k))
+        if m is not None and m < len(map_stamps):
+            stamps[k] = map_stamps[m]
+    known = [k for k in range(loaded, n) if stamps[k] is not None]
+    order = sorted(range(len(session_stamps)), key=lambda i: session_stamps[i])
+    sorted_stamps = [session_stamps[i] for i in order]
+    for k in range(loaded, n):
+        if stamps[k] is not None or k not in run:
+            continue
+        j = bisect.bisect_left(known, k)
+        lo = stamps[known[j - 1]] if j > 0 else -math.inf
+        hi = stamps[known[j]] if j < len(known) else math.inf
+        a, b = bisect.bisect_right(sorted_stamps, lo), bisect.bisect_left(sorted_stamps, hi)
+        x, y, t = (float(v) for v in run[k])
+        best, best_d = None, math.inf
+        for i in order[a:b]:
+            p = session_poses[i]
+            d = math.hypot(p[0] - x, p[1] - y) + 0.5 * abs(math.remainder(p[2] - t, 2 * math.pi))
+            if d < best_d:
+                best, best_d = session_stamps[i], d
+        stamps[k] = best
+    return stamps
+
+
+# ---------------------------------------------------------------------------------------------
+# Results, targets, table
+
+
+@dataclass
+class SessionResult:
+    config: str
+    session: int                     # 0-based
+    info: MapInfo
+    summary: RunSummary
+    trim: Optional[Trim]
+    wall_s: float
+    reopt_lago_s: float = math.nan
+    reopt_file_s: float = math.nan
+    relation: Optional[RelationError] = None
+    loops: Optional[LoopCheck] = None
+
+    def value(self, key: str) -> int:
+        return int(self.info.values.get(key, 0))
+
+
+@dataclass
+class Target:
+    config: str
+    what: str
+    measured: str
+    passed: Optional[bool]           # None: not measurable
+
+    def line(self) -> str:
+        verdict = {True: "PASS", False: "FAIL", None: "n/a"}[self.passed]
+        return f"{verdict}  {self.config}: {self.what}: {self.measured}"
+
+
+def _ratio_target(config: str, what: str, first: float, last: float, limit: float, unit: str = "",
+                  fmt: str = "{:.0f}") -> Target:
+    if not (first > 0) or math.isnan(last):
+        return Target(config, f"{what} <= {limit}x session 1", "not measured", None)
+    r = last / first
+    return Target(config, f"{what} <= {limit}x session 1",
+                  f"{fmt.format(first)}{unit} -> {fmt.format(last)}{unit} = {r:.2f}x", r <= limit)
+
+
+def check_targets(config: str, rows: Sequence[SessionResult], max_trim_ms: float = 50.0) -> List[Target]:
+    """Issue 20's targets for one configuration's sessions (in order)."""
+    if not rows:
+        return []
+    first, last = rows[0], rows[-1]
+    n = len(rows)
+    out = [
+        _ratio_target(config, f"nodes after {n} sessions", first.info.nodes, last.info.nodes, 1.3),
+        _ratio_target(config, f"edges after {n} sessions", first.value("edges"), last.value("edges"), 1.5),
+        _ratio_target(config, f"map file after {n} sessions", first.info.bytes / 1e6, last.info.bytes / 1e6, 1.5,
+                      " MB", "{:.2f}"),
+        _ratio_target(config, f"re-optimization from LAGO after {n} sessions", first.reopt_lago_s * 1e3,
+                      last.reopt_lago_s * 1e3, 1.5, " ms", "{:.1f}"),
+        _ratio_target(config, f"re-optimization from the map's poses after {n} sessions",
+                      first.reopt_file_s * 1e3, last.reopt_file_s * 1e3, 1.5, " ms", "{:.1f}"),
+    ]
+    if first.relation is not None and last.relation is not None and first.relation.count and last.relation.count:
+        a, b = first.relation.trans_mean, last.relation.trans_mean
+        out.append(Target(config, f"ACES relation error of session {n} within 10% of session 1's",
+                          f"{a:.4f} m -> {b:.4f} m ({(b / a - 1) * 100:+.1f}%)", b <= 1.1 * a))
+    trims = [r.trim for r in rows if r.trim is not None]
+    if trims:
+        bad = [(r.session + 1, r.trim.get("kl_clt"), r.trim.get("kl_delete")) for r in rows if r.trim is not None
+               and r.trim.records and not r.trim.get("kl_clt") <= 0.1 * r.trim.get("kl_delete")]
+        ratios = [r.trim.get("kl_clt") / r.trim.get("kl_delete") for r in rows
+                  if r.trim is not None and r.trim.records and r.trim.get("kl_delete") > 0]
+        out.append(Target(config, "KL(clt) <= 0.1 KL(delete) on every run (the run's trims summed)",
+                          (f"worst ratio {max(ratios):.3f}" if ratios else "no trims") +
+                          ("; over in sessions " + ", ".join(f"{s} ({c:.3g} vs {d:.3g})" for s, c, d in bad)
+                           if bad else ""), (not bad) if ratios else None))
+        records = [t for tr in trims for t in tr.records]
+        per_trim = [t.kl_clt / t.kl_delete for t in records if t.kl_delete > 0]
+        over = sum(1 for x in per_trim if x > 0.1)
+        out.append(Target(config, "KL(clt) <= 0.1 KL(delete) on every trim",
+                          f"{over} of {len(per_trim)} trims over, worst {max(per_trim):.3f}" if per_trim
+                          else "no trims", over == 0 if per_trim else None))
+        ms = [t.ms for t in records]
+        big = [t.ms for t in records if t.blanket <= 100]
+        out.append(Target(config, f"trim p99 < {max_trim_ms:.0f} ms (every trim record, blanket <= 100)",
+                          f"p99 {percentile(big, 99):.1f} ms, max {max(ms):.1f} ms over {len(ms)} trims "
+                          f"({len(ms) - len(big)} with a blanket over 100)" if ms else "no trims",
+                          percentile(big, 99) < max_trim_ms if big else None))
+    false_loops = sum(r.loops.inter_session_false for r in rows if r.loops is not None)
+    inter = sum(r.loops.inter_session for r in rows if r.loops is not None)
+    out.append(Target(config, "no false inter-session loop accepted",
+                      f"{false_loops} of {inter} accepted inter-session loops false", false_loops == 0))
+    return out
+
+
+def _f(x: float, fmt: str) -> str:
+    return "–" if x is None or (isinstance(x, float) and math.isnan(x)) else fmt.format(x)
+
+
+HEADER = ("| config | session | nodes | edges | marginal edges | submaps | map file (MB) | trim p50 / p99 (ms) "
+          "[slowest trim_record] | "
+          "KL clt / delete (nats) | re-optimization, LAGO / map poses (ms) | relation error (m) | "
+          "inter-session loops (false) | wall (s) |")
+
+
+def fmt_row(r: SessionResult) -> str:
+    t = r.trim
+    trim_ms = "–" if t is None else (f"{_f(t.get('p50_ms'), '{:.1f}')} / {_f(t.get('p99_ms'), '{:.1f}')} "
+                                     f"[{_f(max((x.ms for x in t.records), default=math.nan), '{:.1f}')}]")
+    kl = "–" if t is None else f"{_f(t.get('kl_clt'), '{:.3g}')} / {_f(t.get('kl_delete'), '{:.3g}')}"
+    rel = "–" if r.relation is None or not r.relation.count else \
+        f"{r.relation.trans_mean:.4f} ± {r.relation.trans_std:.4f}"
+    loops = "–" if r.loops is None or r.session == 0 else f"{r.loops.inter_session} ({r.loops.inter_session_false})"
+    return (f"| {r.config} | {r.session + 1} | {r.info.nodes} | {r.value('edges')} | {r.value('marginal_edges')} | "
+            f"{r.value('submaps')} | {r.info.bytes / 1e6:.2f} | {trim_ms} | {kl} | "
+            f"{_f(r.reopt_lago_s * 1e3, '{:.1f}')} / {_f(r.reopt_file_s * 1e3, '{:.1f}')} | {rel} | {loops} | "
+            f"{_f(r.wall_s, '{:.1f}')} |")
+
+
+def table(rows: Sequence[SessionResult]) -> str:
+    lines = [HEADER, "|" + "---|" * (HEADER.count("|") - 1)]
+    lines.extend(fmt_row(r) for r in rows)
+    return "\n".join(lines)
+
+
+# ---------------------------------------------------------------------------------------------
+# Plots
+
+
+def plot(results: Dict[str, List[SessionResult]], out_prefix: str, title: str) -> List[str]:
+    """Writes PREFIX_size.png, PREFIX_reopt.png, PREFIX_kl.png; returns their paths."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    colors = {"untrimmed": "tab:gray", "clt": "tab:blue", "delete": "tab:orange"}
+    paths = []
+
+    fig, axes = plt.subplots(1, 3, figsize=(11, 3.3))
+    for ax, (label, get) in zip(axes, [("nodes", lambda r: r.info.nodes), ("edges", lambda r: r.value("edges")),
+                                       ("map file (MB)", lambda r: r.info.bytes / 1e6)]):
+        for config, rows in results.items():
+            ax.plot([r.session + 1 for r in rows], [get(r) for r in rows], "o-", ms=3,
+                    color=colors.get(config), label=config)
+        ax.set_xlabel("session")
+        ax.set_title(label, fontsize=10)
+        ax.set_ylim(bottom=0)
+        ax.grid(alpha=0.3)
+    axes[0].legend(fontsize=8)
+    fig.suptitle(f"{title}: saved map after each session", fontsize=10)
+    fig.tight_layout()
+    paths.append(out_prefix + "_size.png")
+    fig.savefig(paths[-1], dpi=80)
+    plt.close(fig)
+
+    fig, ax = plt.subplots(figsize=(5.5, 3.3))
+    for config, rows in results.items():
+        x = [r.session + 1 for r in rows]
+        ax.plot(x, [r.reopt_lago_s * 1e3 for r in rows], "o-", ms=3, color=colors.get(config),
+                label=f"{config}, from LAGO")
+        ax.plot(x, [r.reopt_file_s * 1e3 for r in rows], "s--", ms=3, color=colors.get(config),
+                label=f"{config}, from the map's poses")
+    ax.set_xlabel("session")
+    ax.set_ylabel("rrr_optimize time (ms)")
+    ax.set_ylim(bottom=0)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7)
+    ax.set_title(f"{title}: one re-optimization of the map's trusted graph", fontsize=10)
+    fig.tight_layout()
+    paths.append(out_prefix + "_reopt.png")
+    fig.savefig(paths[-1], dpi=80)
+    plt.close(fig)
+
+    fig, ax = plt.subplots(figsize=(7, 3.3))
+    for config, rows in results.items():
+        records = [(r.session, t) for r in rows if r.trim is not None for t in r.trim.records]
+        if not records:
+            continue
+        x = list(range(1, len(records) + 1))
+        ax.semilogy(x, [max(t.kl_clt, 1e-6) for _, t in records], "o", ms=3, color="tab:blue",
+                    label=f"KL(clt), run {config}")
+        ax.semilogy(x, [max(t.kl_delete, 1e-6) for _, t in records], "x", ms=4, color="tab:orange",
+                    label=f"KL(delete), run {config}")
+        starts = [k + 1 for k, (s, _) in enumerate(records) if k == 0 or records[k - 1][0] != s]
+        for s in starts[1:]:
+            ax.axvline(s - 0.5, color="0.85", lw=0.8)
+        break  # one run: both KLs are computed for every trim whichever replacement it made
+    ax.set_xlabel("trim record (in order; grey lines: next session)")
+    ax.set_ylabel("KL from the exact marginal (nats)")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=8)
+    ax.set_title(f"{title}: KL divergence per trim", fontsize=10)
+    fig.tight_layout()
+    paths.append(out_prefix + "_kl.png")
+    fig.savefig(paths[-1], dpi=80)
+    plt.close(fig)
+    return paths
+
+
+# ---------------------------------------------------------------------------------------------
+# Running the tools
+
+
+class Tools:
+    def __init__(self, slam: str, map_info: str, optimize: str, extra: Sequence[str], reuse: bool,
+                 repeats: int = 3):
+        self.slam, self.map_info, self.optimize = slam, map_info, optimize
+        self.extra, self.reuse, self.repeats = list(extra), reuse, repeats
+
+    def run_slam(self, log: str, stem: str, args: Sequence[str]) -> Tuple[RunSummary, str, float]:
+        """rrr_slam_offline LOG ARGS; stdout kept as STEM.out, wall time as STEM.wall (both reused
+        with --reuse)."""
+        out, wall = stem + ".out", stem + ".wall"
+        if self.reuse and os.path.exists(out):
+            with open(out) as f:
+                text = f.read()
+            seconds = math.nan
+            if os.path.exists(wall):
+                with open(wall) as f:
+                    seconds = float(f.read().strip() or "nan")
+            return parse_summary(text), text, seconds
+        cmd = [self.slam, log, "--quiet"] + list(args) + self.extra
+        print("  " + " ".join(os.path.basename(c) if k < 2 else c for k, c in enumerate(cmd)), file=sys.stderr)
+        start = time.monotonic()
+        result = subprocess.run(cmd, capture_output=True, text=True)
+        seconds = time.monotonic() - start
+        if result.returncode != 0:
+            raise RuntimeError(f"{' '.join(cmd)} failed:\n{result.stderr}")
+        write_text_atomically(wall, f"{seconds:.3f}\n")
+        write_text_atomically(out, result.stdout)
+        return parse_summary(result.stdout), result.stdout, seconds
+
+    def info(self, path: str, graph: str, trajectory: str) -> MapInfo:
+        result = subprocess.run([self.map_info, path, "--graph", graph, "--trajectory", trajectory],
+                                capture_output=True, text=True)
+        if result.returncode != 0:
+            raise RuntimeError(f"rrr_map_info {path} failed:\n{result.stderr}")
+        return parse_map_info(result.stdout)
+
+    def optimize_time(self, graph: str, init: str) -> float:
+        best = math.inf
+        for _ in range(self.repeats):
+            result = subprocess.run([self.optimize, graph, "--output", graph + f".{init}.opt.g2o", "--init", init],
+                                    capture_output=True, text=True)
+            if result.returncode != 0:
+                raise RuntimeError(f"rrr_optimize {graph} failed:\n{result.stderr}")
+            best = min(best, parse_optimize_time(result.stdout))
+        return best
+
+
+def write_moved_logs(log: str, out_dir: str, count: int, seed: int, reuse: bool) -> List[str]:
+    """session_K.clf: the whole log seen from odometry frame K (random_transforms; the first
+    is the identity)."""
+    paths = []
+    for k, transform in enumerate(random_transforms(seed, count)):
+        path = os.path.join(out_dir, f"session_{k}.clf")
+        if not (reuse and os.path.exists(path)):
+            write_moved_log(log, path + ".tmp", transform)
+            os.replace(path + ".tmp", path)
+        paths.append(path)
+    return paths
+
+
+def run_config(tools: Tools, logs: Sequence[str], out_dir: str, config: str) -> List[Tuple[str, RunSummary, str, float]]:
+    """The sessions of one configuration; (stem, summary, stdout, wall s) per session."""
+    os.makedirs(out_dir, exist_ok=True)
+    out = []
+    for k, log in enumerate(logs):
+        stem = os.path.join(out_dir, f"s{k}")
+        args = ["--output", stem + ".g2o", "--decisions", stem + ".tsv", "--trajectory", stem + ".traj.txt",
+                "--session-trajectory", stem + ".session.txt", "--save-map", stem + ".rrrmap",
+                "--session-name", f"s{k}"]
+        if k > 0:
+            args += ["--load-map", os.path.join(out_dir, f"s{k - 1}.rrrmap")]
+        summary, text, wall = tools.run_slam(log, stem, args + CONFIGS[config])
+        out.append((stem, summary, text, wall))
+    return out
+
+
+def evaluate_config(tools: Tools, data: Optional[LogData], runs, config: str,
+                    criteria: Criteria) -> List[SessionResult]:
+    rows: List[SessionResult] = []
+    prev_info: Optional[MapInfo] = None
+    for k, (stem, summary, text, wall) in enumerate(runs):
+        info = tools.info(stem + ".rrrmap", stem + ".map.g2o", stem + ".map.traj.txt")
+        row = SessionResult(config, k, info, summary, parse_trim(text), wall)
+        run_lines, map_lines = read_lines(stem + ".g2o"), read_lines(stem + ".map.g2o")
+        decisions = read_decisions(stem + ".tsv")
+        trusted, kept = trusted_graph_lines(map_lines, untrusted_candidates(run_lines, decisions))
+        if kept != expected_trusted_edges(info):
+            raise RuntimeError(f"{stem}: the map's trusted graph has {kept} edges, the map counts "
+                               f"{expected_trusted_edges(info)} (odometry + marginal + accepted)")
+        with open(stem + ".trusted.g2o", "w") as f:
+            f.writelines(trusted)
+        row.reopt_lago_s = tools.optimize_time(stem + ".trusted.g2o", "lago")
+        row.reopt_file_s = tools.optimize_time(stem + ".trusted.g2o", "file")
+        if data is not None:
+            s_stamps, s_poses = read_tum(stem + ".session.txt")
+            if data.relations:
+                row.relation = relation_error(s_stamps, s_poses, data.relations)
+            loaded = 0 if prev_info is None else prev_info.nodes
+            loaded_stamps = read_tum(stem + ".traj.txt")[0][:loaded]
+            stamps = node_stamps(run_lines, loaded_stamps, loaded, map_lines, read_tum(stem + ".map.traj.txt")[0],
+                                 s_stamps, s_poses)
+            prev_first = [] if prev_info is None else prev_info.first_nodes()
+
+            def session_of(node: int, loaded=loaded, prev_first=prev_first, k=k) -> int:
+                if node >= loaded:
+                    return k
+                return bisect.bisect_right(prev_first, node) - 1
+
+            def truth(t):
+                return None if t is None else data.truth.pose(t)
+            row.loops = check_loops(accepted_loops(stem + ".g2o", stem + ".tsv"), stamps, session_of, truth,
+                                    criteria.false_m, criteria.false_deg, involving=k)
+        rows.append(row)
+        prev_info = info
+    return rows
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--slam-offline", required=True)
+    parser.add_argument("--map-info", required=True)
+    parser.add_argument("--optimize", required=True)
+    parser.add_argument("--data", action="append", required=True,
+                        help="folders holding the logs, relations and corrected logs")
+    parser.add_argument("--cache", required=True, help="working folder (moved logs, runs, graphs)")
+    parser.add_argument("--logs", nargs="*", default=["aces"], choices=list(LOGS))
+    parser.add_argument("--sessions", type=int, default=10)
+    parser.add_argument("--seeds", nargs="*", type=int, default=[1])
+    parser.add_argument("--untrimmed-sessions", type=int, default=None,
+                        help="sessions of the untrimmed run (default --sessions): its loop search grows "
+                             "with every session, so the whole run grows with their square")
+    parser.add_argument("--configs", nargs="*", default=list(CONFIGS), choices=list(CONFIGS))
+    parser.add_argument("--plots", default=None, help="PNG prefix (default: CACHE/LOG/seedS/lifelong)")
+    parser.add_argument("--repeats", type=int, default=5, help="rrr_optimize runs per graph (least time)")
+    parser.add_argument("--false-m", type=float, default=0.5, help="a loop is false beyond this (m)")
+    parser.add_argument("--false-deg", type=float, default=10.0, help="... or this (degrees)")
+    parser.add_argument("--max-trim-ms", type=float, default=50.0)
+    parser.add_argument("--reuse", action="store_true", help="reuse the moved logs and runs kept in --cache")
+    parser.add_argument("extra", nargs=argparse.REMAINDER, help="-- then options for rrr_slam_offline")
+    args = parser.parse_args(argv)
+    if args.sessions < 1:
+        parser.error("--sessions must be at least 1")
+    criteria = Criteria(args.false_m, args.false_deg)
+    tools = Tools(args.slam_offline, args.map_info, args.optimize, [a for a in args.extra if a != "--"],
+                  args.reuse, args.repeats)
+    failed = 0
+    for name in args.logs:
+        try:
+            data = LogData(name, args.data)
+        except FileNotFoundError as e:
+            print(f"{name}: {e}; skipped", file=sys.stderr)
+            continue
+        for seed in args.seeds:
+            out = os.path.join(args.cache, name, f"seed{seed}")
+            os.makedirs(out, exist_ok=True)
+            logs = write_moved_logs(data.log, out, args.sessions, seed, args.reuse)
+            runs = {}
+            for config in args.configs:
+                print(f"{name}, seed {seed}: {config}, {args.sessions} sessions ...", file=sys.stderr)
+                count = args.untrimmed_sessions if config == "untrimmed" and args.untrimmed_sessions else args.sessions
+                runs[config] = run_config(tools, logs[:count], os.path.join(out, config), config)
+            # Ground truth between corrected scans moved by the first session's motion (one run).
+            data.use_local_motion(runs[args.configs[0]][0][0] + ".traj.txt")
+            results = {c: evaluate_config(tools, data, runs[c], c, criteria) for c in args.configs}
+            title = f"{name}, {args.sessions} sessions, seed {seed}"
+            print(f"### {title}\n")
+            print(table([r for c in args.configs for r in results[c]]))
+            print()
+            for c in args.configs:
+                for t in check_targets(c, results[c], args.max_trim_ms):
+                    print("- " + t.line())
+                    failed += t.passed is False
+            prefix = args.plots.replace("{log}", name).replace("{seed}", str(seed)) if args.plots \
+                else os.path.join(out, "lifelong")
+            for p in plot(results, prefix, title):
+                print(f"- plot: {p}")
+            print()
+    print(f"{failed} target checks failed", file=sys.stderr)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

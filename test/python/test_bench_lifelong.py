@@ -1,0 +1,215 @@
+"""The lifelong benchmark's pure parts (scripts/bench_lifelong): reading the tool's trim lines,
+the map's trusted graph (candidates RRR did not accept left out), node stamps for the loop check,
+the issue's targets and the table."""
+import math
+
+import pytest
+from rrr_graphslam.bench_lifelong import (HEADER, SessionResult, Trim, TrimRecord, check_targets,
+                                          expected_trusted_edges, fmt_row, node_stamps,
+                                          parse_optimize_time, parse_trim, percentile, table,
+                                          trusted_graph_lines, untrusted_candidates)
+from rrr_graphslam.bench_sessions import LoopCheck, RunSummary, parse_map_info
+from rrr_graphslam.evaluation import Decision
+from rrr_graphslam.relations import RelationError
+
+RUN = """\
+lifelong       trimmed 2 submaps (overlap ratio >= 0.900000, clt): 480 nodes marginalized into 34 marginal edges in 0.22 s; 0 submaps wait for pending loops
+trim_submaps 2
+trim_nodes 480
+trim_marginal_edges 34
+trim_dropped_rejected_loops 5
+trim_seconds 0.2218
+trim_coverage_seconds 0.1217
+trim_p50_ms 32.21
+trim_p99_ms 32.21
+trim_kl 2.25638
+trim_kl_clt 2.25638
+trim_kl_delete 20.9846
+trim_kl_ratio_max 0.170931
+trim_record submap 0 submaps 1 nodes 240 blanket 16 constraints 255 edges 15 kl 1.50375 kl_clt 1.50375 kl_delete 8.79741 ms 52.907
+trim_record submap 10 submaps 2 nodes 240 blanket 20 constraints 263 edges 19 kl 0.752622 kl_clt 0.752622 kl_delete 12.1872 ms 32.210
+saved map      /tmp/x.rrrmap in 0.09 s
+"""
+
+
+def test_trim_lines_are_read_with_every_record():
+    t = parse_trim(RUN)
+    assert t.get("submaps") == 2 and t.get("nodes") == 480 and t.get("marginal_edges") == 34
+    assert t.get("kl_clt") == pytest.approx(2.25638) and t.get("kl_delete") == pytest.approx(20.9846)
+    assert t.get("p99_ms") == pytest.approx(32.21) and math.isnan(t.get("no_such_key"))
+    assert t.records == [TrimRecord(0, 1, 240, 16, 255, 15, 1.50375, 1.50375, 8.79741, 52.907),
+                         TrimRecord(10, 2, 240, 20, 263, 19, 0.752622, 0.752622, 12.1872, 32.210)]
+
+
+def test_a_run_without_lifelong_has_no_trim_and_a_broken_record_is_an_error():
+    assert parse_trim("nodes          2885 in 25 submaps\ntrim_kl 1.0\n") is None
+    with pytest.raises(ValueError, match="unreadable"):
+        parse_trim("lifelong trimmed 1\ntrim_record submap 0 submaps 1 nodes 240\n")
+
+
+def test_percentile_interpolates_between_order_statistics():
+    assert percentile([32.21, 52.907], 99) == pytest.approx(32.21 + 0.99 * (52.907 - 32.21))
+    assert percentile([5.0], 50) == 5.0 and math.isnan(percentile([], 99))
+    assert percentile([4.0, 1.0, 3.0, 2.0], 50) == pytest.approx(2.5)
+
+
+def edge(a, b, rest):
+    return f"EDGE_SE2 {a} {b} {rest}\n"
+
+
+ODO = "1 0 0 100 0 0 100 0 400"
+MARG = "2.5 0.1 0.2 50 1 0 60 2 300"
+LOOP_A = "0.25 -3 1.5 396.8 -3.06 -2.2 395.5 6.7 12983.5"
+LOOP_B = "-4.2 -8.9 0.86 396.6 -2.48 -7.5 396.1 7.8 12819.7"
+LOOP_C = "-3.3 -8.0 0.79 397.7 -1.8 2.08 396.7 10.1 13010.7"
+
+
+def run_graph():
+    """A run's --output: 5 nodes, odometry, a marginal edge, then the candidates (one of them
+    between consecutive ids) in the order of the decisions."""
+    vertices = [f"VERTEX_SE2 {k} {k}.5 0.25 0.1\n" for k in range(5)]
+    return vertices + [edge(k, k + 1, ODO) for k in range(4)] + [edge(0, 2, MARG), edge(0, 3, LOOP_A),
+                                                                 edge(1, 2, LOOP_B), edge(1, 4, LOOP_C)]
+
+
+DECISIONS = [Decision(0, 3, 1, "accepted"), Decision(1, 2, 2, "rejected"), Decision(1, 4, 3, "accepted")]
+
+
+def test_the_maps_trusted_graph_drops_the_candidates_not_accepted():
+    untrusted = untrusted_candidates(run_graph(), DECISIONS)
+    assert untrusted == {tuple(LOOP_B.split()): 1}
+    # The saved map: renumbered (node 0 trimmed), its edges in another order.
+    saved = [f"VERTEX_SE2 {k} 0 0 0\n" for k in range(4)] + [
+        edge(2, 3, LOOP_C), edge(0, 1, LOOP_B), edge(0, 1, ODO), edge(1, 2, ODO), edge(2, 3, ODO),
+        edge(0, 1, MARG)]
+    lines, kept = trusted_graph_lines(saved, untrusted)
+    assert kept == 5
+    assert edge(0, 1, LOOP_B) not in lines and edge(2, 3, LOOP_C) in lines and edge(0, 1, MARG) in lines
+    assert sum(line.startswith("VERTEX_SE2") for line in lines) == 4
+    info = parse_map_info("nodes 4\nedges 6\nodometry_edges 3\nloop_edges 2\nloop_edges_accepted 1\n"
+                          "loop_edges_rejected 1\nmarginal_edges 1\nbytes 100\nsession 0 nodes 4 x\n")
+    assert expected_trusted_edges(info) == kept
+
+
+def test_a_rejected_candidate_written_twice_is_dropped_twice_and_an_accepted_twin_stays():
+    graph = run_graph() + [edge(2, 4, LOOP_B)]
+    untrusted = untrusted_candidates(graph, DECISIONS + [Decision(2, 4, 4, "pending")])
+    assert untrusted == {tuple(LOOP_B.split()): 2}
+    lines, kept = trusted_graph_lines([edge(0, 1, LOOP_B), edge(1, 2, LOOP_B), edge(1, 2, ODO)], untrusted)
+    assert kept == 1 and lines == [edge(1, 2, ODO)]
+
+
+def test_decisions_that_are_not_the_graphs_last_edges_are_an_error():
+    with pytest.raises(ValueError, match="decision 1-3 is not the edge 1-2"):
+        untrusted_candidates(run_graph(), [DECISIONS[0], Decision(1, 3, 2, "rejected"), DECISIONS[2]])
+    with pytest.raises(ValueError, match="decisions but"):
+        untrusted_candidates(run_graph()[:6], DECISIONS * 3)
+
+
+def test_optimize_time_is_read_from_its_summary():
+    text = "iterations     3\ntime           0.0123 s (initialization 0.0040 s, optimization 0.0083 s)\n"
+    assert parse_optimize_time(text) == pytest.approx(0.0123)
+    with pytest.raises(ValueError):
+        parse_optimize_time("iterations 3\n")
+
+
+def test_node_stamps_from_the_loaded_map_the_saved_map_and_the_nearest_scan():
+    # Nodes 0-1 loaded; 2-5 the session's own; the save kept 2 and 5 (renumbered 0 and 1) and
+    # trimmed 3 and 4, found among the session's scans between the stamps of 2 and 5.
+    run = [f"VERTEX_SE2 {k} {float(k)} 0 0\n" for k in range(6)]
+    saved = ["VERTEX_SE2 0 2.0 0 0\n", "VERTEX_SE2 1 5.0 0 0\n"]
+    session_stamps = [10.0, 10.5, 11.0, 11.5, 12.0, 12.5, 13.0, 20.0]
+    session_poses = [(2.0, 0, 0), (2.6, 0, 0), (3.05, 0, 0), (3.6, 0, 0), (3.95, 0, 0), (4.5, 0, 0),
+                     (5.0, 0, 0), (4.0, 0, 0)]  # the last is outside the window: never taken
+    stamps = node_stamps(run, [1.0, 2.0], 2, saved, [10.0, 13.0], session_stamps, session_poses)
+    assert stamps == [1.0, 2.0, 10.0, 11.0, 12.0, 13.0]
+
+
+def info_of(nodes, edges, mb, marginal=0):
+    return parse_map_info(f"nodes {nodes}\nedges {edges}\nmarginal_edges {marginal}\nsubmaps 20\n"
+                          f"bytes {int(mb * 1e6)}\nsession 0 nodes {nodes} x\n")
+
+
+def record(kl_clt, kl_delete, ms, blanket=20):
+    return TrimRecord(0, 1, 240, blanket, 255, 15, kl_clt, kl_clt, kl_delete, ms)
+
+
+def result(session, nodes, edges, mb, reopt_ms, trim=None, rel=None, false=0):
+    r = SessionResult("clt", session, info_of(nodes, edges, mb), RunSummary(), trim, 30.0 + session,
+                      reopt_lago_s=reopt_ms / 1e3, reopt_file_s=reopt_ms / 2e3)
+    if rel is not None:
+        r.relation = RelationError(100, 0, rel, 0.03, 1.0, 1.0, 0.0, 0.0)
+    r.loops = LoopCheck(inter_session=5 if session else 0, inter_session_false=false)
+    return r
+
+
+def trim_of(*records):
+    return Trim({"kl_clt": sum(r.kl_clt for r in records), "kl_delete": sum(r.kl_delete for r in records),
+                 "p50_ms": 30.0, "p99_ms": 40.0}, list(records))
+
+
+def by_what(targets):
+    return {t.what.split(" after")[0].split(" <=")[0]: t for t in targets}
+
+
+def test_targets_pass_when_the_map_stops_growing():
+    rows = [result(0, 2400, 2500, 0.70, 10.0, trim_of(record(1.0, 20.0, 30.0)), 0.0348),
+            result(1, 2900, 3300, 0.90, 14.0, trim_of(record(0.5, 10.0, 45.0)), 0.0350),
+            result(2, 3100, 3700, 1.00, 15.0, trim_of(record(0.2, 30.0, 20.0), record(9.0, 9.5, 400.0, 150)),
+                   0.0380)]
+    rows[2].trim.values["kl_clt"] = 0.2  # the run's sum stays under 0.1x even though one trim is not
+    t = by_what(check_targets("clt", rows))
+    assert t["nodes"].passed and "2400 -> 3100 = 1.29x" in t["nodes"].measured
+    assert t["edges"].passed and t["map file"].passed and t["re-optimization from LAGO"].passed
+    assert t["ACES relation error of session 3 within 10% of session 1's"].passed
+    per_run = [x for x in check_targets("clt", rows) if x.what.endswith("(the run's trims summed)")][0]
+    assert per_run.passed and per_run.measured == "worst ratio 0.050"
+    every_trim = [x for x in check_targets("clt", rows) if x.what.endswith("on every trim")][0]
+    assert every_trim.passed is False and "1 of 4 trims over, worst 0.947" in every_trim.measured
+    trim = [x for x in check_targets("clt", rows) if x.what.startswith("trim p99")][0]
+    assert trim.passed and "1 with a blanket over 100" in trim.measured and "max 400.0 ms" in trim.measured
+
+
+def test_targets_fail_with_their_numbers_when_the_map_grows():
+    rows = [result(k, 2885 * (k + 1), 3008 * (k + 1), 0.84 * (k + 1), 10.0 * (k + 1), rel=0.0348 + 0.01 * k,
+                   false=k % 2) for k in range(10)]
+    targets = check_targets("untrimmed", rows)
+    t = by_what(targets)
+    assert t["nodes"].passed is False and t["nodes"].measured == "2885 -> 28850 = 10.00x"
+    assert t["edges"].passed is False and t["map file"].passed is False
+    assert t["re-optimization from LAGO"].measured == "10.0 ms -> 100.0 ms = 10.00x"
+    rel = [x for x in targets if x.what.startswith("ACES")][0]
+    assert rel.passed is False and "(+258.6%)" in rel.measured
+    assert not any(x.what.startswith("KL") or x.what.startswith("trim") for x in targets)  # no trims
+    false = [x for x in targets if x.what.startswith("no false")][0]
+    assert false.passed is False and false.measured.startswith("5 of 45")
+    assert false.line().startswith("FAIL  untrimmed: no false inter-session loop accepted: 5 of 45")
+
+
+def test_kl_per_run_fails_naming_the_session():
+    rows = [result(0, 10, 10, 1.0, 1.0, trim_of(record(2.26, 20.98, 32.0))),
+            result(1, 10, 10, 1.0, 1.0, trim_of(record(0.1, 20.0, 60.0), record(0.1, 20.0, 70.0)))]
+    targets = check_targets("clt", rows)
+    run = [x for x in targets if x.what.endswith("(the run's trims summed)")][0]
+    assert run.passed is False and "over in sessions 1 (2.26 vs 21)" in run.measured
+    trim = [x for x in targets if x.what.startswith("trim p99")][0]
+    assert trim.passed is False and "p99 69.8 ms" in trim.measured
+
+
+def test_unmeasured_targets_are_not_passed():
+    rows = [result(0, 10, 10, 1.0, math.nan), result(1, 10, 10, 1.0, math.nan)]
+    t = by_what(check_targets("clt", rows))
+    assert t["re-optimization from LAGO"].passed is None and t["re-optimization from LAGO"].line().startswith("n/a")
+    assert check_targets("clt", []) == []
+
+
+def test_table_rows_have_the_headers_columns():
+    rows = [result(0, 2405, 2519, 0.70, 10.5, trim_of(record(2.26, 20.98, 52.9)), 0.0348),
+            result(1, 2900, 3300, 0.90, 14.0)]
+    text = table(rows)
+    lines = text.splitlines()
+    assert lines[0] == HEADER and len(lines) == 4
+    assert all(line.count("|") == HEADER.count("|") for line in lines)
+    assert "| clt | 1 | 2405 | 2519 | 0 | 20 | 0.70 | 30.0 / 40.0 [52.9] | 2.26 / 21 | 10.5 / 5.2 | " \
+           "0.0348 ± 0.0300 | – | 30.0 |" == lines[2]
+    assert fmt_row(rows[1]).endswith("| – | – | 14.0 / 7.0 | – | 5 (0) | 31.0 |")
