@@ -1,0 +1,235 @@
+"""A map made by SLAM against the true world it was made in (rrr_simulate's worlds): does the map
+show the world as it is now?
+
+Both are map_server pairs (YAML + PGM, trinary: occupied, free, unknown). The map is in its own
+frame (the first session's odometry frame); the transform into the world frame comes from a
+trajectory in the map frame and the true poses at the same timestamps (least-squares rigid fit,
+`align`). Every known cell of the world is looked up in the map at its centre.
+
+- Changed cells: cells whose state differs between an earlier session's world and the last one,
+  and that a laser can see in the last world: free cells (furniture that left, a door opened) and
+  occupied cells next to a free one (the faces of a new box; its inside is never observed). The
+  map *agrees* in a changed cell when it has the last world's state there within
+  `tolerance_cells` (the face of a box, one cell off, agrees); an unknown map cell does not.
+- Static cells: the known cells of the last world that never changed, where the map observed
+  something within `tolerance_cells` (the map cannot be asked about rooms no session entered).
+  Occupancy F1 over them with the same tolerance: an occupied map cell is a true positive when
+  the world is occupied within that many cells, and a world wall is found when the map is
+  occupied within that many cells (a one-cell shift of a one-cell wall is no error at 0.1 m).
+"""
+
+import math
+import os
+from dataclasses import dataclass
+from typing import List, Sequence, Tuple
+
+import numpy as np
+
+from .graph_io import Pose, GraphFileError
+
+OCCUPIED, FREE, UNKNOWN = 1, 0, -1
+
+
+@dataclass
+class GridMap:
+    cells: np.ndarray        # rows from the top of the image, OCCUPIED / FREE / UNKNOWN
+    resolution: float        # m per cell
+    origin: Tuple[float, float]  # the lower-left cell's corner, m
+
+    def state_at(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """States at the points (UNKNOWN outside)."""
+        col = np.floor((x - self.origin[0]) / self.resolution).astype(int)
+        row_from_bottom = np.floor((y - self.origin[1]) / self.resolution).astype(int)
+        height, width = self.cells.shape
+        row = height - 1 - row_from_bottom
+        inside = (col >= 0) & (col < width) & (row >= 0) & (row < height)
+        out = np.full(x.shape, UNKNOWN, dtype=int)
+        out[inside] = self.cells[row[inside], col[inside]]
+        return out
+
+    def centres(self) -> Tuple[np.ndarray, np.ndarray]:
+        height, width = self.cells.shape
+        cols, rows = np.meshgrid(np.arange(width), np.arange(height))
+        x = self.origin[0] + (cols + 0.5) * self.resolution
+        y = self.origin[1] + (height - 1 - rows + 0.5) * self.resolution
+        return x, y
+
+
+def _yaml_fields(path: str) -> dict:
+    fields = {}
+    with open(path) as f:
+        for number, line in enumerate(f, 1):
+            line = line.split("#", 1)[0].strip()
+            if not line:
+                continue
+            if ":" not in line:
+                raise GraphFileError(path, number, f"expected 'key: value', found '{line}'")
+            key, value = line.split(":", 1)
+            fields[key.strip()] = value.strip()
+    return fields
+
+
+def _read_pgm(path: str) -> np.ndarray:
+    with open(path, "rb") as f:
+        data = f.read()
+    tokens, pos = [], 0
+    while len(tokens) < 4:
+        while pos < len(data) and data[pos:pos + 1].isspace():
+            pos += 1
+        if data[pos:pos + 1] == b"#":
+            while pos < len(data) and data[pos:pos + 1] != b"\n":
+                pos += 1
+            continue
+        start = pos
+        while pos < len(data) and not data[pos:pos + 1].isspace():
+            pos += 1
+        tokens.append(data[start:pos])
+    if tokens[0] != b"P5":
+        raise GraphFileError(path, 1, f"not a binary PGM (P5): {tokens[0]!r}")
+    width, height, maxval = int(tokens[1]), int(tokens[2]), int(tokens[3])
+    pos += 1
+    dtype = np.uint8 if maxval < 256 else np.dtype(">u2")
+    pixels = np.frombuffer(data, dtype=dtype, count=width * height, offset=pos)
+    return pixels.reshape(height, width).astype(float) / maxval
+
+
+def read_map_server(yaml_path: str) -> GridMap:
+    """A map_server pair, its cells classified as map_server does (trinary)."""
+    f = _yaml_fields(yaml_path)
+    try:
+        image = f["image"]
+        resolution = float(f["resolution"])
+        origin = [float(v) for v in f["origin"].strip("[]").split(",")]
+        negate = int(f.get("negate", "0"))
+        occupied = float(f.get("occupied_thresh", "0.65"))
+        free = float(f.get("free_thresh", "0.196"))
+    except (KeyError, ValueError) as e:
+        raise GraphFileError(yaml_path, 0, f"missing or malformed field: {e}") from None
+    if not os.path.isabs(image):
+        image = os.path.join(os.path.dirname(yaml_path), image)
+    v = _read_pgm(image)
+    p = v if negate else 1.0 - v
+    cells = np.full(p.shape, UNKNOWN, dtype=int)
+    cells[p > occupied] = OCCUPIED
+    cells[p < free] = FREE
+    return GridMap(cells, resolution, (origin[0], origin[1]))
+
+
+def align(map_poses: Sequence[Pose], true_poses: Sequence[Pose]) -> Pose:
+    """The rigid transform T (x, y, theta) with T * map_pose ~ true_pose, least squares over the
+    positions (Umeyama without scale)."""
+    a = np.array([[p[0], p[1]] for p in map_poses])
+    b = np.array([[p[0], p[1]] for p in true_poses])
+    if len(a) < 2:
+        raise ValueError("align needs at least two poses")
+    ca, cb = a.mean(axis=0), b.mean(axis=0)
+    h = (a - ca).T @ (b - cb)
+    theta = math.atan2(h[0, 1] - h[1, 0], h[0, 0] + h[1, 1])
+    c, s = math.cos(theta), math.sin(theta)
+    t = cb - np.array([[c, -s], [s, c]]) @ ca
+    return (float(t[0]), float(t[1]), theta)
+
+
+def _dilate(mask: np.ndarray, cells: int) -> np.ndarray:
+    out = mask.copy()
+    for dr in range(-cells, cells + 1):
+        for dc in range(-cells, cells + 1):
+            shifted = np.zeros_like(mask)
+            rs = slice(max(dr, 0), mask.shape[0] + min(dr, 0))
+            rd = slice(max(-dr, 0), mask.shape[0] + min(-dr, 0))
+            cs = slice(max(dc, 0), mask.shape[1] + min(dc, 0))
+            cd = slice(max(-dc, 0), mask.shape[1] + min(-dc, 0))
+            shifted[rs, cs] = mask[rd, cd]
+            out |= shifted
+    return out
+
+
+@dataclass
+class WorldComparison:
+    changed_cells: int
+    changed_agree: int        # the map has the last world's state there
+    changed_unknown: int      # the map has not observed them
+    static_precision: float
+    static_recall: float
+    static_f1: float
+    static_cells: int
+
+    @property
+    def changed_agreement(self) -> float:
+        return self.changed_agree / self.changed_cells if self.changed_cells else math.nan
+
+
+def compare(slam_map: GridMap, worlds: Sequence[GridMap], world_from_map: Pose,
+            tolerance_cells: int = 1) -> WorldComparison:
+    """The map (in its frame) against the worlds of the sessions (all the same grid), the last
+    being the world now; `world_from_map` from align()."""
+    last = worlds[-1]
+    for w in worlds:
+        if w.cells.shape != last.cells.shape or w.resolution != last.resolution or w.origin != last.origin:
+            raise ValueError("the worlds of the sessions must share one grid")
+    changed = np.zeros(last.cells.shape, dtype=bool)
+    for w in worlds[:-1]:
+        changed |= (w.cells != last.cells) & (w.cells != UNKNOWN) & (last.cells != UNKNOWN)
+    # Every world cell's centre, in the map frame.
+    x, y = last.centres()
+    tx, ty, th = world_from_map
+    c, s = math.cos(th), math.sin(th)
+    dx, dy = x - tx, y - ty
+    mx, my = c * dx + s * dy, -s * dx + c * dy
+    seen = slam_map.state_at(mx, my)
+
+    free_now = last.cells == FREE
+    visible = free_now | ((last.cells == OCCUPIED) & _dilate(free_now, 1))
+    changed &= visible
+    near_seen_occ = _dilate(seen == OCCUPIED, tolerance_cells)
+    near_seen_free = _dilate(seen == FREE, tolerance_cells)
+    agrees = np.where(last.cells == OCCUPIED, near_seen_occ, seen == FREE)
+    n_changed = int(changed.sum())
+    agree = int((agrees & changed).sum())
+    unknown = int(((seen == UNKNOWN) & changed).sum())
+
+    observed = near_seen_occ | near_seen_free
+    static = (~changed) & (last.cells != UNKNOWN) & observed
+    truth_occ = (last.cells == OCCUPIED) & static
+    seen_occ = (seen == OCCUPIED) & static
+    near_truth = _dilate(last.cells == OCCUPIED, tolerance_cells)
+    tp_precision = int((seen_occ & near_truth).sum())
+    tp_recall = int((truth_occ & near_seen_occ).sum())
+    precision = tp_precision / int(seen_occ.sum()) if seen_occ.any() else math.nan
+    recall = tp_recall / int(truth_occ.sum()) if truth_occ.any() else math.nan
+    f1 = 2 * precision * recall / (precision + recall) if precision + recall > 0 else 0.0
+    return WorldComparison(n_changed, agree, unknown, precision, recall, f1, int(static.sum()))
+
+
+def main(argv=None) -> int:
+    import argparse
+    from .relations import read_tum
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("map", help="the map's YAML (rrr_map_info --map, rrr_slam_offline --map)")
+    parser.add_argument("--worlds", nargs="+", required=True,
+                        help="the true worlds' YAMLs, one per session in order (rrr_simulate's session_K_world.yaml)")
+    parser.add_argument("--trajectory", required=True, help="a trajectory in the map frame (TUM)")
+    parser.add_argument("--truth", required=True, help="the true poses at its timestamps (TUM, world frame)")
+    parser.add_argument("--tolerance-cells", type=int, default=1)
+    args = parser.parse_args(argv)
+    stamps, poses = read_tum(args.trajectory)
+    truth = dict(zip(*read_tum(args.truth)))
+    pairs = [(p, truth[t]) for t, p in zip(stamps, poses) if t in truth]
+    if len(pairs) < 2:
+        parser.error("fewer than two timestamps of --trajectory are in --truth")
+    transform = align([a for a, _ in pairs], [b for _, b in pairs])
+    result = compare(read_map_server(args.map), [read_map_server(w) for w in args.worlds], transform,
+                     args.tolerance_cells)
+    print(f"changed_cells {result.changed_cells}")
+    print(f"changed_agree {result.changed_agree}")
+    print(f"changed_unknown {result.changed_unknown}")
+    print(f"changed_agreement {result.changed_agreement:.4f}")
+    print(f"static_cells {result.static_cells}")
+    print(f"static_precision {result.static_precision:.4f}")
+    print(f"static_recall {result.static_recall:.4f}")
+    print(f"static_f1 {result.static_f1:.4f}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,72 @@
+"""world_compare: a map against the true worlds of the sessions it was made in."""
+import math
+
+import numpy as np
+import pytest
+
+from rrr_graphslam.world_compare import (FREE, OCCUPIED, UNKNOWN, GridMap, align, compare,
+                                         read_map_server)
+
+
+def room(box: bool) -> GridMap:
+    """A 20 x 20 room of 0.1 m cells, walls around; with `box`, a 4 x 4 box in its middle."""
+    cells = np.full((20, 20), FREE, dtype=int)
+    cells[0, :] = cells[-1, :] = cells[:, 0] = cells[:, -1] = OCCUPIED
+    if box:
+        cells[8:12, 8:12] = OCCUPIED
+    return GridMap(cells, 0.1, (0.0, 0.0))
+
+
+def moved(world: GridMap, transform) -> GridMap:
+    """The same cells seen from another frame: the map a SLAM run in `world` would make, its
+    frame `transform` away (cells resampled at the map's centres)."""
+    x, y = world.centres()
+    tx, ty, th = transform
+    c, s = math.cos(th), math.sin(th)
+    wx, wy = tx + c * x - s * y, ty + s * x + c * y
+    return GridMap(world.state_at(wx, wy), world.resolution, world.origin)
+
+
+def test_align_recovers_a_rigid_transform():
+    truth = (1.5, -2.0, 0.4)
+    c, s = math.cos(truth[2]), math.sin(truth[2])
+    poses = [(x, y, 0.0) for x, y in [(0, 0), (3, 1), (2, 5), (-1, 4)]]
+    true = [(truth[0] + c * x - s * y, truth[1] + s * x + c * y, 0.0) for x, y, _ in poses]
+    t = align(poses, true)
+    assert t == pytest.approx(truth, abs=1e-9)
+
+
+def test_a_map_of_the_world_now_agrees_and_a_stale_one_does_not():
+    before, now = room(box=True), room(box=False)  # the box left
+    up_to_date = compare(now, [before, now], (0.0, 0.0, 0.0))
+    assert up_to_date.changed_cells == 16  # the box's cells, free now and in sight
+    assert up_to_date.changed_agreement == 1.0
+    assert up_to_date.static_f1 == pytest.approx(1.0)
+    stale = compare(before, [before, now], (0.0, 0.0, 0.0))
+    assert stale.changed_agree == 0 and stale.changed_unknown == 0
+    # A box that appeared: only its faces can be seen (the inside is never observed).
+    appeared = compare(before, [now, before], (0.0, 0.0, 0.0))
+    assert appeared.changed_cells == 12 and appeared.changed_agreement == 1.0
+    blank = GridMap(np.full((20, 20), UNKNOWN, dtype=int), 0.1, (0.0, 0.0))
+    nothing = compare(blank, [before, now], (0.0, 0.0, 0.0))
+    assert nothing.changed_unknown == nothing.changed_cells and nothing.changed_agree == 0
+
+
+def test_the_map_frame_is_taken_into_account():
+    now = room(box=False)
+    transform = (0.5, 0.3, 0.0)  # whole cells: the resampled map is exact
+    slam_map = moved(now, transform)
+    assert compare(slam_map, [room(box=True), now], transform).changed_agreement == 1.0
+    assert compare(slam_map, [room(box=True), now], (0.0, 0.0, 0.0)).static_f1 < 0.9
+
+
+def test_map_server_files_are_read_as_map_server_reads_them(tmp_path):
+    pgm = tmp_path / "w.pgm"
+    pgm.write_bytes(b"P5\n# comment\n3 2\n255\n" + bytes([0, 254, 205, 254, 0, 254]))
+    (tmp_path / "w.yaml").write_text("image: w.pgm\nresolution: 0.5\norigin: [1.0, 2.0, 0.0]\n"
+                                     "negate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.196\n")
+    m = read_map_server(str(tmp_path / "w.yaml"))
+    assert m.resolution == 0.5 and m.origin == (1.0, 2.0)
+    assert m.cells.tolist() == [[OCCUPIED, FREE, UNKNOWN], [FREE, OCCUPIED, FREE]]
+    # The top image row is the far side: (1.25, 2.75) is the top-left pixel.
+    assert m.state_at(np.array([1.25, 1.25]), np.array([2.75, 2.25])).tolist() == [OCCUPIED, FREE]
