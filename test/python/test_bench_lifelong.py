@@ -6,7 +6,7 @@ import math
 import pytest
 from rrr_graphslam.bench_lifelong import (HEADER, SessionResult, Trim, TrimRecord, check_targets,
                                           expected_trusted_edges, fmt_row, node_stamps,
-                                          parse_optimize_time, parse_trim, percentile, table,
+                                          parse_trim, percentile, table,
                                           trusted_graph_lines, untrusted_candidates)
 from rrr_graphslam.bench_sessions import LoopCheck, RunSummary, parse_map_info
 from rrr_graphslam.evaluation import Decision
@@ -104,13 +104,6 @@ def test_decisions_that_are_not_the_graphs_last_edges_are_an_error():
         untrusted_candidates(run_graph(), [DECISIONS[0], Decision(1, 3, 2, "rejected"), DECISIONS[2]])
     with pytest.raises(ValueError, match="decisions but"):
         untrusted_candidates(run_graph()[:6], DECISIONS * 3)
-
-
-def test_optimize_time_is_read_from_its_summary():
-    text = "iterations     3\ntime           0.0123 s (initialization 0.0040 s, optimization 0.0083 s)\n"
-    assert parse_optimize_time(text) == pytest.approx(0.0123)
-    with pytest.raises(ValueError):
-        parse_optimize_time("iterations 3\n")
 
 
 def test_node_stamps_from_the_loaded_map_the_saved_map_and_the_nearest_scan():
