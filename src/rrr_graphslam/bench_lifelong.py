@@ -359,17 +359,24 @@ def plot(results: Dict[str, List[SessionResult]], out_prefix: str, title: str) -
     colors = {"untrimmed": "tab:gray", "clt": "tab:blue", "delete": "tab:orange"}
     paths = []
 
+    from matplotlib.ticker import MaxNLocator
+    reference = next((rows for c, rows in results.items() if c != "untrimmed" and rows), None)
     fig, axes = plt.subplots(1, 3, figsize=(11, 3.3))
-    for ax, (label, get) in zip(axes, [("nodes", lambda r: r.info.nodes), ("edges", lambda r: r.value("edges")),
-                                       ("map file (MB)", lambda r: r.info.bytes / 1e6)]):
+    for ax, (label, get, limit) in zip(axes, [("nodes", lambda r: r.info.nodes, 1.3),
+                                              ("edges", lambda r: r.value("edges"), 1.5),
+                                              ("map file (MB)", lambda r: r.info.bytes / 1e6, 1.5)]):
         for config, rows in results.items():
             ax.plot([r.session + 1 for r in rows], [get(r) for r in rows], "o-", ms=3,
                     color=colors.get(config), label=config)
+        if reference:
+            ax.axhline(limit * get(reference[0]), color="tab:red", lw=0.8, ls=":",
+                       label=f"target: {limit}x session 1 ({reference[0].config})")
+        ax.xaxis.set_major_locator(MaxNLocator(integer=True))
         ax.set_xlabel("session")
         ax.set_title(label, fontsize=10)
         ax.set_ylim(bottom=0)
         ax.grid(alpha=0.3)
-    axes[0].legend(fontsize=8)
+    axes[0].legend(fontsize=7)
     fig.suptitle(f"{title}: saved map after each session", fontsize=10)
     fig.tight_layout()
     paths.append(out_prefix + "_size.png")
@@ -383,8 +390,9 @@ def plot(results: Dict[str, List[SessionResult]], out_prefix: str, title: str) -
                 label=f"{config}, from LAGO")
         ax.plot(x, [r.reopt_file_s * 1e3 for r in rows], "s--", ms=3, color=colors.get(config),
                 label=f"{config}, from the map's poses")
+    ax.xaxis.set_major_locator(MaxNLocator(integer=True))
     ax.set_xlabel("session")
-    ax.set_ylabel("rrr_optimize time (ms)")
+    ax.set_ylabel("rrr_optimize CPU time (ms)")
     ax.set_ylim(bottom=0)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7)

@@ -206,3 +206,18 @@ def test_table_rows_have_the_headers_columns():
     assert "| clt | 1 | 2405 | 2519 | 0 | 20 | 0.70 | 30.0 / 40.0 [52.9] | 2.26 / 21 | 10.5 / 5.2 | " \
            "0.0348 ± 0.0300 | – | 30.0 |" == lines[2]
     assert fmt_row(rows[1]).endswith("| – | – | 14.0 / 7.0 | – | 5 (0) | 31.0 |")
+
+
+def test_plots_are_written(tmp_path):
+    pytest.importorskip("matplotlib")
+    from rrr_graphslam.bench_lifelong import plot
+    untrimmed = [result(k, 2885 * (k + 1), 3008 * (k + 1), 0.84 * (k + 1), 10.0 * (k + 1)) for k in range(3)]
+    for r in untrimmed:
+        r.config = "untrimmed"
+    clt = [result(k, 2400 + 50 * k, 2500 + 90 * k, 0.7, 10.0, trim_of(record(1.0, 20.0, 30.0), record(0.0, 2.0, 9.0)))
+           for k in range(4)]
+    paths = plot({"untrimmed": untrimmed, "clt": clt}, str(tmp_path / "lifelong"), "test")
+    assert [p.rsplit("_", 1)[1] for p in paths] == ["size.png", "reopt.png", "kl.png"]
+    for p in paths:
+        with open(p, "rb") as f:
+            assert f.read(8) == b"\x89PNG\r\n\x1a\n"
