@@ -274,10 +274,20 @@ TrimResult trimMap(const MapSnapshot& map, const TrimParams& params,
   std::vector<char> leaves(n, 0);
   for (std::size_t k = 0; k < n; ++k) leaves[k] = owner[k] >= 0 && !kept_by_some[k];
   core::UnionFind joined(n);
-  for (const Trusted& t : trusted) {
-    const auto a = static_cast<std::size_t>(t.constraint.from);
-    const auto b = static_cast<std::size_t>(t.constraint.to);
-    if (leaves[a] && leaves[b]) joined.unite(a, b);
+  if (params.group_neighbours) {
+    for (const Trusted& t : trusted) {
+      const auto a = static_cast<std::size_t>(t.constraint.from);
+      const auto b = static_cast<std::size_t>(t.constraint.to);
+      if (leaves[a] && leaves[b]) joined.unite(a, b);
+    }
+  } else {
+    std::vector<std::size_t> first_of_owner(map.submaps.size(), n);
+    for (std::size_t k = 0; k < n; ++k) {
+      if (!leaves[k]) continue;
+      std::size_t& first = first_of_owner[static_cast<std::size_t>(owner[k])];
+      if (first == n) first = k;
+      joined.unite(first, k);
+    }
   }
   std::vector<std::vector<NodeId>> groups;
   std::vector<int> group_of_root(n, -1);
@@ -423,6 +433,7 @@ TrimResult trimMap(const MapSnapshot& map, const TrimParams& params,
   }
   for (const Trusted& t : trusted) {
     if (t.origin >= 0) continue;
+    ++report.marginal_edges_kept;
     MapSnapshot::Edge edge;
     edge.from = new_index[static_cast<std::size_t>(t.constraint.from)];
     edge.to = new_index[static_cast<std::size_t>(t.constraint.to)];

@@ -87,7 +87,8 @@ const std::string& usage() {
       "                        [--session-name NAME] [--session-trajectory TRAJ.txt]\n"
       "                        [--initial-pose X,Y,THETA] [--localization-only]\n"
       "                        [--lifelong [--trim-overlap R] [--keep-recent-submaps N]\n"
-      "                                    [--sparsification clt|dense|delete]]\n"
+      "                                    [--sparsification clt|dense|delete]\n"
+      "                                    [--trim-group-neighbours]]\n"
       "                        [--preset paper|default] [--PARAMETER V ...]\n"
       "  LOG               CARMEN log (FLASER or ROBOTLASER1 lines; the scans carry the odometry)\n"
       "  --output          the pose graph: nodes at their optimized poses, odometry and every "
@@ -121,6 +122,9 @@ const std::string& usage() {
       "  --keep-recent-submaps N  the newest N submaps are never trimmed (default 4)\n"
       "  --sparsification  what replaces a trimmed submap's constraints: clt (Chow-Liu tree,\n"
       "                    default) or delete (nothing; dense is not storable yet and refused)\n"
+      "  --trim-group-neighbours  marginalize the leaving nodes of neighbouring trimmed submaps\n"
+      "                    together (one tree for all; larger blankets) instead of submap by\n"
+      "                    submap\n"
       "  --quiet           no progress line\n"
       "The front end's parameters (the same names and units as the ROS parameters, with "
       "dashes):\n" +
@@ -233,6 +237,9 @@ Arguments parseArguments(int argc, char** argv) {
       if (v != std::floor(v)) cli.fail(a + " must be an integer");
       args.trim.keep_recent_submaps = static_cast<int>(v);
       trim_flags.push_back(a);
+    } else if (a == "--trim-group-neighbours") {
+      args.trim.group_neighbours = true;
+      trim_flags.push_back(a);
     } else if (a == "--sparsification") {
       try {
         args.trim.sparsification = frontend::parseSparsification(cli.value(i, a));
@@ -312,12 +319,13 @@ void printTrimReport(const frontend::TrimReport& report, const frontend::TrimPar
       report.marginalEdges(), report.seconds, report.waiting_submaps);
   std::printf(
       "trim_submaps %d\ntrim_nodes %d\ntrim_marginal_edges %d\n"
-      "trim_dropped_rejected_loops %d\ntrim_seconds %.4f\ntrim_coverage_seconds %.4f\n"
+      "trim_marginal_edges_kept %d\ntrim_dropped_rejected_loops %d\ntrim_seconds "
+      "%.4f\ntrim_coverage_seconds %.4f\n"
       "trim_p50_ms %.2f\ntrim_p99_ms %.2f\ntrim_kl %.6g\ntrim_kl_clt %.6g\n"
       "trim_kl_delete %.6g\ntrim_kl_ratio_max %.6g\n",
       report.trimmed_submaps, report.removedNodes(), report.marginalEdges(),
-      report.dropped_rejected_loops, report.seconds, report.coverage_seconds, quantile(0.5),
-      quantile(0.99), kl, kl_clt, kl_delete, worst_ratio);
+      report.marginal_edges_kept, report.dropped_rejected_loops, report.seconds,
+      report.coverage_seconds, quantile(0.5), quantile(0.99), kl, kl_clt, kl_delete, worst_ratio);
   for (const frontend::TrimRecord& t : report.trims) {
     std::printf(
         "trim_record submap %d submaps %d nodes %d blanket %d constraints %d edges %d "

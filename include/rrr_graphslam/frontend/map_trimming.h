@@ -13,10 +13,10 @@
 //      TrimmingStrategy. The newest keep_recent_submaps are never trimmed.
 //   2. Owned nodes: a node leaves when every submap it was inserted into is trimmed (consecutive
 //      submaps share half their scans: the nodes of a kept neighbour stay).
-//   3. Marginalization (core/marginalization.h) of each group of removed nodes that trusted
-//      constraints join (the nodes of neighbouring trimmed submaps go together, so that no tree
-//      is approximated again), at the optimum of the trusted graph (odometry, accepted loops and
-//      earlier marginal constraints): the Schur complement over their Markov blanket.
+//   3. Marginalization (core/marginalization.h) of each trimmed submap's leaving nodes, oldest
+//      first (or, with group_neighbours, of each group of leaving nodes that trusted constraints
+//      join), at the optimum of the trusted graph (odometry, accepted loops and earlier marginal
+//      constraints): the Schur complement over their Markov blanket.
 //   4. Sparsification: the Chow-Liu tree of that marginal (core/chow_liu.h) replaces it as
 //      marginal constraints (kClt), or nothing does (kDelete, Cartographer's trimmer).
 //
@@ -59,6 +59,11 @@ struct TrimParams {
   Sparsification sparsification = Sparsification::kClt;
   /// Cell size of the coverage grids (m).
   double coverage_resolution_m = 0.1;
+  /// true: the leaving nodes that trusted constraints join are marginalized together (one exact
+  /// marginal, one tree, however many submaps they came from: the blanket can grow to hundreds
+  /// of nodes); false (default): the nodes of each trimmed submap on their own, oldest first (a
+  /// later trim may marginalize an earlier one's tree again).
+  bool group_neighbours = false;
   /// Whether each trim's KL divergences are computed (one covariance of the graph per trim).
   bool report_kl = true;
   /// Threads that build the coverage grids.
@@ -107,7 +112,8 @@ class FreshAreaTrimming : public TrimmingStrategy {
   double min_area_;
 };
 
-/// One marginalization: the nodes of neighbouring trimmed submaps that trusted constraints join.
+/// One marginalization: a trimmed submap's leaving nodes (with group_neighbours: those of
+/// neighbouring trimmed submaps that trusted constraints join).
 struct TrimRecord {
   int submap = 0;               ///< the oldest of them (index in the map before trimming)
   int submaps = 0;              ///< how many trimmed submaps owned the nodes
@@ -127,6 +133,9 @@ struct TrimReport {
   std::vector<SubmapCoverage> coverage;  ///< every submap judged, newest first
   int waiting_submaps = 0;         ///< would be trimmed but a pending loop touches their nodes
   int dropped_rejected_loops = 0;  ///< rejected candidates that touched a removed node
+  /// Marginal edges the trims made that are in the trimmed map (a later trim of the same run may
+  /// marginalize an earlier one's edges again: marginalEdges() counts every one made).
+  int marginal_edges_kept = 0;
   double coverage_seconds = 0.0;
   double seconds = 0.0;  ///< everything
   int removedNodes() const;
