@@ -75,7 +75,9 @@ LinkResiduals reducedGraphResiduals(const VerificationGraph& graph, const std::v
 
 LinkResiduals fullGraphResiduals(VerificationGraph& graph, const std::vector<int>& links) {
   LinkResiduals out;
-  out.total_chi2 = graph.optimize(links, core::startFrom(graph.initialPoses())).final_chi2;
+  out.total_chi2 =
+      std::max(0.0, graph.optimize(links, core::startFrom(graph.initialPoses())).final_chi2 -
+                        graph.trustedChi2());
   const core::Optimizer& opt = graph.optimizer();
   for (int k : links) out.link_chi2.push_back(opt.constraintChi2(graph.candidate(k).constraint));
   return out;
@@ -169,7 +171,8 @@ InterClusterResult interClusterConsistency(VerificationGraph& graph,
         graph.optimize(links, from_start ? core::startFrom(start) : core::OptimizationRequest{});
     ++result.optimizations;
     result.stop = r.stop_reason;
-    result.chi2 = failIfNotFinite(opt.chi2());
+    // What the links add to the trusted constraints' own residual (marginal constraints).
+    result.chi2 = std::max(0.0, failIfNotFinite(opt.chi2()) - graph.trustedChi2());
     result.dof = 3 * static_cast<int>(links.size());
     if (active.empty()) break;
 

@@ -215,7 +215,7 @@ bool Rrr::recoverFar(std::vector<char>& tried) {
                              return predicted && *predicted >= params_.recover_gate;
                            }),
             far.end());
-  const double good_chi2 = opt.chi2();
+  const double good_chi2 = opt.chi2() - graph_.trustedChi2();
   for (int c : far) {
     tried[static_cast<std::size_t>(c)] = 1;
     std::vector<int> tested = clustersWith(Status::kGood);
@@ -229,7 +229,7 @@ bool Rrr::recoverFar(std::vector<char>& tried) {
     // Accepted only as is: the joint test passes, no cluster, good or new, had to go, and the
     // cluster raised the good set's chi2 by less than its own test threshold. (A pass at a
     // non-converged point holds: the minimum's chi2 is lower still.)
-    const double chi2 = failIfNotFinite(opt.chi2());
+    const double chi2 = failIfNotFinite(opt.chi2()) - graph_.trustedChi2();
     const int dof = 3 * static_cast<int>(links.size());
     const int own_dof = 3 * static_cast<int>(own.size());
     bool consistent = chi2 < core::chi2Quantile(params_.alpha, dof) &&

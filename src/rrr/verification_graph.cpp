@@ -99,6 +99,23 @@ std::vector<int> VerificationGraph::trustedComponents() const {
   return component;
 }
 
+double VerificationGraph::trustedChi2() const {
+  if (marginal_.empty()) return 0.0;  // odometry alone is a forest: it holds exactly
+  if (trusted_chi2_marginals_ == marginal_.size()) return trusted_chi2_;
+  std::vector<char> candidate(static_cast<std::size_t>(optimizer_.numConstraints()), 0);
+  for (const LoopCandidate& c : candidates_) candidate[static_cast<std::size_t>(c.constraint)] = 1;
+  core::Optimizer trusted(optimizer_.params());
+  for (const core::Pose2& p : initial_poses_) trusted.addNode(p);
+  for (int c = 0; c < optimizer_.numConstraints(); ++c) {
+    if (candidate[static_cast<std::size_t>(c)]) continue;
+    trusted.addConstraint(optimizer_.from(c), optimizer_.to(c), optimizer_.measurement(c),
+                          optimizer_.information(c));
+  }
+  trusted_chi2_ = trusted.optimize().final_chi2;
+  trusted_chi2_marginals_ = marginal_.size();
+  return trusted_chi2_;
+}
+
 int VerificationGraph::addCandidate(int from, int to, const core::Pose2& measurement,
                                     const Eigen::Matrix3d& information, std::size_t edge) {
   if (from < 0 || to < 0 || from >= numNodes() || to >= numNodes() || from == to) {

@@ -7,6 +7,7 @@ these tests are skipped.
 """
 import math
 import os
+import re
 import subprocess
 
 import numpy as np
@@ -154,3 +155,30 @@ def test_slam_offline_maps_a_simulated_session(tmp_path):
     drift = absolute_trajectory_error(dict(enumerate(odometry)), dict(enumerate(truth)))
     assert ate < 0.05
     assert drift > 2 * ate
+
+
+@pytest.mark.skipif(not (SIMULATE and SLAM_OFFLINE and os.environ.get("RRR_MAP_INFO")),
+                    reason="rrr_simulate/rrr_slam_offline/rrr_map_info not given")
+def test_a_trimmed_map_keeps_its_loops_when_it_is_loaded(tmp_path):
+    # Two sessions, the second trimmed when saved: with odometry that drifts, the marginal edges
+    # that join the sessions close cycles with the odometry that do not hold exactly (they carry
+    # the loops that bent it). Loaded again, RRR must still accept the loops the trimmed map kept:
+    # its joint tests measure what loops add to that residual (a build that tested the residual
+    # itself rejected every one of them).
+    out = tmp_path / "sim"
+    assert run(SIMULATE, WORLD, "--seed", 1, "--sessions", 2, "--out", out).returncode == 0
+    first, trimmed = tmp_path / "first.rrrmap", tmp_path / "trimmed.rrrmap"
+    result = run(SLAM_OFFLINE, out / "session_00.clf", "--save-map", first, "--quiet", "--refine-resolution", 0)
+    assert result.returncode == 0, result.stderr
+    result = run(SLAM_OFFLINE, out / "session_01.clf", "--load-map", first, "--save-map", trimmed,
+                 "--max-scans", 800, "--lifelong", "--quiet", "--refine-resolution", 0)
+    assert result.returncode == 0, result.stderr
+    trim = dict(line.split(" ", 1) for line in result.stdout.splitlines() if line.startswith("trim_"))
+    assert int(trim["trim_nodes"]) > 0 and int(trim["trim_marginal_edges_kept"]) > 0, result.stdout
+    info = run(os.environ["RRR_MAP_INFO"], trimmed)
+    kept = int(dict(line.split(" ", 1) for line in info.stdout.splitlines())["loop_edges_accepted"])
+    assert kept > 0
+    again = run(SLAM_OFFLINE, out / "session_00.clf", "--load-map", trimmed, "--max-scans", 2, "--quiet",
+                "--refine-resolution", 0)
+    assert again.returncode == 0, again.stderr
+    assert int(re.search(r"^accepted +(\d+)", again.stdout, re.M).group(1)) >= kept, again.stdout

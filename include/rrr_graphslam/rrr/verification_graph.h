@@ -68,6 +68,12 @@ class VerificationGraph {
   /// in: 0, 1, ... in order of their first nodes. Without marginal constraints these are the
   /// odometry chain's sessions.
   std::vector<int> trustedComponents() const;
+  /// chi2 of the trusted constraints alone (odometry and marginal constraints, no candidate) at
+  /// their own minimum: zero for odometry (a forest), positive once marginal constraints close
+  /// cycles with it (they carry loops that bent the chain). RRR's joint tests measure what the
+  /// candidates add to it. Optimized in a copy of the trusted graph (this optimizer keeps its
+  /// state) once per change of the marginal constraints.
+  double trustedChi2() const;
   const std::vector<core::Pose2>& initialPoses() const { return initial_poses_; }
 
   core::Optimizer& optimizer() { return optimizer_; }
@@ -90,6 +96,8 @@ class VerificationGraph {
   std::vector<LoopCandidate> candidates_;
   std::vector<MarginalLink> marginal_;
   core::Optimizer optimizer_;
+  mutable double trusted_chi2_ = 0.0;
+  mutable std::size_t trusted_chi2_marginals_ = 0;  // marginal_.size() it was computed for
   OdometryChain chain_;
 };
 
