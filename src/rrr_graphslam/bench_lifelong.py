@@ -377,7 +377,7 @@ def plot(results: Dict[str, List[SessionResult]], out_prefix: str, title: str) -
         ax.set_ylim(bottom=0)
         ax.grid(alpha=0.3)
     axes[0].legend(fontsize=7)
-    fig.suptitle(f"{title}: saved map after each session", fontsize=10)
+    fig.suptitle(f"{title}: the saved map after each session", fontsize=10)
     fig.tight_layout()
     paths.append(out_prefix + "_size.png")
     fig.savefig(paths[-1], dpi=80)
@@ -396,31 +396,32 @@ def plot(results: Dict[str, List[SessionResult]], out_prefix: str, title: str) -
     ax.set_ylim(bottom=0)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7)
-    ax.set_title(f"{title}: one re-optimization of the map's trusted graph", fontsize=10)
+    ax.set_title(f"{title}\none re-optimization of the saved map's trusted graph", fontsize=9)
     fig.tight_layout()
     paths.append(out_prefix + "_reopt.png")
     fig.savefig(paths[-1], dpi=80)
     plt.close(fig)
 
-    fig, ax = plt.subplots(figsize=(7, 3.3))
+    fig, ax = plt.subplots(figsize=(7, 3.6))
+    styles = {"clt": dict(fillstyle="full"), "delete": dict(fillstyle="none")}
     for config, rows in results.items():
         records = [(r.session, t) for r in rows if r.trim is not None for t in r.trim.records]
         if not records:
             continue
-        x = list(range(1, len(records) + 1))
-        ax.semilogy(x, [max(t.kl_clt, 1e-6) for _, t in records], "o", ms=3, color="tab:blue",
-                    label=f"KL(clt), run {config}")
-        ax.semilogy(x, [max(t.kl_delete, 1e-6) for _, t in records], "x", ms=4, color="tab:orange",
-                    label=f"KL(delete), run {config}")
-        starts = [k + 1 for k, (s, _) in enumerate(records) if k == 0 or records[k - 1][0] != s]
-        for s in starts[1:]:
-            ax.axvline(s - 0.5, color="0.85", lw=0.8)
-        break  # one run: both KLs are computed for every trim whichever replacement it made
-    ax.set_xlabel("trim record (in order; grey lines: next session)")
+        # Both divergences are computed for every trim, whichever replacement the run kept.
+        x = [r.session + 1 + 0.3 * (k / max(1, len(r.trim.records))) for r in rows if r.trim is not None
+             for k in range(len(r.trim.records))]
+        style = styles.get(config, {})
+        ax.semilogy(x, [max(t.kl_clt, 1e-6) for _, t in records], "o", ms=4, color="tab:blue",
+                    label=f"KL(clt), {config} run", **style)
+        ax.semilogy(x, [max(t.kl_delete, 1e-6) for _, t in records], "s", ms=4, color="tab:orange",
+                    label=f"KL(delete), {config} run", **style)
+    ax.xaxis.set_major_locator(MaxNLocator(integer=True))
+    ax.set_xlabel("session whose save made the trim")
     ax.set_ylabel("KL from the exact marginal (nats)")
     ax.grid(alpha=0.3, which="both")
-    ax.legend(fontsize=8)
-    ax.set_title(f"{title}: KL divergence per trim", fontsize=10)
+    ax.legend(fontsize=7)
+    ax.set_title(f"{title}\nKL divergence of each trim (marginalization)", fontsize=9)
     fig.tight_layout()
     paths.append(out_prefix + "_kl.png")
     fig.savefig(paths[-1], dpi=80)
