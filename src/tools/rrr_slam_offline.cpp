@@ -292,6 +292,13 @@ Arguments parseArguments(int argc, char** argv) {
   return args;
 }
 
+// The q-quantile of sorted, non-empty `values` by the nearest-rank method: the smallest value
+// with at least a fraction q of them at or below it (p99 of fewer than 100 values is the largest).
+double nearestRank(const std::vector<double>& values, double q) {
+  const auto rank = static_cast<std::size_t>(std::ceil(q * static_cast<double>(values.size())));
+  return values[std::min(values.size() - 1, rank > 0 ? rank - 1 : 0)];
+}
+
 // The trim's summary line, one 'key value' line per figure, then a 'trim_record' line per
 // marginalization (bench_lifelong reads them).
 void printTrimReport(const frontend::TrimReport& report, const frontend::TrimParams& params) {
@@ -307,9 +314,7 @@ void printTrimReport(const frontend::TrimReport& report, const frontend::TrimPar
     }
   }
   std::sort(ms.begin(), ms.end());
-  auto quantile = [&](double q) {
-    return ms.empty() ? 0.0 : ms[static_cast<std::size_t>(q * static_cast<double>(ms.size() - 1))];
-  };
+  auto quantile = [&](double q) { return ms.empty() ? 0.0 : nearestRank(ms, q); };
   std::printf(
       "lifelong       trimmed %d submaps (%s, %s): %d nodes marginalized into %d marginal "
       "edges in %.2f s; %d submaps wait for pending loops\n",
@@ -433,11 +438,7 @@ void printSessions(const frontend::LaserSlam& slam) {
 void printLatency(std::vector<double> seconds) {
   if (seconds.empty()) return;
   std::sort(seconds.begin(), seconds.end());
-  auto at = [&](double q) {
-    return 1e3 *
-           seconds[std::min(seconds.size() - 1,
-                            static_cast<std::size_t>(q * static_cast<double>(seconds.size())))];
-  };
+  auto at = [&](double q) { return 1e3 * nearestRank(seconds, q); };
   std::printf("latency        per scan p50 %.2f ms, p99 %.2f ms, max %.2f ms (%zu scans)\n",
               at(0.5), at(0.99), 1e3 * seconds.back(), seconds.size());
 }

@@ -189,11 +189,12 @@ TEST(Conversions, MarkersAndPathShowTheGraph) {
   for (int k = 1; k < 60; ++k)
     graph.addOdometry(k - 1, k, core::between(pose(k - 1), pose(k)), info);
   graph.addCandidate(40, 0, core::between(pose(40), pose(0)), info);
-  graph.addCandidate(45, 25, core::Pose2(0, 0, 0), info);  // 10 m apart, said to coincide
+  graph.addCandidate(45, 25, core::Pose2(0, 0, 0), info);            // 10 m apart, said to coincide
+  graph.addMarginal(5, 35, core::between(pose(5), pose(35)), info);  // as a trim would leave it
   graph.finish();
   const std::vector<core::Pose2> poses = graph.mapPoses();
   const visualization_msgs::MarkerArray markers = buildMarkers(graph, poses, "map", ros::Time(1));
-  ASSERT_EQ(markers.markers.size(), 5u);
+  ASSERT_EQ(markers.markers.size(), 6u);
   std::map<std::string, const visualization_msgs::Marker*> by_ns;
   for (const auto& m : markers.markers) {
     by_ns[m.ns] = &m;
@@ -204,6 +205,7 @@ TEST(Conversions, MarkersAndPathShowTheGraph) {
   EXPECT_EQ(by_ns.at("loops_accepted")->points.size(), 2u);
   EXPECT_EQ(by_ns.at("loops_rejected")->points.size(), 2u);
   EXPECT_EQ(by_ns.at("loops_pending")->action, visualization_msgs::Marker::DELETE);
+  EXPECT_EQ(by_ns.at("marginal")->points.size(), 2u);
   // The accepted loop's ends meet in the map.
   const auto& a = by_ns.at("loops_accepted")->points;
   EXPECT_LT(std::hypot(a[0].x - a[1].x, a[0].y - a[1].y), 0.05);
