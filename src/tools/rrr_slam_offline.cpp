@@ -31,6 +31,7 @@
 #include "rrr_graphslam/frontend/trajectory_refinement.h"
 #include "rrr_graphslam/rrr/decisions_io.h"
 #include "rrr_params_cli.h"
+#include "slam_offline_report.h"
 #include "tum_trajectory.h"
 
 namespace {
@@ -292,54 +293,6 @@ Arguments parseArguments(int argc, char** argv) {
   return args;
 }
 
-// The q-quantile of sorted, non-empty `values` by the nearest-rank method: the smallest value
-// with at least a fraction q of them at or below it (p99 of fewer than 100 values is the largest).
-double nearestRank(const std::vector<double>& values, double q) {
-  const auto rank = static_cast<std::size_t>(std::ceil(q * static_cast<double>(values.size())));
-  return values[std::min(values.size() - 1, rank > 0 ? rank - 1 : 0)];
-}
-
-// The trim's summary line, one 'key value' line per figure, then a 'trim_record' line per
-// marginalization (bench_lifelong reads them).
-void printTrimReport(const frontend::TrimReport& report, const frontend::TrimParams& params) {
-  std::vector<double> ms;
-  double kl = 0.0, kl_clt = 0.0, kl_delete = 0.0, worst_ratio = 0.0;
-  for (const frontend::TrimRecord& t : report.trims) {
-    ms.push_back(1e3 * t.seconds);
-    kl += t.kl_nats;
-    kl_clt += t.kl_clt_nats;
-    kl_delete += t.kl_delete_nats;
-    if (t.kl_delete_nats > 0.0) {
-      worst_ratio = std::max(worst_ratio, t.kl_clt_nats / t.kl_delete_nats);
-    }
-  }
-  std::sort(ms.begin(), ms.end());
-  auto quantile = [&](double q) { return ms.empty() ? 0.0 : nearestRank(ms, q); };
-  std::printf(
-      "lifelong       trimmed %d submaps (%s, %s): %d nodes marginalized into %d marginal "
-      "edges in %.2f s; %d submaps wait for pending loops\n",
-      report.trimmed_submaps,
-      frontend::OverlapRatioTrimming(params.trim_overlap_ratio).describe().c_str(),
-      frontend::toString(params.sparsification).c_str(), report.removedNodes(),
-      report.marginalEdges(), report.seconds, report.waiting_submaps);
-  std::printf(
-      "trim_submaps %d\ntrim_nodes %d\ntrim_marginal_edges %d\n"
-      "trim_marginal_edges_kept %d\ntrim_dropped_rejected_loops %d\ntrim_seconds "
-      "%.4f\ntrim_coverage_seconds %.4f\n"
-      "trim_p50_ms %.2f\ntrim_p99_ms %.2f\ntrim_kl %.6g\ntrim_kl_clt %.6g\n"
-      "trim_kl_delete %.6g\ntrim_kl_ratio_max %.6g\n",
-      report.trimmed_submaps, report.removedNodes(), report.marginalEdges(),
-      report.marginal_edges_kept, report.dropped_rejected_loops, report.seconds,
-      report.coverage_seconds, quantile(0.5), quantile(0.99), kl, kl_clt, kl_delete, worst_ratio);
-  for (const frontend::TrimRecord& t : report.trims) {
-    std::printf(
-        "trim_record submap %d submaps %d nodes %d blanket %d constraints %d edges %d "
-        "kl %.6g kl_clt %.6g kl_delete %.6g ms %.3f\n",
-        t.submap, t.submaps, t.removed_nodes, t.blanket_nodes, t.removed_constraints,
-        t.marginal_edges, t.kl_nats, t.kl_clt_nats, t.kl_delete_nats, 1e3 * t.seconds);
-  }
-}
-
 // Poses from index `first` on, TUM format.
 void writeTrajectory(const std::string& path, const std::vector<double>& stamps,
                      const std::vector<core::Pose2>& poses, std::size_t first) {
@@ -368,79 +321,6 @@ std::vector<core::Pose2> refinedTrajectory(const frontend::LaserSlam& slam,
   const std::vector<core::Pose2> refined = frontend::refineTrajectory(map, points, session, params);
   std::copy(refined.begin(), refined.end(), poses.begin() + first);
   return poses;
-}
-
-// Nodes and edges per session, and when the current session was tied to the earlier ones.
-void printSessions(const frontend::LaserSlam& slam) {
-  const auto& sessions = slam.sessions();
-  if (sessions.size() < 2) return;
-  const core::PoseGraph graph = slam.rrr().toPoseGraph();
-  const int nodes = slam.rrr().numNodes();
-  auto sessionOf = [&](int node) {
-    int s = 0;
-    while (s + 1 < static_cast<int>(sessions.size()) &&
-           sessions[static_cast<std::size_t>(s) + 1].first_node <= node) {
-      ++s;
-    }
-    return s;
-  };
-  for (std::size_t s = 0; s < sessions.size(); ++s) {
-    const int first = sessions[s].first_node;
-    const int end = s + 1 < sessions.size() ? sessions[s + 1].first_node : nodes;
-    int edges = 0, crossing_accepted = 0;
-    for (std::size_t e = 0; e < graph.numEdges(); ++e) {
-      const auto& edge = graph.edge(e);
-      const int a = sessionOf(static_cast<int>(edge.from)),
-                b = sessionOf(static_cast<int>(edge.to));
-      if (a != static_cast<int>(s) && b != static_cast<int>(s)) continue;
-      ++edges;
-    }
-    for (int k = 0; k < slam.rrr().numCandidates(); ++k) {
-      const auto& c = slam.rrr().candidate(k);
-      const int a = sessionOf(c.from), b = sessionOf(c.to);
-      if (a != b && (a == static_cast<int>(s) || b == static_cast<int>(s)) &&
-          slam.rrr().verdict(k) == rrr::Verdict::kAccepted) {
-        ++crossing_accepted;
-      }
-    }
-    std::printf("session %-6zu %s: %d nodes, %d edges, %d accepted loops to other sessions\n", s,
-                sessions[s].name.c_str(), end - first, edges, crossing_accepted);
-  }
-  const auto& current = sessions.back();
-  if (const auto tied = slam.tiedAt()) {
-    std::printf("relocalized    at node %d (the session's node %d, %.1f s after its start)%s\n",
-                *tied, *tied - current.first_node,
-                slam.nodeTimestamps()[static_cast<std::size_t>(*tied)] - current.start_time,
-                slam.tied() ? "" : "; not tied at the end");
-  } else if (slam.tied()) {
-    std::printf("relocalized    only by the final decision\n");
-  } else {
-    std::printf("relocalized    no\n");
-  }
-  if (!slam.tied() && sessions.size() > 1) {
-    const double spread = slam.acceptedCrossingSpread();
-    if (spread < 0.0) {
-      std::printf(
-          "               no loop to the map is accepted: this session is a separate "
-          "component of the map\n");
-    } else {
-      std::printf(
-          "               the loops to the map RRR accepts lie within %.1f m of each "
-          "other along the session (relocalization_confirm_distance %g m): placed by "
-          "them, not confirmed\n",
-          spread, slam.params().loops.relocalization_confirm_distance_m);
-    }
-  }
-}
-
-// What each scan cost the robot: the time from its arrival to its pose (local SLAM, the loop
-// search of a new node and RRR's decisions it triggered).
-void printLatency(std::vector<double> seconds) {
-  if (seconds.empty()) return;
-  std::sort(seconds.begin(), seconds.end());
-  auto at = [&](double q) { return 1e3 * nearestRank(seconds, q); };
-  std::printf("latency        per scan p50 %.2f ms, p99 %.2f ms, max %.2f ms (%zu scans)\n",
-              at(0.5), at(0.99), 1e3 * seconds.back(), seconds.size());
 }
 
 std::vector<frontend::LoopLine> loopLines(const frontend::LaserSlam& slam) {
@@ -545,8 +425,8 @@ int main(int argc, char** argv) {
     std::printf("candidates     %d in %d clusters\n", status.candidates, status.clusters);
     std::printf("accepted       %d\n", status.accepted);
     std::printf("rejected       %d\n", status.rejected);
-    printSessions(slam);
-    printLatency(latency);
+    tools::printSessions(slam);
+    tools::printLatency(latency);
     std::printf(
         "time           %.2f s (local SLAM %.2f, loop search %.2f, RRR %.2f), %.1fx real time\n",
         seconds, stats.local_slam_seconds, stats.loop_search_seconds, stats.rrr_seconds,
@@ -581,7 +461,7 @@ int main(int argc, char** argv) {
       frontend::MapSnapshot map = slam.snapshot();
       if (args.lifelong) {
         frontend::TrimResult trimmed = frontend::trimMap(map, args.trim, args.params.local.submap);
-        printTrimReport(trimmed.report, args.trim);
+        tools::printTrimReport(trimmed.report, args.trim);
         map = std::move(trimmed.map);
       }
       const auto save_start = std::chrono::steady_clock::now();

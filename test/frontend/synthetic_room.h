@@ -5,6 +5,7 @@
 #include <limits>
 #include <vector>
 
+#include "rrr_graphslam/frontend/laser_slam.h"
 #include "rrr_graphslam/frontend/range_scan.h"
 
 namespace rrr_graphslam::frontend::testing {
@@ -46,6 +47,23 @@ inline RangeScan castScan(const std::vector<Segment>& world, const core::Pose2& 
     scan.ranges.push_back(static_cast<float>(best));
   }
   return scan;
+}
+
+/// The robot's true pose k on a circle in the free part of the room (a lap is 105 scans).
+inline core::Pose2 truthAt(int k) {
+  const double a = 0.06 * k;
+  return {7.5 + 1.5 * std::cos(a), 2.5 + 1.5 * std::sin(a), a + M_PI / 2};
+}
+
+/// Drives scans first .. first + scans - 1 of the circle, 0.1 s apart from t0; the odometry is
+/// the truth seen from `odom_frame`.
+inline void drive(LaserSlam& slam, const core::Pose2& odom_frame, int scans, double t0,
+                  int first = 0) {
+  for (int k = first; k < first + scans; ++k) {
+    RangeScan scan = castScan(room(), truthAt(k));
+    scan.timestamp = t0 + 0.1 * k;
+    slam.addScan(scan, core::compose(odom_frame, truthAt(k)));
+  }
 }
 
 }  // namespace rrr_graphslam::frontend::testing

@@ -26,7 +26,9 @@ namespace rrr_graphslam::frontend {
 namespace {
 
 using testing::castScan;
+using testing::drive;
 using testing::room;
+using testing::truthAt;
 
 LaserSlamParams smallMaps() {
   LaserSlamParams p;
@@ -37,22 +39,6 @@ LaserSlamParams smallMaps() {
   p.loops.threads = 1;
   p.loops.relocalization_confirm_distance_m = 3.0;  // a third of a lap of the room
   return p;
-}
-
-// The robot's true pose k on a circle in the free part of the room.
-core::Pose2 truthAt(int k) {
-  const double a = 0.06 * k;
-  return {7.5 + 1.5 * std::cos(a), 2.5 + 1.5 * std::sin(a), a + M_PI / 2};
-}
-
-// Drives scans first .. first + scans - 1 of the circle; the odometry is the truth seen from
-// `odom_frame`.
-void drive(LaserSlam& slam, const core::Pose2& odom_frame, int scans, double t0, int first = 0) {
-  for (int k = first; k < first + scans; ++k) {
-    RangeScan scan = castScan(room(), truthAt(k));
-    scan.timestamp = t0 + 0.1 * k;
-    slam.addScan(scan, core::compose(odom_frame, truthAt(k)));
-  }
 }
 
 std::string tempPath(const std::string& name) { return ::testing::TempDir() + name; }

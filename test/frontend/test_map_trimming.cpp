@@ -16,7 +16,9 @@ namespace rrr_graphslam::frontend {
 namespace {
 
 using testing::castScan;
+using testing::drive;
 using testing::room;
+using testing::truthAt;
 
 LaserSlamParams smallMaps() {
   LaserSlamParams p;
@@ -26,20 +28,6 @@ LaserSlamParams smallMaps() {
   p.loops.search_min_points = 60;
   p.loops.threads = 1;
   return p;
-}
-
-// The robot's true pose k on a circle in the free part of the room (a lap is 105 scans).
-core::Pose2 truthAt(int k) {
-  const double a = 0.06 * k;
-  return {7.5 + 1.5 * std::cos(a), 2.5 + 1.5 * std::sin(a), a + M_PI / 2};
-}
-
-void drive(LaserSlam& slam, const core::Pose2& odom_frame, int scans, double t0, int first = 0) {
-  for (int k = first; k < first + scans; ++k) {
-    RangeScan scan = castScan(room(), truthAt(k));
-    scan.timestamp = t0 + 0.1 * k;
-    slam.addScan(scan, core::compose(odom_frame, truthAt(k)));
-  }
 }
 
 // Three laps of the room: the last laps' submaps cover the first lap's.
