@@ -111,7 +111,6 @@ void OnlineRrr::addMarginal(NodeId from, NodeId to, const core::Pose2& measureme
   if (b < 0) throw std::invalid_argument(id("to_id", to) + " is not a node");
   if (a == b) throw std::invalid_argument(id("from_id", from) + " equals to_id");
   graph_.addMarginal(a, b, measurement, information);
-  marginal_.push_back({a, b, measurement, information});
 }
 
 OnlineRrr::CandidateStatus OnlineRrr::addCandidate(NodeId from, NodeId to,
@@ -230,7 +229,7 @@ OnlineRrrStatus OnlineRrr::status() const {
   s.nodes = numNodes();
   s.sessions = graph_.chain().numSessions();
   s.candidates = numCandidates();
-  s.marginal_edges = static_cast<int>(marginal_.size());
+  s.marginal_edges = static_cast<int>(graph_.marginalLinks().size());
   s.waiting_candidates = static_cast<int>(waiting_.size());
   s.clusters = incremental_.rrr().numClusters();
   s.open_clusters = incremental_.numOpenClusters();
@@ -257,9 +256,11 @@ core::PoseGraph OnlineRrr::poseGraph(const std::vector<core::Pose2>& poses,
     g.addEdge(ids[static_cast<std::size_t>(o.from)], ids[static_cast<std::size_t>(o.to)],
               o.measurement, o.information, core::EdgeKind::kOdometry);
   }
-  for (const Odometry& m : marginal_) {
+  const core::Optimizer& opt = graph_.optimizer();
+  for (const MarginalLink& m : graph_.marginalLinks()) {
     g.addEdge(ids[static_cast<std::size_t>(m.from)], ids[static_cast<std::size_t>(m.to)],
-              m.measurement, m.information, core::EdgeKind::kMarginal);
+              opt.measurement(m.constraint), opt.information(m.constraint),
+              core::EdgeKind::kMarginal);
   }
   for (int k = 0; k < numCandidates(); ++k) {
     if (accepted_only && verdict(k) != Verdict::kAccepted) continue;
@@ -312,7 +313,6 @@ std::unique_ptr<OnlineRrr> OnlineRrr::fromPoseGraph(const core::PoseGraph& graph
       const auto e = static_cast<std::size_t>(i);
       const ReplayEdge& edge = edges[e];
       online->graph_.addMarginal(edge.from, edge.to, graph.measurement(e), graph.information(e));
-      online->marginal_.push_back({edge.from, edge.to, graph.measurement(e), graph.information(e)});
     }
     online->incremental_.advanceTo(n);
     for (int i : arrivals[k].candidates) {

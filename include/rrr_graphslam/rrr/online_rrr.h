@@ -160,7 +160,7 @@ class OnlineRrr {
   core::PoseGraph mapPoseGraph() const;
 
  private:
-  struct Odometry {  // an odometry or a marginal constraint
+  struct Odometry {
     int from;
     int to;
     core::Pose2 measurement;
@@ -185,7 +185,6 @@ class OnlineRrr {
   VerificationGraph graph_;
   IncrementalRrr incremental_;
   std::vector<Odometry> odometry_;
-  std::vector<Odometry> marginal_;
   std::map<std::pair<NodeId, NodeId>, std::vector<int>> candidates_by_ends_;
   std::deque<Waiting> waiting_;
   std::vector<Verdict> reported_;
