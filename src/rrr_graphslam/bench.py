@@ -1,6 +1,8 @@
 """The RRR benchmark (scripts/bench_rrr): rrr_offline on the bundled graphs with injected outliers
 of every kind and count, and on the KITTI loop-candidate sets, as a Markdown table. With
---ablation, a second table: each addition to the published RRR switched off on its own.
+--ablation, a second table: each addition to the published RRR switched off on its own. With
+--aliasing, a table of perceptual aliasing: aliased groups of several sizes and densities beside
+random outliers of the same count and seed, on fresh seeds, with the time ratio between them.
 
 Outlier sets are generated once with a fixed seed into the cache folder and reused. The
 reference for the generator's truth gate (no "outlier" that agrees with the true relative pose) is
@@ -8,6 +10,7 @@ the clean graph optimized by rrr_optimize with all its loops, also cached.
 """
 
 import argparse
+import math
 import os
 import re
 import subprocess
@@ -20,12 +23,16 @@ from .graph_io import read_graph, write_graph, write_text_atomically
 from .outliers import add_outliers
 
 SYNTHETIC = ("manhattanOlson3500_olson", "intel", "city10000", "ringCity", "csail")
-KINDS = ("random", "local", "random-grouped", "local-grouped")
+KINDS = ("random", "local", "random-grouped", "local-grouped", "aliased")
 COUNTS = (100, 500, 1000)
 KITTI = ("00", "05", "06", "07")
 B25B = ("0.000", "0.250", "0.500", "0.750", "1.000")
 ALPHAS = ("0.00", "0.25", "0.50", "0.75", "1.00")
 BASELINE = "batch --full-intra"
+ALIASING_GRAPHS = ("manhattanOlson3500_olson", "intel", "csail", "city10000", "ringCity")
+ALIASING_GROUP_SIZES = (5, 20, 50)
+ALIASING_FRACTIONS = (0.05, 0.1, 0.2)  # of the graph's loop candidates
+ALIASING_SEEDS = (2, 3, 4, 5, 6)
 ABLATION_INPUTS = ("manhattanOlson3500_olson:random:1000",
                    "manhattanOlson3500_olson:local-grouped:500")
 # The switches the paper preset changes (applyPreset in src/rrr/rrr_params.cpp) that act in a batch
@@ -87,13 +94,21 @@ def reference_poses(optimizer, source, cache, name):
     return read_graph(path).poses
 
 
-def synthetic_input(data, cache, optimizer, name, kind, count):
-    path = os.path.join(cache, f"{name}_{kind}{count}_s1_gated.g2o")
+def source_graph(data, name):
+    return os.path.join(data, f"{name}.toro.gz" if name == "csail" else f"{name}.g2o.gz")
+
+
+def synthetic_input(data, cache, optimizer, name, kind, count, seed=1, group_size=10):
+    """The cached input `name` + `count` outliers of `kind` (groups of `group_size` for the
+    grouped kinds) drawn with `seed`, made on first use: (graph path, truth path)."""
+    size = f"_g{group_size}" if group_size != 10 else ""
+    path = os.path.join(cache, f"{name}_{kind}{count}{size}_s{seed}_gated.g2o")
     truth = path + ".labels"
     if not (os.path.exists(path) and os.path.exists(truth)):
-        source = os.path.join(data, f"{name}.toro.gz" if name == "csail" else f"{name}.g2o.gz")
+        source = source_graph(data, name)
         reference = reference_poses(optimizer, source, cache, name)
-        graph, labels = add_outliers(read_graph(source), kind, count, seed=1, reference=reference)
+        graph, labels = add_outliers(read_graph(source), kind, count, seed=seed,
+                                     group_size=group_size, reference=reference)
         write_graph(graph, path)
         write_text_atomically(truth, "".join(f"{i} {j} {label}\n" for i, j, label in labels))
     return path, truth
@@ -122,12 +137,27 @@ def main(argv=None):
                              "the default with each addition switched off, as a second table "
                              "(slow: the paper preset optimizes the whole graph from the initial "
                              "estimate for every intra test and every removal)")
+    parser.add_argument("--aliasing", nargs="*", metavar="NAME",
+                        help="also run the aliasing table on these graphs (given without any: "
+                             f"{' '.join(ALIASING_GRAPHS)}): aliased groups beside random outliers "
+                             "of the same count and seed")
+    parser.add_argument("--aliasing-group-sizes", nargs="+", type=int,
+                        default=list(ALIASING_GROUP_SIZES))
+    parser.add_argument("--aliasing-fractions", nargs="+", type=float,
+                        default=list(ALIASING_FRACTIONS),
+                        help="outlier counts as fractions of the graph's loop candidates")
+    parser.add_argument("--aliasing-counts", nargs="+", type=int,
+                        help="outlier counts, instead of --aliasing-fractions")
+    parser.add_argument("--aliasing-seeds", nargs="+", type=int, default=list(ALIASING_SEEDS))
+    parser.add_argument("--aliasing-incremental", action="store_true",
+                        help="the aliased inputs also in incremental mode (latency per candidate)")
     args = parser.parse_args(argv)
     os.makedirs(args.cache, exist_ok=True)
     optimizer = args.rrr_optimize or os.path.join(os.path.dirname(args.rrr_offline), "rrr_optimize")
     ablation = None if args.ablation is None else (args.ablation or list(ABLATION_INPUTS))
-    # A run of the ablation alone (every other input deselected) prints only its table.
-    main_table = ablation is None or bool(
+    # A run of the ablation or the aliasing table alone (every other input deselected) prints
+    # only that table.
+    main_table = (ablation is None and args.aliasing is None) or bool(
         (args.datasets and args.kinds and args.counts) or args.incremental or args.baseline
         or not args.no_kitti or not args.no_b25b)
 
@@ -195,7 +225,116 @@ def main(argv=None):
         if main_table:
             print()
         run_ablation(args, optimizer, ablation)
+    if args.aliasing is not None:
+        if main_table or ablation is not None:
+            print()
+        run_aliasing(args, optimizer, args.aliasing or list(ALIASING_GRAPHS))
     return 0
+
+
+def aliasing_counts(loops, args):
+    """The outlier counts of the aliasing table for a graph with `loops` loop candidates."""
+    if args.aliasing_counts:
+        return list(args.aliasing_counts)
+    return sorted({max(1, round(f * loops)) for f in args.aliasing_fractions})
+
+
+def run_aliasing(args, optimizer, names):
+    """The aliasing table: each graph with aliased groups of every size and count, and random
+    outliers of the same count, for every seed; then the worst over the seeds and the targets."""
+    print("| graph | group | outliers | seed | aliased P / R | aliased s | random P / R | random s "
+          "| ratio |" + (" incremental p99 / max ms |" if args.aliasing_incremental else ""))
+    print("|---|---|---|---|---|---|---|---|---|" + ("---|" if args.aliasing_incremental else ""))
+    results = []
+    for name in names:
+        loops = 0 if args.aliasing_counts else len(read_graph(source_graph(args.data, name)).loops())
+        for count in aliasing_counts(loops, args):
+            for seed in args.aliasing_seeds:
+                graph, truth = synthetic_input(args.data, args.cache, optimizer, name, "random",
+                                               count, seed)
+                random_score, random_run = scored_run(args.rrr_offline, graph, truth,
+                                                      graph + ".batch.tsv")
+                for size in args.aliasing_group_sizes:
+                    graph, truth = synthetic_input(args.data, args.cache, optimizer, name,
+                                                   "aliased", count, seed, size)
+                    s, r = scored_run(args.rrr_offline, graph, truth, graph + ".batch.tsv")
+                    ratio = r["time"] / max(random_run["time"], 1e-3)
+                    latency = None
+                    if args.aliasing_incremental:
+                        _, inc = scored_run(args.rrr_offline, graph, truth,
+                                            graph + ".incremental.tsv", ["--mode", "incremental"])
+                        latency = latency_ms(inc["latency"])
+                    results.append(AliasingRow(name, size, count, seed, s, r, random_score,
+                                               random_run, ratio, latency))
+                    print(f"| {name} | {size} | {count} | {seed} | {s.precision:.4f} / "
+                          f"{s.recall:.4f} | {r['time']:.2f} | {random_score.precision:.4f} / "
+                          f"{random_score.recall:.4f} | {random_run['time']:.2f} | {ratio:.1f}x |"
+                          + (f" {latency[0]:.1f} / {latency[1]:.1f} |" if latency else ""),
+                          flush=True)
+    print()
+    for line in aliasing_summary(results):
+        print(line)
+
+
+class AliasingRow(NamedTuple):
+    graph: str
+    group_size: int
+    count: int
+    seed: int
+    score: Score
+    run: dict
+    random_score: Score
+    random_run: dict
+    ratio: float            # aliased batch time / random batch time
+    latency: tuple          # incremental (p99, max) ms per candidate, or None
+
+
+def latency_ms(text):
+    """(p99, max) in ms from rrr_offline's latency line."""
+    p99 = re.search(r"p99 ([0-9.]+) ms", text)
+    most = re.search(r"max ([0-9.]+) ms", text)
+    return (float(p99.group(1)) if p99 else math.nan, float(most.group(1)) if most else math.nan)
+
+
+def aliasing_summary(rows):
+    """The worst over the seeds per (graph, group size, count), then the issue's targets, each
+    naming the inputs that miss it."""
+    lines = ["| graph | group | outliers | seeds | worst P | worst R | worst ratio | mean ratio |",
+             "|---|---|---|---|---|---|---|---|"]
+    groups = {}
+    for r in rows:
+        groups.setdefault((r.graph, r.group_size, r.count), []).append(r)
+    for (graph, size, count), rs in groups.items():
+        ratios = [r.ratio for r in rs]
+        lines.append(f"| {graph} | {size} | {count} | {','.join(str(r.seed) for r in rs)} | "
+                     f"{min(r.score.precision for r in rs):.4f} | "
+                     f"{min(r.score.recall for r in rs):.4f} | {max(ratios):.1f}x | "
+                     f"{sum(ratios) / len(ratios):.1f}x |")
+
+    def failing(selection, what, bad):
+        names = [f"{r.graph} g{r.group_size} {r.count} s{r.seed} ({what(r)})"
+                 for r in selection if bad(r)]
+        met = len(selection) - len(names)
+        return f"{met} of {len(selection)}" + (f"; not: {', '.join(names)}" if names else "")
+
+    lines += ["", "targets (every aliased input, every seed):",
+              "  precision 1.000: " + failing(rows, lambda r: f"{r.score.precision:.4f}",
+                                              lambda r: r.score.precision < 1.0),
+              "  recall >= 0.98: " + failing(rows, lambda r: f"{r.score.recall:.4f}",
+                                             lambda r: r.score.recall < 0.98),
+              "  batch time at most 3x random: " + failing(rows, lambda r: f"{r.ratio:.1f}x",
+                                                           lambda r: r.ratio > 3.0)]
+    city = [r for r in rows if (r.graph, r.group_size, r.count) == ("city10000", 20, 2000)]
+    if city:
+        lines.append("  City10000 + 2000 aliased (groups of 20) under 10 s batch: " + ", ".join(
+            f"s{r.seed} {r.run['time']:.2f} s" for r in city) + (
+            " (met)" if all(r.run["time"] < 10.0 for r in city) else " (NOT met)"))
+    incremental = [r for r in rows if r.latency]
+    if incremental:
+        lines.append("  incremental p99 under 50 ms, no candidate over 1 s: " + failing(
+            incremental, lambda r: f"p99 {r.latency[0]:.1f} ms, max {r.latency[1]:.0f} ms",
+            lambda r: not (r.latency[0] < 50.0 and r.latency[1] < 1000.0)))
+    return lines
 
 
 def ablation_configurations():

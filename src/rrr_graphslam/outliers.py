@@ -1,12 +1,21 @@
-"""False loop closures for robustness experiments, the four kinds of the robust-SLAM literature
-(Suenderhauf and Protzel's vertigo generator): random, local, random-grouped, local-grouped.
+"""False loop closures for robustness experiments: the four kinds of the robust-SLAM literature
+(Suenderhauf and Protzel's vertigo generator), random, local, random-grouped, local-grouped, and
+perceptual aliasing, aliased.
 
 random   both ends anywhere (from < to, not consecutive)
 local    the second end within `local_window` nodes of the first
-*-grouped  groups of `group_size` consecutive, mutually consistent links (from+k, to+k) that
-           share one measurement, like a place recognizer fooled along a stretch of corridor.
-Measurements are x, y ~ N(0, 0.3 m), theta ~ N(0, 10 deg); information is copied from the
-graph's first loop edge (or its first edge). Pairs that already are an edge are drawn again.
+*-grouped  groups of `group_size` consecutive links (from+k, to+k) that share one measurement,
+           like a place recognizer fooled along a stretch of corridor.
+aliased  groups of `group_size` consecutive links (from+k, to+k), both ends anywhere, that share
+         one wrong rigid offset: the stretch from `to` is moved rigidly onto the wrong place next to
+         `from`, and every link measures the relative pose the poses would have there. The links
+         agree with each other and with the odometry on both sides, as the loops of a robot that
+         takes a long repeated corridor for another would (a *-grouped group does not: its one
+         measurement fits only where both stretches happen to move alike). The poses moved are the
+         reference's (see below), or the graph's own.
+Measurements (of an aliased group: its first link's) are x, y ~ N(0, 0.3 m), theta ~ N(0, 10 deg);
+information is copied from the graph's first loop edge (or its first edge). Pairs that already are
+an edge are drawn again.
 
 With reference poses (ground truth, or the clean graph optimized), a group is also drawn again
 when one of its measurements agrees with the reference's relative pose, i.e. its chi2 against it
@@ -24,9 +33,9 @@ from typing import Dict, Iterator, List, Optional, Set, Tuple
 import numpy as np
 from scipy.stats import chi2
 
-from .graph_io import Edge, Pose, PoseGraph, between, information_matrix
+from .graph_io import Edge, Pose, PoseGraph, between, compose, information_matrix, inverse
 
-KINDS = ("random", "local", "random-grouped", "local-grouped")
+KINDS = ("random", "local", "random-grouped", "local-grouped", "aliased")
 # Failed draws in a row after which add_outliers checks whether any place is left for the next
 # group (random groups can leave only gaps shorter than a group long before the graph is full).
 _DRAWS_BEFORE_ROOM_CHECK = 10000
@@ -53,6 +62,23 @@ def missing_nodes(graph: PoseGraph, reference: Dict[int, Pose]) -> str:
     return f"node {missing[0]}" + (f" and {len(missing) - 1} more" if len(missing) > 1 else "")
 
 
+def _is_grouped(kind: str) -> bool:
+    return kind.endswith("grouped") or kind == "aliased"
+
+
+def _is_local(kind: str) -> bool:
+    return kind.startswith("local")
+
+
+def _aliased_measurements(poses: Dict[int, Pose], group: List[Tuple[int, int]], first: Pose) -> List[Pose]:
+    """The measurements of an aliased group whose first link measures `first`: the rigid motion
+    that puts the first link's `to` node at `first` from its `from` node, applied to every `to`
+    node of the group, measured from the matching `from` node."""
+    (a, b) = group[0]
+    moved = compose(poses[a], compose(first, inverse(poses[b])))
+    return [between(poses[i], compose(moved, poses[j])) for i, j in group]
+
+
 def _diagonals(graph: PoseGraph, ids: List[int]) -> Dict[int, Set[int]]:
     """The graph's edges in the index space outliers are drawn in: for an edge between the nodes
     at sorted positions p < q, position p on diagonal q - p."""
@@ -71,7 +97,7 @@ def _free_runs(n: int, kind: str, size: int, local_window: int,
     diagonal add_outliers draws from: a group of `size` links starting at position a of diagonal
     d links nodes a + k and a + d + k, with a <= last_start = n - 1 - size - d."""
     top = n - 1 - size
-    if kind.startswith("local"):
+    if _is_local(kind):
         top = min(top, local_window)
     for d in range(2, top + 1):
         last_start = n - 1 - size - d
@@ -88,7 +114,7 @@ def outlier_room(graph: PoseGraph, kind: str, group_size: int = 10, local_window
     nodes that are no edge yet, packed as tightly as groups of `group_size` allow (the last group
     of a request may be shorter). Drawn at random, groups leave gaps and may fit fewer."""
     ids = sorted(graph.poses)
-    size = group_size if kind.endswith("grouped") else 1
+    size = group_size if _is_grouped(kind) else 1
     full = partial = 0
     for first, length, last_start in _free_runs(len(ids), kind, size, local_window, _diagonals(graph, ids)):
         full += length // size
@@ -114,7 +140,7 @@ def add_outliers(graph: PoseGraph, kind: str, count: int, seed: int = 1, group_s
     missing = missing_nodes(graph, reference) if reference is not None else ""
     if missing:
         raise ValueError(f"reference poses lack {missing}")
-    grouped = kind.endswith("grouped")
+    grouped = _is_grouped(kind)
     size = group_size if grouped else 1
     if n < size + 3:
         raise ValueError(f"graph has {n} nodes, too few for outliers in groups of {size}")
@@ -150,7 +176,7 @@ def add_outliers(graph: PoseGraph, kind: str, count: int, seed: int = 1, group_s
                                  f"{count} {kind} outliers: groups drawn at random leave gaps (at most "
                                  f"{room} fit when packed tightly)")
         a = rng.randint(0, n - 1 - size)
-        if kind.startswith("random"):
+        if not _is_local(kind):
             b = rng.randint(0, n - 1 - size)
         else:
             b = a + rng.randint(2, local_window)
@@ -163,15 +189,17 @@ def add_outliers(graph: PoseGraph, kind: str, count: int, seed: int = 1, group_s
         if any(p in existing for p in group):
             continue
         z = (rng.gauss(0.0, 0.3), rng.gauss(0.0, 0.3), rng.gauss(0.0, math.radians(10.0)))
+        zs = (_aliased_measurements(reference or graph.poses, group, z) if kind == "aliased"
+              else [z] * len(group))
         if reference is not None and any(
-                chi2_against(reference, i, j, z, info) < threshold for i, j in group):
+                chi2_against(reference, i, j, zk, info) < threshold for (i, j), zk in zip(group, zs)):
             continue
         failures = 0
         taken[b - a].update(range(a, a + len(group)))
-        for p in group:
+        for p, zk in zip(group, zs):
             existing.add(p)
             existing.add((p[1], p[0]))
-            added.append(Edge(p[0], p[1], z, info))
+            added.append(Edge(p[0], p[1], zk, info))
 
     out = PoseGraph(dict(graph.poses), list(graph.edges) + added)
     labels = [(e.source, e.target, 1) for e in graph.loops()] + [(e.source, e.target, 0) for e in added]

@@ -8,7 +8,8 @@ import re
 import sys
 from types import SimpleNamespace
 
-from rrr_graphslam.bench import ABLATION_SWITCHES, Row, main, target_lines
+from rrr_graphslam.bench import (ABLATION_SWITCHES, AliasingRow, Row, aliasing_summary, main,
+                                 target_lines)
 
 
 def row(dataset, kind, count, mode, precision, recall, time=0.1, latency=""):
@@ -70,7 +71,7 @@ def fake_bench(tmp_path, *options):
     """bench.main with a fake rrr_offline and one cached input, g random 4, every other input
     deselected; its stdout lines, the fake's calls and the cache folder."""
     cache = tmp_path / "cache"
-    cache.mkdir(parents=True)
+    cache.mkdir(parents=True, exist_ok=True)
     (cache / "g_random4_s1_gated.g2o").write_text("")  # the fake reads nothing
     (cache / "g_random4_s1_gated.g2o.labels").write_text("0 5 1\n1 6 1\n2 7 0\n3 8 0\n")
     log = tmp_path / "calls"
@@ -124,6 +125,49 @@ def test_ablation_beside_the_bench_and_only_when_asked(tmp_path):
     assert both[:len(lines)] == lines
     assert both[len(lines):len(lines) + 3] == ["", HEADER, "|---|---|---|---|---|---|---|"]
     assert len(calls) == 3 + len(ABLATION_SWITCHES)
+
+
+def test_aliasing_pairs_each_aliased_input_with_random_outliers_of_its_count_and_seed(tmp_path):
+    cache = tmp_path / "cache"
+    cache.mkdir()
+    for seed in (2, 3):
+        (cache / f"g_random4_s{seed}_gated.g2o").write_text("")
+        (cache / f"g_random4_s{seed}_gated.g2o.labels").write_text("0 5 1\n1 6 1\n2 7 0\n3 8 0\n")
+        # seed 3's aliased set makes the fake's second acceptance false
+        second = 0 if seed == 3 else 1
+        (cache / f"g_aliased4_g2_s{seed}_gated.g2o").write_text("")
+        (cache / f"g_aliased4_g2_s{seed}_gated.g2o.labels").write_text(
+            f"0 5 1\n1 6 {second}\n2 7 0\n3 8 0\n")
+    lines, calls, _ = fake_bench(tmp_path, "--baseline", "--aliasing", "g", "--aliasing-counts",
+                                 "4", "--aliasing-seeds", "2", "3", "--aliasing-group-sizes", "2")
+    assert lines[2:4] == [
+        "| g | 2 | 4 | 2 | 1.0000 / 1.0000 | 0.25 | 1.0000 / 1.0000 | 0.25 | 1.0x |",
+        "| g | 2 | 4 | 3 | 0.5000 / 1.0000 | 0.25 | 1.0000 / 1.0000 | 0.25 | 1.0x |"]
+    assert "| g | 2 | 4 | 2,3 | 0.5000 | 1.0000 | 1.0x | 1.0x |" in lines
+    assert "  precision 1.000: 1 of 2; not: g g2 4 s3 (0.5000)" in lines
+    assert len(calls) == 4 and all(c.split()[0].endswith("_gated.g2o") for c in calls)
+
+
+def aliasing_row(graph, size, count, seed, precision, recall, time, random_time, latency=None):
+    score = SimpleNamespace(precision=precision, recall=recall)
+    return AliasingRow(graph, size, count, seed, score, {"time": time}, score,
+                       {"time": random_time}, time / random_time, latency)
+
+
+def test_aliasing_targets_take_the_worst_seed():
+    lines = aliasing_summary([
+        aliasing_row("city10000", 20, 2000, 2, 1.0, 1.0, 9.0, 1.0, (20.0, 300.0)),
+        aliasing_row("city10000", 20, 2000, 3, 1.0, 0.97, 12.0, 6.0, (60.0, 1500.0)),
+        aliasing_row("csail", 5, 26, 2, 1.0, 1.0, 0.2, 0.1, (1.0, 2.0)),
+    ])
+    assert "| city10000 | 20 | 2000 | 2,3 | 1.0000 | 0.9700 | 9.0x | 5.5x |" in lines
+    assert "  precision 1.000: 3 of 3" in lines
+    assert "  recall >= 0.98: 2 of 3; not: city10000 g20 2000 s3 (0.9700)" in lines
+    assert ("  batch time at most 3x random: 2 of 3; not: city10000 g20 2000 s2 (9.0x)") in lines
+    assert ("  City10000 + 2000 aliased (groups of 20) under 10 s batch: s2 9.00 s, s3 12.00 s "
+            "(NOT met)") in lines
+    assert ("  incremental p99 under 50 ms, no candidate over 1 s: 2 of 3; not: city10000 g20 "
+            "2000 s3 (p99 60.0 ms, max 1500 ms)") in lines
 
 
 def test_ablation_switches_are_those_the_paper_preset_changes():

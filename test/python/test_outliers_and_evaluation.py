@@ -11,7 +11,8 @@ import pytest
 from conftest import DATA, SCRIPTS
 from rrr_graphslam.evaluation import (Decision, absolute_trajectory_error, align_se2, read_decisions,
                                       read_truth, score)
-from rrr_graphslam.graph_io import Edge, GraphFileError, PoseGraph, between, read_graph, write_graph
+from rrr_graphslam.graph_io import (Edge, GraphFileError, PoseGraph, between, compose, read_graph,
+                                    write_graph)
 from rrr_graphslam.outliers import KINDS, add_outliers, chi2_against, gate, outlier_room
 
 
@@ -28,12 +29,34 @@ def test_outliers_are_labelled_and_of_their_kind(kind):
     assert not any((e.source, e.target) in pairs for e in added)
     if kind.startswith("local"):
         assert all(2 <= e.target - e.source <= 20 for e in added)
-    if kind.endswith("grouped"):
-        # groups of 10 consecutive links sharing one measurement
+    if kind.endswith("grouped") or kind == "aliased":
+        # groups of 10 consecutive links
         for g in range(0, 100, 10):
             group = added[g:g + 10]
-            assert len({e.measurement for e in group}) == 1
             assert [e.source - group[0].source for e in group] == list(range(10))
+            assert [e.target - group[0].target for e in group] == list(range(10))
+            # a *-grouped group shares one measurement, an aliased one one rigid offset
+            assert len({e.measurement for e in group}) == (1 if kind != "aliased" else 10)
+
+
+def test_an_aliased_group_agrees_with_itself_and_the_odometry_on_both_sides():
+    # Around every cycle link k -> odometry on the `to` side -> link k+1 -> odometry back on the
+    # `from` side, the measurements compose to the identity, by the poses the links were drawn
+    # from; none of the links agrees with those poses (the offset is wrong).
+    graph = read_graph(os.path.join(DATA, "intel.g2o.gz"))
+    poses = graph.poses
+    added = add_outliers(graph, "aliased", 60, seed=2, group_size=20)[0].loops()[len(graph.loops()):]
+    for g in range(0, 60, 20):
+        group = added[g:g + 20]
+        assert len({(e.source - e.target) for e in group}) == 1
+        for k, (e, f) in enumerate(zip(group, group[1:])):
+            around = compose(e.measurement, between(poses[e.target], poses[f.target]))
+            back = compose(between(poses[e.source], poses[f.source]), f.measurement)
+            assert between(around, back) == pytest.approx((0.0, 0.0, 0.0), abs=1e-9), (g, k)
+    truth = {i: p for i, p in poses.items()}
+    assert all(chi2_against(truth, e.source, e.target, e.measurement, e.information) > gate(0.95)
+               for e in add_outliers(graph, "aliased", 60, seed=2, group_size=20,
+                                     reference=truth)[0].loops()[len(graph.loops()):])
 
 
 def test_same_seed_same_outliers():
