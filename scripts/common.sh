@@ -27,6 +27,20 @@ RRR_APT_PACKAGES=(
   python3-numpy python3-scipy python3-matplotlib python3-pytest
 )
 
+# Whether catkin_test_results' summary line $1 counts at least the tests of floor $2, a key of
+# test/minimum_tests (RRR_MINIMUM_TESTS: another floors file); says why not. A run that counts
+# fewer lost tests on the way (a target no longer built, a pytest file no longer collected).
+rrr_enough_tests() {
+  local floors=${RRR_MINIMUM_TESTS:-${RRR_REPO}/test/minimum_tests} minimum ran
+  minimum=$(awk -v key="$2" '$1 == key { print $2 }' "${floors}")
+  [[ -n "${minimum}" ]] || { echo "[rrr] ${floors} has no line for '$2'"; return 1; }
+  ran=$(echo "$1" | sed -nE 's/^Summary: ([0-9]+) tests.*/\1/p')
+  if [[ -z "${ran}" || "${ran}" -lt "${minimum}" ]]; then
+    echo "[rrr] ${ran:-no} tests ran, fewer than the ${minimum} of ${floors} ($2)"
+    return 1
+  fi
+}
+
 rrr_install_missing() {
   [[ "${RRR_SKIP_INSTALL:-0}" == 1 ]] && return 0
   local missing=()

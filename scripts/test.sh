@@ -18,7 +18,8 @@ echo "[rrr] clang-format check"
 # Runs every test of the sourced workspace in the current folder and judges the results. The
 # test targets are built first, so a compile error fails here. `catkin_make run_tests` records
 # each test's result (a failing or crashing test included) and exits 0 for failed tests, so its
-# status says nothing: catkin_test_results does, and a run that recorded no test fails too.
+# status says nothing: catkin_test_results does, and a run that counted fewer tests than its floor
+# ($1, a key of test/minimum_tests) fails too.
 # Results of earlier runs are removed first, so a test that no longer runs cannot pass on them.
 rrr_run_tests() {
   rm -rf build/test_results
@@ -32,10 +33,7 @@ rrr_run_tests() {
   [[ $status != 0 ]] && catkin_test_results build/test_results --verbose | grep -vE '^Summary' || true
   echo "${summary}" | tail -n 1
   [[ $status == 0 ]] || return 1
-  if ! echo "${summary}" | tail -n 1 | grep -qE '^Summary: [1-9][0-9]* tests'; then
-    echo "[rrr] no test ran"
-    return 1
-  fi
+  rrr_enough_tests "$(echo "${summary}" | tail -n 1)" "$1"
 }
 
 if [[ $sanitize == 1 ]]; then
@@ -45,7 +43,7 @@ if [[ $sanitize == 1 ]]; then
     # libgomp keeps its thread pool alive at exit; leak checks would only report that.
     export ASAN_OPTIONS=detect_leaks=0:abort_on_error=1 UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1
     cd "${RRR_WS}_asan"
-    rrr_run_tests >sanitizer_tests.log 2>&1 || { tail -n 80 sanitizer_tests.log; exit 1; }
+    rrr_run_tests sanitizer >sanitizer_tests.log 2>&1 || { tail -n 80 sanitizer_tests.log; exit 1; }
     tail -n 1 sanitizer_tests.log
   ) || { echo "[rrr] sanitizer tests failed"; exit 1; }
 fi
@@ -68,4 +66,4 @@ fi
 
 rrr_build >/dev/null
 cd "${RRR_WS}"
-rrr_run_tests
+rrr_run_tests all

@@ -1,5 +1,6 @@
 """The Python scripts: installed by catkin_install_python, importing the module from a sourced
-workspace (PYTHONPATH) without touching sys.path or PATH themselves, and each one starts."""
+workspace (PYTHONPATH) without touching sys.path or PATH themselves, and each one starts; the
+floor of tests below which scripts/test.sh fails."""
 import os
 import re
 import subprocess
@@ -64,3 +65,31 @@ def test_script_starts_from_the_environment(tmp_path, name):
                             capture_output=True, text=True)
     assert result.returncode == 0, result.stderr
     assert "usage" in result.stdout
+
+
+def enough_tests(tmp_path, summary, key, floors="all 10\nsanitizer 5\n"):
+    """scripts/common.sh's rrr_enough_tests on a summary line, against a floors file."""
+    (tmp_path / "floors").write_text(floors)
+    return subprocess.run(
+        ["bash", "-c", f'source {os.path.join(SCRIPTS, "common.sh")} && rrr_enough_tests "$0" "$1"',
+         summary, key], env={**os.environ, "RRR_MINIMUM_TESTS": str(tmp_path / "floors")},
+        capture_output=True, text=True)
+
+
+def test_a_test_run_counting_fewer_tests_than_its_floor_fails(tmp_path):
+    ok = "Summary: 10 tests, 0 errors, 0 failures, 0 skipped"
+    assert enough_tests(tmp_path, ok, "all").returncode == 0
+    assert enough_tests(tmp_path, "Summary: 6 tests, 0 errors, 0 failures, 0 skipped",
+                        "sanitizer").returncode == 0
+    few = enough_tests(tmp_path, "Summary: 9 tests, 0 errors, 0 failures, 0 skipped", "all")
+    assert few.returncode == 1 and "9 tests ran, fewer than the 10" in few.stdout
+    none = enough_tests(tmp_path, "no summary", "all")
+    assert none.returncode == 1 and "no tests ran" in none.stdout
+    unknown = enough_tests(tmp_path, ok, "fuzz")
+    assert unknown.returncode == 1 and "has no line for 'fuzz'" in unknown.stdout
+
+
+def test_the_test_floors_are_kept_for_both_runs():
+    floors = dict(line.split() for line in open(os.path.join(SCRIPTS, "..", "test", "minimum_tests"))
+                  if line.strip() and not line.startswith("#"))
+    assert set(floors) == {"all", "sanitizer"} and all(int(v) > 700 for v in floors.values())
