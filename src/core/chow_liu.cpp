@@ -9,7 +9,6 @@
 #include <Eigen/Cholesky>
 #include <Eigen/LU>
 
-#include "rrr_graphslam/core/scoped_single_threaded_openmp.h"
 #include "rrr_graphslam/core/union_find.h"
 
 namespace rrr_graphslam::core {
@@ -186,7 +185,6 @@ std::vector<PoseConstraint> gradientMatchingConstraints(
 }  // namespace
 
 std::vector<ChowLiuEdge> chowLiuTree(const Marginal& marginal, const ChowLiuParams& params) {
-  const ScopedSingleThreadedOpenMp single_threaded;
   checkMarginal(marginal);
   const std::vector<std::vector<std::size_t>> pieces = blanketPieces(marginal);
   const Eigen::MatrixXd covariance = anchoredCovariance(marginal, pieces);

@@ -8,7 +8,6 @@
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 
-#include "rrr_graphslam/core/scoped_single_threaded_openmp.h"
 
 namespace rrr_graphslam::core {
 namespace {
@@ -24,7 +23,6 @@ std::string sizes(Eigen::Index a, Eigen::Index b) {
 
 double gaussianKl(const Eigen::VectorXd& mean0, const Eigen::MatrixXd& information0,
                   const Eigen::VectorXd& mean1, const Eigen::MatrixXd& information1) {
-  const ScopedSingleThreadedOpenMp single_threaded;
   const Eigen::Index k = mean0.size();
   if (mean1.size() != k || information0.rows() != k || information0.cols() != k ||
       information1.rows() != k || information1.cols() != k) {
@@ -50,7 +48,6 @@ double gaussianKl(const Eigen::VectorXd& mean0, const Eigen::MatrixXd& informati
 double klOfFactorChange(const Eigen::MatrixXd& covariance0,
                         const Eigen::MatrixXd& information_change,
                         const Eigen::VectorXd& gradient_change) {
-  const ScopedSingleThreadedOpenMp single_threaded;
   const Eigen::Index k = covariance0.rows();
   if (covariance0.cols() != k || information_change.rows() != k || information_change.cols() != k ||
       gradient_change.size() != k) {

@@ -10,7 +10,6 @@
 #include <Eigen/SparseCore>
 
 #include "rrr_graphslam/core/constraint_check.h"
-#include "rrr_graphslam/core/scoped_single_threaded_openmp.h"
 #include "rrr_graphslam/core/sparse_solver.h"
 #include "rrr_graphslam/core/union_find.h"
 
@@ -144,7 +143,6 @@ const char* const kNotPositiveDefinite =
 Marginal marginalizeNodes(const std::vector<PoseConstraint>& constraints,
                           const std::map<NodeId, Pose2>& poses,
                           const std::vector<NodeId>& removed) {
-  const ScopedSingleThreadedOpenMp single_threaded;
   LocalProblem p = markovBlanket(constraints, poses, removed);
   const auto m = static_cast<Eigen::Index>(p.removed.size());
   const auto b = static_cast<Eigen::Index>(p.blanket.size());
@@ -224,7 +222,6 @@ Marginal marginalizeNodes(const PoseGraph& graph, const std::vector<NodeId>& rem
 Marginal marginalizeNodesDense(const std::vector<PoseConstraint>& constraints,
                                const std::map<NodeId, Pose2>& poses,
                                const std::vector<NodeId>& removed) {
-  const ScopedSingleThreadedOpenMp single_threaded;
   LocalProblem p = markovBlanket(constraints, poses, removed);
   std::vector<NodeId> nodes = p.removed;
   nodes.insert(nodes.end(), p.blanket.begin(), p.blanket.end());
