@@ -194,7 +194,8 @@ bool Rrr::realize(const std::vector<int>& hypotheses, const std::vector<core::Po
   const InterClusterResult inter =
       interClusterConsistency(graph_, kept_links_, tested, start, params_.alpha,
                               params_.batch_removal_fraction, restart || !params_.warm_start,
-                              params_.reverse_good_clusters ? std::vector<int>{} : previous_good_);
+                              params_.reverse_good_clusters ? std::vector<int>{} : previous_good_,
+                              params_.conflict_removal);
   optimizations_ += inter.optimizations;
   if (factor_at_solution && !graph_.optimizer().covarianceAvailable()) {
     graph_.optimizer().optimize();  // ends undamped, so the next clusters can use the gate

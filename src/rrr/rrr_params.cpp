@@ -19,6 +19,7 @@ void applyPreset(const std::string& name, RrrParams& params) {
     p.warm_start = false;
     p.reverse_good_clusters = false;
     p.batch_removal_fraction = 1.0;
+    p.conflict_removal = false;
     p.settle_good_map = false;
     p.recover_gate = std::numeric_limits<double>::infinity();
     p.far_retry_min_links = 0;

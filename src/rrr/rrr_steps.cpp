@@ -384,62 +384,14 @@ void Rrr::factorGoodMap() {
   if (!graph_.optimizer().covarianceAvailable()) optimizeGoodMap();
 }
 
-// A cluster's kept links linearized at base_, with the map's covariance of the nodes they touch
-// (from the optimizer's last factorization).
-struct Rrr::ClusterLinearization {
-  Eigen::VectorXd residual;         // 3 per link
-  Eigen::MatrixXd link_covariance;  // block diagonal
-  Eigen::MatrixXd map_term;         // J Sigma_map J^T
-};
-
-Rrr::ClusterLinearization Rrr::linearizeCluster(int cluster) const {
-  const auto& kept = kept_links_[static_cast<std::size_t>(cluster)];
-  const std::vector<int> nodes = graph_.touchedNodes(kept);
-  auto column = [&](int node) {
-    return 3 * static_cast<Eigen::Index>(std::lower_bound(nodes.begin(), nodes.end(), node) -
-                                         nodes.begin());
-  };
-  const Eigen::MatrixXd map_covariance = graph_.optimizer().covariance(nodes);
-  const auto rows = 3 * static_cast<Eigen::Index>(kept.size());
-  ClusterLinearization out;
-  out.residual.resize(rows);
-  out.link_covariance = Eigen::MatrixXd::Zero(rows, rows);
-  Eigen::MatrixXd J = Eigen::MatrixXd::Zero(rows, map_covariance.cols());
-  for (std::size_t i = 0; i < kept.size(); ++i) {
-    const LoopCandidate& c = graph_.candidate(kept[i]);
-    const core::EdgeLinearization lin =
-        core::linearizeEdge(base_[static_cast<std::size_t>(c.from)],
-                            base_[static_cast<std::size_t>(c.to)], c.measurement);
-    const auto r = 3 * static_cast<Eigen::Index>(i);
-    out.residual.segment<3>(r) = lin.error;
-    J.block<3, 3>(r, column(c.from)) += lin.J_from;
-    J.block<3, 3>(r, column(c.to)) += lin.J_to;
-    out.link_covariance.block<3, 3>(r, r) = c.information.inverse();
-  }
-  out.map_term = J * map_covariance * J.transpose();
-  return out;
-}
-
 std::optional<double> Rrr::predictedIndex(int cluster) const {
-  const auto& kept = kept_links_[static_cast<std::size_t>(cluster)];
-  if (!graph_.optimizer().covarianceAvailable() || kept.empty()) return std::nullopt;
-  const ClusterLinearization lin = linearizeCluster(cluster);
-  // Adding the cluster: the innovation covariance is the links' plus the map's.
-  const Eigen::MatrixXd S = lin.link_covariance + lin.map_term;
-  const double d2 = lin.residual.dot(S.ldlt().solve(lin.residual));
-  return failIfNotFinite(d2 /
-                         core::chi2Quantile(params_.alpha, static_cast<int>(lin.residual.size())));
+  return rrr::predictedIndex(graph_, kept_links_[static_cast<std::size_t>(cluster)], base_,
+                             params_.alpha);
 }
 
 double Rrr::leaveOneOutIndex(int cluster) const {
-  const ClusterLinearization lin = linearizeCluster(cluster);
-  // Removing a cluster the map already contains: its own share comes off the links' covariance.
-  const Eigen::MatrixXd S = lin.link_covariance - lin.map_term;
-  const Eigen::LDLT<Eigen::MatrixXd> ldlt(S);
-  if (ldlt.info() != Eigen::Success || (ldlt.vectorD().array() <= 0.0).any()) return 0.0;
-  const double d2 = lin.residual.dot(ldlt.solve(lin.residual));
-  return failIfNotFinite(d2 /
-                         core::chi2Quantile(params_.alpha, static_cast<int>(lin.residual.size())));
+  return rrr::leaveOneOutIndex(graph_, kept_links_[static_cast<std::size_t>(cluster)], base_,
+                               params_.alpha);
 }
 
 }  // namespace rrr_graphslam::rrr

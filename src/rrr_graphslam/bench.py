@@ -46,6 +46,7 @@ ABLATION_SWITCHES = (
     ("warm-start", "false"),
     ("reverse-good-clusters", "false"),
     ("batch-removal-fraction", "1"),
+    ("conflict-removal", "false"),
     ("settle-good-map", "false"),
     ("recover-gate", "inf"),
     ("far-retry-min-links", "0"),

@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <numeric>
 
 #include <set>
@@ -43,6 +44,48 @@ TEST(Consistency, ReducedGraphMatchesWholeGraph) {
     ++compared;
   }
   EXPECT_GT(compared, 20);
+}
+
+TEST(Consistency, LeaveOneOutIndexIsTheChi2DropOfRemovingTheLinks) {
+  // The linearized statistic against the slow, obvious version: the whole graph optimized with
+  // and without a cluster. Intel's loops, and one false link 1 m off a revisit's cluster.
+  testing::LabelledGraph input{core::readPoseGraph(kData + "/intel.g2o.gz"), {}};
+  VerificationGraph plain(input.graph, {});
+  const auto clusters = clustersOf(plain, 3);
+  const LoopCandidate& model = plain.candidate(clusters[clusters.size() / 2].front());
+  const auto ids = plain.nodeIds();
+  input.graph.addEdge(ids[static_cast<std::size_t>(model.from)],
+                      ids[static_cast<std::size_t>(model.to)],
+                      core::compose(model.measurement, core::Pose2(1.0, 0.0, 0.0)),
+                      model.information, core::EdgeKind::kLoopCandidate);
+  VerificationGraph graph(input.graph, {});
+  const int false_link = graph.numCandidates() - 1;
+  std::vector<int> all(static_cast<std::size_t>(graph.numCandidates()));
+  std::iota(all.begin(), all.end(), 0);
+  const double alpha = 0.95;
+  auto chi2Without = [&](const std::vector<int>& removed, const std::vector<core::Pose2>& from) {
+    std::vector<int> kept;
+    for (int k : all) {
+      if (std::find(removed.begin(), removed.end(), k) == removed.end()) kept.push_back(k);
+    }
+    graph.optimize(kept, core::startFrom(from));
+    return graph.optimizer().chi2();
+  };
+  std::vector<std::vector<int>> tested = {{false_link}};
+  for (std::size_t c = 0; c < clusters.size(); c += 7) tested.push_back(clusters[c]);
+  for (const std::vector<int>& links : tested) {
+    graph.optimize(all, core::startFrom(graph.initialPoses()));
+    ASSERT_TRUE(graph.optimizer().covarianceAvailable());
+    const std::vector<core::Pose2> solution = graph.optimizer().poses();
+    const double with = graph.optimizer().chi2();
+    const double index = leaveOneOutIndex(graph, links, solution, alpha);
+    const double exact = (with - chi2Without(links, solution)) /
+                         core::chi2Quantile(alpha, 3 * static_cast<int>(links.size()));
+    EXPECT_NEAR(index, exact, 0.05 * exact + 0.01) << links.size() << " links from " << links[0];
+  }
+  // The false link stands out; it would not by its own residual at the joint solution.
+  graph.optimize(all, core::startFrom(graph.initialPoses()));
+  EXPECT_GT(leaveOneOutIndex(graph, {false_link}, graph.optimizer().poses(), alpha), 10.0);
 }
 
 TEST(Consistency, IntraDropsTheFalseLinkOfAMixedCluster) {

@@ -149,6 +149,7 @@ TEST(RrrPaper, EachAdditionAloneKeepsTheTrueClusters) {
                                         [](RrrParams& p) { p.warm_start = true; },
                                         [](RrrParams& p) { p.reverse_good_clusters = true; },
                                         [](RrrParams& p) { p.batch_removal_fraction = 0.5; },
+                                        [](RrrParams& p) { p.conflict_removal = true; },
                                         [](RrrParams& p) { p.settle_good_map = true; },
                                         [](RrrParams& p) { p.recover_gate = 10.0; },
                                         [](RrrParams& p) { p.far_retry_min_links = 2; },

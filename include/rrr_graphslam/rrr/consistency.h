@@ -8,6 +8,7 @@
 
 #include <functional>
 #include <limits>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -44,6 +45,19 @@ std::string stopNote(core::StopReason stop);
 inline double failIfNotFinite(double statistic) {
   return statistic == statistic ? statistic : std::numeric_limits<double>::infinity();
 }
+
+/// Linearized tests of a set of links against the map the optimizer last factored (its marginal
+/// covariance, core::Optimizer::covariance), at `poses`: the chi2 the links would add to the map
+/// (predictedIndex), or the chi2 their removal would take off it (leaveOneOutIndex, the
+/// studentized residual of regression: the links' residual weighed by its own covariance, their
+/// covariance less the map's share, so a cluster that bends the map toward itself and fits it
+/// well still stands out). Each over chi2(alpha, 3 * links); exact for a linear model.
+/// predictedIndex: none when no factor is usable or there is no link. leaveOneOutIndex: 0 when
+/// the residual covariance is not positive definite (the links alone fix what they measure).
+std::optional<double> predictedIndex(const VerificationGraph& graph, const std::vector<int>& links,
+                                     const std::vector<core::Pose2>& poses, double alpha);
+double leaveOneOutIndex(const VerificationGraph& graph, const std::vector<int>& links,
+                        const std::vector<core::Pose2>& poses, double alpha);
 
 struct IntraClusterResult {
   std::vector<int> kept;                 ///< links that survive, in the cluster's order
@@ -82,17 +96,23 @@ struct InterClusterResult {
 /// some cluster's consistency index D^2_C / chi2(alpha, dof_C) >= 1) removes the cluster with
 /// the highest index, together with every cluster whose index is at least
 /// `batch_fraction` * the highest (1.0 removes one at a time, as in the paper; removed clusters
-/// get another chance in RRR's recover step). Clusters listed in `kept_anyway` (sorted) are
-/// never removed, only the others (the paper's hypotheses); the loop ends when nothing else can
-/// go. With `restart` every round starts again from `start`, otherwise from the previous round's
-/// solution. A non-finite index counts as infinite (the cluster goes). At most one round per
-/// cluster. On return the graph's optimizer holds the solution of the consistent set.
+/// get another chance in RRR's recover step). When only the joint test fails (every index below
+/// 1), the paper's highest index names no culprit: a large false group that bends the map
+/// toward itself fits it best of all, and the true clusters it pulls away went one by one. With
+/// `conflict_removal` (RrrParams::conflict_removal) the cluster removed then is the one whose
+/// removal the linearized test predicts to lower D^2_G most per degree of freedom
+/// (leaveOneOutIndex), if any is above 1. Clusters listed in `kept_anyway` (sorted) are never
+/// removed, only the others (the paper's hypotheses); the loop ends when nothing else can go. With
+/// `restart` every round starts again from `start`, otherwise from the previous round's solution. A
+/// non-finite index counts as infinite (the cluster goes). At most one round per cluster. On return
+/// the graph's optimizer holds the solution of the consistent set.
 InterClusterResult interClusterConsistency(VerificationGraph& graph,
                                            const std::vector<std::vector<int>>& cluster_links,
                                            const std::vector<int>& clusters,
                                            const std::vector<core::Pose2>& start, double alpha,
                                            double batch_fraction, bool restart = false,
-                                           const std::vector<int>& kept_anyway = {});
+                                           const std::vector<int>& kept_anyway = {},
+                                           bool conflict_removal = false);
 
 }  // namespace rrr_graphslam::rrr
 

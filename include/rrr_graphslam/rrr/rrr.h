@@ -92,7 +92,6 @@ class Rrr {
     int time_cluster = 0;  // the clustering's cluster it was split from (or is)
     std::string reason;    // of its status
   };
-  struct ClusterLinearization;
 
   // --- The paper's steps (rrr.cpp).
   /// Algorithm 3's input: every cluster that passed its intra test is a hypothesis again, with
@@ -180,7 +179,6 @@ class Rrr {
   void extendByOdometry(std::vector<core::Pose2>& poses) const;
   std::vector<int> clustersWith(Status status) const;
   void setStatus(int cluster, Status status, std::string reason);
-  ClusterLinearization linearizeCluster(int cluster) const;
   /// The good set optimized from base_, which becomes its solution (after a cluster or link
   /// left it).
   void optimizeGoodMap();
@@ -188,11 +186,9 @@ class Rrr {
   /// the last factorization is of something else), so covariance() and predictedIndex() describe
   /// the good map.
   void factorGoodMap();
-  /// Chi2 decrease predicted for removing a good cluster, over chi2(alpha, dof).
+  /// rrr::leaveOneOutIndex of a good cluster's kept links at base_.
   double leaveOneOutIndex(int cluster) const;
-  /// Chi2 increase predicted for adding a cluster to the good set (linearized at base_, with the
-  /// optimizer's last factorization), over chi2(alpha, dof); none when no factor is usable (or
-  /// the cluster kept no link).
+  /// rrr::predictedIndex of a cluster's kept links at base_.
   std::optional<double> predictedIndex(int cluster) const;
   /// At least far_retry_min_links kept links (the far retry and the leave-one-out check).
   bool largeCluster(int cluster) const;

@@ -53,6 +53,11 @@ struct RrrParams {
   /// Inter-cluster: also remove clusters whose consistency index is at least this fraction of the
   /// worst; default 0.5 (paper: 1, one cluster per optimization).
   double batch_removal_fraction = 0.5;
+  /// Inter-cluster, when only the joint test fails (every cluster's index below 1): remove the
+  /// cluster whose removal is predicted to lower the chi2 most (its leave-one-out index, if at
+  /// least 1), not the one of highest index, which a large false group that bends the map toward
+  /// itself never is; default true (paper: the highest index).
+  bool conflict_removal = true;
   /// After realizing, the good set is optimized again from LAGO's estimate, which wins if its
   /// chi2 is lower by more than chi2(alpha, 3); default true.
   bool settle_good_map = true;
@@ -136,6 +141,9 @@ void forEachParam(Params& p, F&& f) {
   f(ParamInfo{"batch_removal_fraction", 0, 1,
               "inter-cluster removes clusters with index >= this x the worst (1: one at a time)"},
     p.batch_removal_fraction);
+  f(ParamInfo{"conflict_removal", 0, 1,
+              "when only the joint test fails, remove the cluster whose removal lowers chi2 most"},
+    p.conflict_removal);
   f(ParamInfo{"settle_good_map", 0, 1, "the good set re-optimized from LAGO after realizing"},
     p.settle_good_map);
   f(
