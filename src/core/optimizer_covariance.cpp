@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -45,6 +46,17 @@ Eigen::MatrixXd Optimizer::factorCovariance(const std::vector<int>& nodes) const
     }
   }
   return out;
+}
+
+bool Optimizer::factorAtCurrentPoses() {
+  prepareStructure();
+  chooseAnchors();
+  covariance_valid_ = false;
+  factor_valid_ = false;
+  if (used_variables_ == 0 || !std::isfinite(assemble())) return false;
+  covariance_valid_ = solver_.factorize(hessian_.matrix());
+  if (covariance_valid_) rememberFactoredState();
+  return covariance_valid_;
 }
 
 Eigen::MatrixXd Optimizer::covariance(const std::vector<int>& nodes) const {

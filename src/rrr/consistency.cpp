@@ -197,9 +197,9 @@ std::optional<Conflict> mostConflicting(VerificationGraph& graph,
                                         int& optimizations) {
   core::Optimizer& opt = graph.optimizer();
   if (!opt.covarianceAvailable()) {
-    opt.optimize();  // ends undamped at the solution
+    opt.optimize();  // ends undamped at the solution, or damped at its iteration limit
     ++optimizations;
-    if (!opt.covarianceAvailable()) return std::nullopt;
+    if (!opt.covarianceAvailable() && !opt.factorAtCurrentPoses()) return std::nullopt;
   }
   const std::vector<core::Pose2> poses = opt.poses();
   std::optional<Conflict> most;

@@ -380,8 +380,11 @@ void Rrr::optimizeGoodMap() {
 void Rrr::factorGoodMap() {
   graph_.activateOnly(acceptedCandidates());
   graph_.optimizer().setPoses(base_);
-  // Otherwise one undamped factorization at the solution.
+  // Otherwise one undamped factorization at the solution; where that optimization ends damped
+  // (at its iteration limit: ringCity with aliased groups), a factorization where it stopped.
+  // Without it covariance() is zero and the linearized tests weigh the residual alone.
   if (!graph_.optimizer().covarianceAvailable()) optimizeGoodMap();
+  if (!graph_.optimizer().covarianceAvailable()) graph_.optimizer().factorAtCurrentPoses();
 }
 
 std::optional<double> Rrr::predictedIndex(int cluster) const {

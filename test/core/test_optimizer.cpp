@@ -569,6 +569,39 @@ TEST(Optimizer, InformationMatrixInvertsToTheMarginalCovariance) {
   }
 }
 
+TEST(Optimizer, AFactorizationWhereLevenbergMarquardtStoppedGivesItsCovariance) {
+  // Two damped steps from the raw odometry: no covariance, until H is factored where they ended;
+  // then exactly the inverse of H there (less node 0, fixed), as the slow dense solve finds it.
+  const PoseGraph graph = readPoseGraph(kData + "/intel.g2o.gz");
+  Optimizer opt = makeOptimizer(graph);
+  OptimizationRequest two_damped_steps;
+  two_damped_steps.method = OptimizerParams::Method::kLevenbergMarquardt;
+  two_damped_steps.max_iterations = 2;
+  ASSERT_EQ(opt.optimize(two_damped_steps).stop_reason, StopReason::kMaxIterations);
+  EXPECT_FALSE(opt.covarianceAvailable());
+  const std::vector<Pose2> stopped = opt.poses();
+  ASSERT_TRUE(opt.factorAtCurrentPoses());
+  ASSERT_TRUE(opt.covarianceAvailable());
+  EXPECT_EQ(opt.poses(), stopped);  // no step taken
+  const std::vector<int> nodes{7, 500};
+  const Eigen::MatrixXd fast = opt.covariance(nodes);
+  const Eigen::SparseMatrix<double> H = opt.informationMatrix();
+  const Eigen::Index n = H.rows() - 3;
+  const Eigen::MatrixXd dense_inverse =
+      Eigen::MatrixXd(Eigen::SparseMatrix<double>(H.bottomRightCorner(n, n))).inverse();
+  for (std::size_t i = 0; i < nodes.size(); ++i) {
+    for (std::size_t j = 0; j < nodes.size(); ++j) {
+      const Eigen::Matrix3d slow =
+          dense_inverse.block<3, 3>(3 * (nodes[i] - 1), 3 * (nodes[j] - 1));
+      const Eigen::Matrix3d got =
+          fast.block<3, 3>(3 * static_cast<Eigen::Index>(i), 3 * static_cast<Eigen::Index>(j));
+      EXPECT_LT((got - slow).cwiseAbs().maxCoeff(), 1e-6 * slow.cwiseAbs().maxCoeff() + 1e-12);
+    }
+  }
+  opt.setActive(0, false);  // a changed active set: covariance() no longer describes it
+  EXPECT_FALSE(opt.covarianceAvailable());
+}
+
 TEST(Optimizer, ConstraintChi2OnRequest) {
   std::vector<Pose2> truth;
   Optimizer opt = squareLoop(4, truth, 1, 0.1);

@@ -193,6 +193,11 @@ class Optimizer {
     std::vector<int> parent;
     return covariance_valid_ && nodesAddedAsTree(parent);
   }
+  /// One undamped factorization of H at the current poses, without a step, so that covariance()
+  /// describes them (to first order) when the last optimization ended damped or elsewhere
+  /// (Levenberg-Marquardt at its iteration limit). False when H cannot be factored (or every
+  /// node is fixed).
+  bool factorAtCurrentPoses();
   /// Joint marginal covariance (3m x 3m, node order as given) of `nodes` from the last
   /// factorization; fixed nodes have zero covariance. A node added since gets its parent's,
   /// propagated through the constraint it hangs from, linearized at the current poses (exact to
