@@ -50,15 +50,9 @@ mrpt::maps::CSimplePointsMap pointsMap(const PointCloud& points) {
 
 }  // namespace
 
-std::optional<ScanAlignment> alignScans(const PointCloud& reference, const PointCloud& query,
-                                        const core::Pose2& initial,
-                                        const ScanAlignmentParams& params) {
-  if (reference.empty() || query.empty()) return std::nullopt;
-  const FastCorrelativeScanMatcher matcher(pointGrid(reference, params),
-                                           params.branch_and_bound_depth);
-  const auto match = matcher.match(initial, query, params.window, params.min_score);
-  if (!match) return std::nullopt;
-
+core::Pose2 refineScanIcp(const PointCloud& reference, const PointCloud& query,
+                          const core::Pose2& initial, const ScanAlignmentParams& params) {
+  if (reference.empty() || query.empty()) return initial;
   const mrpt::maps::CSimplePointsMap reference_map = pointsMap(reference);
   const mrpt::maps::CSimplePointsMap query_map = pointsMap(query);
   mrpt::slam::CICP icp;
@@ -69,20 +63,41 @@ std::optional<ScanAlignment> alignScans(const PointCloud& reference, const Point
   icp.options.corresponding_points_decimation = 1;
   icp.options.skip_cov_calculation = true;
   mrpt::slam::CICP::TReturnInfo info;
-  const core::Pose2& start = match->pose;
   const auto pdf = icp.Align(&reference_map, &query_map,
-                             mrpt::poses::CPose2D(start.x(), start.y(), start.z()), info);
-  core::Pose2 pose = start;
-  if (pdf) {
-    const mrpt::poses::CPose2D mean = pdf->getMeanVal();
-    const core::Pose2 refined(mean.x(), mean.y(), core::normalizeAngle(mean.phi()));
-    // ICP may slide along a corridor: keep its pose only where it overlaps at least as well.
-    if (overlapFraction(reference, query, refined, params.resolution_m) >=
-        overlapFraction(reference, query, start, params.resolution_m)) {
-      pose = refined;
-    }
+                             mrpt::poses::CPose2D(initial.x(), initial.y(), initial.z()), info);
+  if (!pdf) return initial;
+  const mrpt::poses::CPose2D mean = pdf->getMeanVal();
+  const core::Pose2 refined(mean.x(), mean.y(), core::normalizeAngle(mean.phi()));
+  // ICP may slide along a corridor: keep its pose only where it overlaps at least as well.
+  return overlapFraction(reference, query, refined, params.resolution_m) >=
+                 overlapFraction(reference, query, initial, params.resolution_m)
+             ? refined
+             : initial;
+}
+
+std::optional<ScanAlignment> alignScans(const PointCloud& reference, const PointCloud& query,
+                                        const core::Pose2& initial,
+                                        const ScanAlignmentParams& params) {
+  if (reference.empty() || query.empty()) return std::nullopt;
+  const FastCorrelativeScanMatcher matcher(pointGrid(reference, params),
+                                           params.branch_and_bound_depth);
+  const auto match = matcher.match(initial, query, params.window, params.min_score);
+  if (!match) return std::nullopt;
+  return ScanAlignment{refineScanIcp(reference, query, match->pose, params), match->score};
+}
+
+PointCloud surfacePoints(const PointCloud& points, double max_gap_m, double step_m) {
+  PointCloud out;
+  for (std::size_t k = 0; k < points.size(); ++k) {
+    out.push_back(points[k]);
+    if (k + 1 == points.size()) break;
+    const Eigen::Vector2d d = points[k + 1] - points[k];
+    const double gap = d.norm();
+    if (gap > max_gap_m) continue;
+    const int steps = static_cast<int>(std::ceil(gap / step_m));
+    for (int i = 1; i < steps; ++i) out.push_back(points[k] + d * (static_cast<double>(i) / steps));
   }
-  return ScanAlignment{pose, match->score};
+  return out;
 }
 
 double overlapFraction(const PointCloud& reference, const PointCloud& query,

@@ -5,12 +5,18 @@ Scan consistency (no ground truth needed): a revisit is a pair of scans far apar
 trajectory (at least --min-travel metres of the estimate's path between them) whose estimated
 poses are close (within --radius, headings within --max-turn). Every --every metres of path one
 scan looks for the nearest earlier scan that makes such a pair. rrr_align_scans aligns the two raw
-scans directly (branch and bound on a grid of one scan's points, then MRPT's ICP; no map) and
-scores each relative pose by its overlap: the fraction of one scan's points within
---overlap-distance (0.1 m) of the other's. A revisit is inconsistent when the estimated relative
-pose is more than --max-m or --max-deg from the aligned one and the scans overlap clearly better
-at the aligned pose (by --min-gain): where both poses overlap alike (a corridor, a scan with
-little structure) the scans cannot tell, and the revisit counts as consistent.
+scans directly (no map): the best pose in a 2 m, 15 degree window (branch and bound on a grid of
+one scan's points, then MRPT's ICP), and the local optimum nearest the estimate (ICP alone from
+it); it scores each relative pose by its overlap: the fraction of one scan's points within
+--overlap-distance (0.1 m) of the other's surfaces. The scans' own relative pose is the best one
+unless the nearest overlaps within --min-gain as well (a corridor, a row of doors: several poses
+fit, and the one the estimate is at stands). Each pair is aligned both ways (b onto a, a onto b);
+the scans have a relative pose only when the two ways agree (within --agree-m and --agree-deg)
+and overlap at least --min-overlap each: a pose found one way only is an alias of repeated
+structure. Overlaps are the mean of the two ways. A revisit is inconsistent when the estimated
+relative pose is more than --max-m or --max-deg from the scans' own and the scans overlap clearly
+better (by --min-gain) at theirs: where both overlap alike the scans cannot tell, and the revisit
+counts consistent.
 
 With a reference (--corrected: a ple_corrected log, its scans associated with the log's by
 identical range readings as in bench_sessions.GroundTruth): the ATE (RMSE of the positions at the
@@ -46,6 +52,8 @@ class CheckParams:
     max_deg: float = 3.0          # ... or by more than this
     min_gain: float = 0.1         # ... and the scans overlap this much better at the aligned pose
     min_overlap: float = 0.3      # an alignment overlapping less is not trusted (not aligned)
+    agree_m: float = 0.1          # the two ways of aligning a pair agree within this ...
+    agree_deg: float = 1.0        # ... and this
     overlap_m: float = 0.1        # a point overlaps within this of the other scan
 
 
@@ -55,7 +63,7 @@ class Revisit:
     b: int                        # later scan
     estimate: Pose                # b's robot in a's robot frame, by the trajectory
     reference: Optional[Pose] = None
-    aligned: Optional[Pose] = None  # by the scans (None: they did not align)
+    aligned: Optional[Pose] = None  # the scans' own (None: they did not align)
     overlap_estimate: float = math.nan
     overlap_aligned: float = math.nan
     overlap_reference: float = math.nan
@@ -145,14 +153,29 @@ def select_revisits(poses: Sequence[Optional[Pose]], p: CheckParams) -> List[Tup
     return pairs
 
 
+def _scans_pose(fields: List[str], p: CheckParams) -> Tuple[Optional[Pose], float]:
+    """The scans' own relative pose of one line of rrr_align_scans and its overlap: the best in
+    the window unless the nearest optimum overlaps within p.min_gain as well."""
+    best = (float(fields[3]), float(fields[4]), float(fields[5])) if fields[2] == "1" else None
+    best_overlap = float(fields[7]) if best is not None else -math.inf
+    nearest = (float(fields[8]), float(fields[9]), float(fields[10]))
+    nearest_overlap = float(fields[11])
+    if nearest_overlap >= best_overlap - p.min_gain:
+        return nearest, nearest_overlap
+    return best, best_overlap
+
+
 def align(binary: str, log: str, revisits: Sequence[Revisit], p: CheckParams) -> None:
-    """Runs rrr_align_scans on the revisits and fills their aligned pose and overlaps."""
+    """Runs rrr_align_scans on the revisits, both ways, and fills their aligned pose and
+    overlaps."""
     if not revisits:
         return
     with tempfile.NamedTemporaryFile("w", suffix=".tsv", delete=False) as f:
         for r in revisits:
-            poses = [r.estimate] + ([r.reference] if r.reference is not None else [])
-            f.write(f"{r.a} {r.b} " + " ".join("%.6f %.6f %.8f" % q for q in poses) + "\n")
+            back = [inverse(q) for q in (r.estimate, r.reference) if q is not None]
+            for a, b, given in ((r.a, r.b, [q for q in (r.estimate, r.reference) if q is not None]),
+                                (r.b, r.a, back)):
+                f.write(f"{a} {b} " + " ".join("%.6f %.6f %.8f" % q for q in given) + "\n")
         path = f.name
     try:
         result = subprocess.run([binary, log, path, "--overlap-distance", str(p.overlap_m)],
@@ -161,17 +184,22 @@ def align(binary: str, log: str, revisits: Sequence[Revisit], p: CheckParams) ->
         os.unlink(path)
     if result.returncode != 0:
         raise RuntimeError(f"{binary} failed:\n{result.stderr}")
-    lines = result.stdout.split("\n")
-    for r, line in zip(revisits, lines):
-        f = line.split()
-        if int(f[0]) != r.a or int(f[1]) != r.b:
-            raise RuntimeError(f"{binary}: pair {f[:2]} where {r.a} {r.b} was asked")
-        r.overlap_estimate = float(f[8])
+    lines = [line.split() for line in result.stdout.split("\n") if line.strip()]
+    if len(lines) != 2 * len(revisits):
+        raise RuntimeError(f"{binary}: {len(lines)} lines for {2 * len(revisits)} pairs")
+    for r, f, g in zip(revisits, lines[0::2], lines[1::2]):
+        if (int(f[0]), int(f[1]), int(g[0]), int(g[1])) != (r.a, r.b, r.b, r.a):
+            raise RuntimeError(f"{binary}: pairs {f[:2]} {g[:2]} where {r.a} {r.b} was asked")
+        r.overlap_estimate = 0.5 * (float(f[12]) + float(g[12]))
         if r.reference is not None:
-            r.overlap_reference = float(f[9])
-        if f[2] == "1" and float(f[7]) >= p.min_overlap:
-            r.aligned = (float(f[3]), float(f[4]), float(f[5]))
-            r.overlap_aligned = float(f[7])
+            r.overlap_reference = 0.5 * (float(f[13]) + float(g[13]))
+        forward, forward_overlap = _scans_pose(f, p)
+        backward, backward_overlap = _scans_pose(g, p)
+        if min(forward_overlap, backward_overlap) < p.min_overlap:
+            continue
+        d = between(forward, inverse(backward))
+        if math.hypot(d[0], d[1]) <= p.agree_m and abs(math.degrees(d[2])) <= p.agree_deg:
+            r.aligned, r.overlap_aligned = forward, 0.5 * (forward_overlap + backward_overlap)
 
 
 def se2_alignment(source: np.ndarray, target: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
@@ -251,8 +279,7 @@ def main(argv=None):
                         help="the rrr_align_scans binary (default: found on PATH)")
     parser.add_argument("--list", action="store_true", help="list every inconsistent revisit")
     d = CheckParams()
-    for name in ("every_m", "min_travel_m", "radius_m", "max_turn_deg", "max_m", "max_deg",
-                 "min_gain", "min_overlap", "overlap_m"):
+    for name in vars(d):
         parser.add_argument("--" + name.replace("_", "-"), type=float, default=getattr(d, name))
     args = parser.parse_args(argv)
     p = CheckParams(**{k: getattr(args, k) for k in vars(d)})

@@ -36,11 +36,13 @@ const char* const kUsage =
     "  --window            half-width of the translations searched (default 2 m)\n"
     "  --angular-window    half-width of the rotations searched (default 15 degrees)\n"
     "  --min-score         branch-and-bound score an alignment needs (default 0.3)\n"
-    "  --overlap-distance  a point overlaps within this of the other scan (default 0.1 m)\n"
-    "Prints one line a pair: 'A B found x y theta score overlap overlap_1 ...': found is 1\n"
-    "when the scans aligned (x y theta: the aligned pose, overlap: its overlap fraction), else 0\n"
-    "(x y theta score overlap are then nan); overlap_k is the overlap fraction at the k-th given\n"
-    "pose.\n";
+    "  --overlap-distance  a point of B overlaps within this of A's surfaces (its points, and\n"
+    "                      lines between neighbouring points at most 0.5 m apart) (default 0.1 m)\n"
+    "Prints one line a pair: 'A B found x y theta score overlap lx ly ltheta loverlap\n"
+    "overlap_1 ...': found is 1 when the scans aligned in the window (x y theta: the best pose\n"
+    "there, overlap: its overlap fraction), else 0 (x y theta score overlap are then nan);\n"
+    "lx ly ltheta: ICP alone from the first given pose (the nearest local optimum), loverlap its\n"
+    "overlap; overlap_k is the overlap fraction at the k-th given pose.\n";
 
 struct Pair {
   std::size_t a;
@@ -101,7 +103,8 @@ int main(int argc, char** argv) {
   try {
     const frontend::CarmenLog log = frontend::readCarmenLog(log_path);
     const std::vector<Pair> pairs = readPairs(pairs_path, log.scans.size());
-    std::vector<frontend::PointCloud> points(log.scans.size());
+    // A's surfaces (its points, and between neighbouring ones) against B's points.
+    std::vector<frontend::PointCloud> points(log.scans.size()), surfaces(log.scans.size());
     auto pointsOf = [&](std::size_t k) -> const frontend::PointCloud& {
       if (points[k].empty()) {
         points[k] =
@@ -109,8 +112,12 @@ int main(int argc, char** argv) {
       }
       return points[k];
     };
+    auto surfaceOf = [&](std::size_t k) -> const frontend::PointCloud& {
+      if (surfaces[k].empty()) surfaces[k] = frontend::surfacePoints(pointsOf(k), 0.5, 0.02);
+      return surfaces[k];
+    };
     for (const Pair& pair : pairs) {
-      const auto& a = pointsOf(pair.a);
+      const auto& a = surfaceOf(pair.a);
       const auto& b = pointsOf(pair.b);
       const auto aligned = frontend::alignScans(a, b, pair.poses.front(), params);
       std::printf("%zu %zu %d", pair.a, pair.b, aligned ? 1 : 0);
@@ -121,6 +128,11 @@ int main(int argc, char** argv) {
       } else {
         std::printf(" nan nan nan nan nan");
       }
+      // No search: ICP from the given pose, which a scan pair with several good alignments (a
+      // corridor, a row of doors) needs beside the best one to be told apart from a wrong pose.
+      const core::Pose2 near = frontend::refineScanIcp(a, b, pair.poses.front(), params);
+      std::printf(" %.4f %.4f %.5f %.3f", near.x(), near.y(), near.z(),
+                  frontend::overlapFraction(a, b, near, overlap_m));
       for (const auto& pose : pair.poses) {
         std::printf(" %.3f", frontend::overlapFraction(a, b, pose, overlap_m));
       }

@@ -76,5 +76,31 @@ TEST(ScanAlignment, OverlapFractionEqualsABruteForceCount) {
   EXPECT_EQ(overlapFraction({}, pb, truth, 0.1), 0.0);
 }
 
+TEST(ScanAlignment, SurfacePointsFillGapsUpToTheLimitOnly) {
+  const PointCloud points = {{0.0, 0.0}, {0.2, 0.0}, {0.2, 0.3}, {2.0, 0.3}};
+  const PointCloud surface = surfacePoints(points, 0.5, 0.02);
+  // 0.2 m and 0.3 m gaps filled every 2 cm (10 + 15 steps), the 1.8 m gap left open.
+  ASSERT_EQ(surface.size(), 10U + 15U + 2U);
+  for (std::size_t k = 0; k + 2 < surface.size(); ++k) {
+    EXPECT_LE((surface[k + 1] - surface[k]).norm(), 0.02 + 1e-12) << k;
+  }
+  EXPECT_EQ(surface.back(), points.back());
+  EXPECT_TRUE(surfacePoints({}, 0.5, 0.02).empty());
+}
+
+TEST(ScanAlignment, IcpAloneStaysAtTheNearestOptimum) {
+  const core::Pose2 a(3.0, 2.0, 0.3), b(5.5, 3.0, -0.4);
+  const core::Pose2 truth = core::between(a, b);
+  const PointCloud pa = pointsAt(a), pb = pointsAt(b);
+  const core::Pose2 near = refineScanIcp(
+      pa, pb, core::compose(truth, core::Pose2(0.1, -0.05, 0.02)), ScanAlignmentParams{});
+  EXPECT_LT((near - truth).head<2>().norm(), 0.03);
+  EXPECT_LT(std::abs(near.z() - truth.z()), 0.01);
+  // Unlike alignScans, it does not search: from 1.5 m off it does not reach the truth.
+  const core::Pose2 far = refineScanIcp(pa, pb, core::compose(truth, core::Pose2(1.5, -0.8, 0.14)),
+                                        ScanAlignmentParams{});
+  EXPECT_GT((far - truth).head<2>().norm(), 0.3);
+}
+
 }  // namespace
 }  // namespace rrr_graphslam::frontend

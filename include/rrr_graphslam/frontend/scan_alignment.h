@@ -43,6 +43,17 @@ std::optional<ScanAlignment> alignScans(const PointCloud& reference, const Point
                                         const core::Pose2& initial,
                                         const ScanAlignmentParams& params);
 
+/// Step 2 alone: MRPT's ICP from `initial` (the nearest local optimum); `initial` when ICP fails
+/// or overlaps less than it within resolution_m.
+core::Pose2 refineScanIcp(const PointCloud& reference, const PointCloud& query,
+                          const core::Pose2& initial, const ScanAlignmentParams& params);
+
+/// A scan's surfaces as points: `points` in beam order (as matchingPoints leaves them), with
+/// points every `step_m` added between consecutive ones at most `max_gap_m` apart (a wall seen
+/// with beams 1 degree apart has points 17 cm apart at 10 m: without them, a point of another
+/// scan on that wall can lie more than 10 cm from every point).
+PointCloud surfacePoints(const PointCloud& points, double max_gap_m, double step_m);
+
 /// Share of `query`'s points that, placed at `query_pose` in the reference's frame, lie within
 /// `distance_m` of a point of `reference`; 0 for an empty query.
 double overlapFraction(const PointCloud& reference, const PointCloud& query,
