@@ -2,8 +2,9 @@
 // Loop-candidate search (Hess et al., ICRA 2016, section V): a node is matched against a finished
 // submap by branch-and-bound in a window around where the current map estimate puts it, then
 // refined by least squares; a match above min_score becomes a loop candidate between the submap's
-// anchor node and the node, with the information matrix of the refinement. The front end proposes
-// liberally; RRR decides.
+// node nearest to the match (not its anchor: local SLAM's drift within the submap stays out of
+// the constraint) and the node, with the information matrix of the refinement. The front end
+// proposes liberally; RRR decides.
 
 #include <optional>
 
@@ -52,7 +53,7 @@ struct LoopSearchParams {
 
 struct LoopMatch {
   int submap;
-  int from;                     ///< the submap's anchor node
+  int from;                     ///< the submap's node nearest to the match
   int to;                       ///< the node
   core::Pose2 measurement;      ///< pose of `to` in the frame of `from`
   Eigen::Matrix3d information;  ///< of `measurement`

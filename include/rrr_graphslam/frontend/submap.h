@@ -8,6 +8,7 @@
 
 #include <memory>
 #include <optional>
+#include <vector>
 
 #include <mrpt/maps/COccupancyGridMap2D.h>
 
@@ -56,6 +57,14 @@ class Submap {
   /// Freezes the grid: builds the match grid and the branch-and-bound max-grids.
   void finish();
 
+  /// A node inserted into the submap, with its local-SLAM pose (the submap frame).
+  struct Member {
+    int node;
+    core::Pose2 local_pose;
+  };
+  /// Every node inserted, in insertion order (the anchor first).
+  const std::vector<Member>& members() const { return members_; }
+
   /// The grid as matching reads it (rebuilt lazily after insertions while active).
   const MatchGrid& matchGrid() const;
   /// The MRPT grid while the submap is active (nullptr once finished: it is released).
@@ -70,6 +79,7 @@ class Submap {
   core::Pose2 anchor_pose_;
   SubmapParams params_;
   int num_scans_ = 0;
+  std::vector<Member> members_;
   std::unique_ptr<mrpt::maps::COccupancyGridMap2D> grid_;
   mutable MatchGrid match_grid_;
   mutable bool match_grid_dirty_ = true;
