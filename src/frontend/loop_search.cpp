@@ -1,5 +1,6 @@
 #include "rrr_graphslam/frontend/loop_search.h"
 
+#include <limits>
 #include <utility>
 
 #include "rrr_graphslam/frontend/voxel_filter.h"
@@ -18,10 +19,27 @@ double fineScore(const MatchGrid& grid, const core::Pose2& pose, const PointClou
   return points.empty() ? 0.0 : sum / static_cast<double>(points.size());
 }
 
-// The refined match as a constraint anchor -> node: the information of the node's pose in the
-// submap frame, rotated into the anchor's frame. When branch and bound searched a coarser grid
-// than the submap's, its score flatters the match: the refined pose must score above min_score
-// on the full-resolution grid too (nullopt otherwise).
+// The submap's node nearest to `pose` (submap frame), the anchor if it has none recorded.
+// Local SLAM drifts within a submap (FR079: up to 6 degrees over one submap's span), and the grid
+// where a node matched agrees with the nodes inserted there, not with the anchor's pose metres
+// away: a constraint from the anchor would carry that drift into the map (issue 24).
+Submap::Member nearestMember(const Submap& submap, const core::Pose2& pose) {
+  Submap::Member best{submap.anchorNode(), submap.anchorPose()};
+  double best_sq = std::numeric_limits<double>::infinity();
+  for (const Submap::Member& m : submap.members()) {
+    const double sq = (m.local_pose.head<2>() - pose.head<2>()).squaredNorm();
+    if (sq < best_sq) {
+      best_sq = sq;
+      best = m;
+    }
+  }
+  return best;
+}
+
+// The refined match as a constraint from the submap's node nearest to it to the node: the
+// information of the node's pose in the submap frame, rotated into that node's frame. When branch
+// and bound searched a coarser grid than the submap's, its score flatters the match: the refined
+// pose must score above min_score on the full-resolution grid too (nullopt otherwise).
 std::optional<LoopMatch> toLoop(const Submap& submap, int node, const LoopSearchScan& scan,
                                 const ScanMatch& match, const LoopSearchParams& params) {
   const RefinedMatch refined = refineLeastSquares(submap.matchGrid(), match.pose, match.pose,
@@ -31,13 +49,14 @@ std::optional<LoopMatch> toLoop(const Submap& submap, int node, const LoopSearch
       fineScore(submap.matchGrid(), refined.pose, scan.search_points) <= params.min_score) {
     return std::nullopt;
   }
+  const Submap::Member origin = nearestMember(submap, refined.pose);
   LoopMatch loop;
   loop.submap = submap.index();
-  loop.from = submap.anchorNode();
+  loop.from = origin.node;
   loop.to = node;
-  loop.measurement = core::between(submap.anchorPose(), refined.pose);
+  loop.measurement = core::between(origin.local_pose, refined.pose);
   Eigen::Matrix3d J = Eigen::Matrix3d::Identity();
-  J.topLeftCorner<2, 2>() = core::rotation(submap.anchorPose().z()).transpose();
+  J.topLeftCorner<2, 2>() = core::rotation(origin.local_pose.z()).transpose();
   loop.information = J * refined.information * J.transpose();
   loop.score = match.score;
   return loop;

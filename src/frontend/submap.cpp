@@ -37,6 +37,7 @@ void Submap::insert(const mrpt::obs::CObservation2DRangeScan& scan, const core::
   grid_->insertObservation(scan, robot);
   ++num_scans_;
   last_node_ = node;
+  members_.push_back({node, local_pose});
   match_grid_dirty_ = true;
 }
 

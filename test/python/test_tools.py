@@ -189,7 +189,7 @@ def test_slam_offline_builds_graph_trajectory_and_map_from_a_log(tmp_path):
     travelled = ((last[0] - first[0]) ** 2 + (last[1] - first[1]) ** 2) ** 0.5
     estimated = ((poses[-1][0] - poses[0][0]) ** 2 + (poses[-1][1] - poses[0][1]) ** 2) ** 0.5
     assert abs(travelled - estimated) < 0.2
-    # The graph: one node per motion-filtered scan, loop candidates between submap anchors and nodes.
+    # The graph: one node per motion-filtered scan, loop candidates between submap nodes and nodes.
     graph = read_graph(str(out["graph"]))
     decisions = read_decisions(str(out["decisions"]))
     assert len(graph.poses) > 30

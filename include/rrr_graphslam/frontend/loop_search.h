@@ -2,8 +2,9 @@
 // Loop-candidate search (Hess et al., ICRA 2016, section V): a node is matched against a finished
 // submap by branch-and-bound in a window around where the current map estimate puts it, then
 // refined by least squares; a match above min_score becomes a loop candidate between the submap's
-// anchor node and the node, with the information matrix of the refinement. The front end proposes
-// liberally; RRR decides.
+// node nearest to the match (not its anchor: local SLAM's drift within the submap stays out of
+// the constraint) and the node, with the information matrix of the refinement. The front end
+// proposes liberally; RRR decides.
 
 #include <optional>
 
@@ -23,8 +24,9 @@ struct LoopSearchParams {
   /// branch and bound shrinks with the farthest point, and its cost grows with it.
   double max_point_range_m = 15.0;
   /// A submap is searched by at most every n-th node (Cartographer's per-submap sampling, ratio
-  /// 1/n).
-  int search_every_n_nodes = 2;
+  /// 1/n). Default 4: with 120-scan submaps a place is covered by twice as many submaps as with
+  /// 240, which together are searched as often as before.
+  int search_every_n_nodes = 4;
   /// After a match, a submap rests for this many nodes (they would tell RRR the same thing).
   int pause_after_match_nodes = 10;
   /// Branch and bound scores a thinned scan: the coarsest voxel up to search_voxel_max_m that
@@ -52,7 +54,7 @@ struct LoopSearchParams {
 
 struct LoopMatch {
   int submap;
-  int from;                     ///< the submap's anchor node
+  int from;                     ///< the submap's node nearest to the match
   int to;                       ///< the node
   core::Pose2 measurement;      ///< pose of `to` in the frame of `from`
   Eigen::Matrix3d information;  ///< of `measurement`
