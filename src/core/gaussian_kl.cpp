@@ -8,7 +8,6 @@
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 
-
 namespace rrr_graphslam::core {
 namespace {
 
