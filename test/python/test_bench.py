@@ -148,6 +148,26 @@ def test_aliasing_pairs_each_aliased_input_with_random_outliers_of_its_count_and
     assert len(calls) == 4 and all(c.split()[0].endswith("_gated.g2o") for c in calls)
 
 
+def test_seeds_run_every_synthetic_input_on_each_and_summarize_the_worst(tmp_path):
+    cache = tmp_path / "cache"
+    cache.mkdir()
+    for seed, label in ((2, 1), (3, 0)):  # seed 3's second link is false: precision 0.5
+        (cache / f"csail_random4_s{seed}_gated.g2o").write_text("")
+        (cache / f"csail_random4_s{seed}_gated.g2o.labels").write_text(
+            f"0 5 1\n1 6 {label}\n2 7 0\n3 8 0\n")
+    lines, calls, _ = fake_bench(tmp_path, "--baseline", "--datasets", "csail", "--kinds", "random",
+                                 "--counts", "4", "--seeds", "2", "3")
+    assert lines[:4] == [
+        "| dataset | kind | outliers | mode | precision | recall | time s | optimizations | seed |",
+        "|---|---|---|---|---|---|---|---|---|",
+        "| csail | random | 4 | batch | 1.0000 | 1.0000 | 0.25 | 16 | 2 |",
+        "| csail | random | 4 | batch | 0.5000 | 1.0000 | 0.25 | 16 | 3 |"]
+    assert ("| csail | random | 4 | 2,3 | 0.5000 / 0.7500 | 1.0000 / 1.0000 | 0.25 / 0.25 |"
+            in lines)
+    assert "  synthetic precision 1.000: 1 of 2; not: csail random 4 (0.5000)" in lines
+    assert len(calls) == 2
+
+
 def aliasing_row(graph, size, count, seed, precision, recall, time, random_time, latency=None):
     score = SimpleNamespace(precision=precision, recall=recall)
     return AliasingRow(graph, size, count, seed, score, {"time": time}, score,
