@@ -14,7 +14,7 @@ Decisions: the TSV of rrr_offline / replay_posegraph with header 'from to cluste
 import math
 import re
 from dataclasses import dataclass
-from typing import Dict, List, Optional, Sequence, Tuple
+from typing import Dict, List, NamedTuple, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -212,6 +212,32 @@ def absolute_trajectory_error(estimate: Dict[int, Pose], truth: Dict[int, Pose])
     angle, t = align_se2(est, gt)
     residual = est @ _rotation(angle).T + np.array(t) - gt
     return float(np.sqrt(np.mean(np.sum(residual * residual, axis=1))))
+
+
+class MapHarm(NamedTuple):
+    """What the accepted loops did to the map, against a reference the verifier did not make."""
+    ate: float        # of the map, m: against the ground truth, or against the clean optimum
+    clean_ate: float  # of the outlier-free optimum against the ground truth; 0 without one
+    limit: float      # the most `ate` may be: clean_ate + max(1 cm, 2% of it)
+
+    @property
+    def harmed(self) -> bool:
+        return self.ate > self.limit
+
+
+def map_harm(estimate: Dict[int, Pose], clean_optimum: Dict[int, Pose],
+             ground_truth: Optional[Dict[int, Pose]] = None) -> Optional[MapHarm]:
+    """The map optimized with the accepted loops (`estimate`) against the outlier-free graph's own
+    optimum: with ground truth, its ATE may exceed the optimum's by max(1 cm, 2% of it); without,
+    its ATE against the optimum itself may be 1 cm. None when they share fewer than two nodes."""
+    if ground_truth is None:
+        ate = absolute_trajectory_error(estimate, clean_optimum)
+        return None if ate is None else MapHarm(ate, 0.0, 0.01)
+    ate = absolute_trajectory_error(estimate, ground_truth)
+    clean = absolute_trajectory_error(clean_optimum, ground_truth)
+    if ate is None or clean is None:
+        return None
+    return MapHarm(ate, clean, clean + max(0.01, 0.02 * clean))
 
 
 def plot_decisions(path: str, poses, decisions: Sequence[Decision], truth: Optional[Sequence[bool]],

@@ -373,3 +373,49 @@ def test_decisions_that_are_no_text_name_the_file_and_line(tmp_path):
     assert [(d.source, d.verdict) for d in rows] == [(1, "accepted"), (2, "rejected")]
     path.write_text("from\tto\tcluster\tverdict\treason\n1\t5\t0\taccepted\tD2_l 9.12 ≥ 7.815\n")
     assert read_decisions(str(path))[0].reason == "D2_l 9.12 ≥ 7.815"
+
+
+def test_map_harm_against_the_clean_optimum_and_against_ground_truth():
+    from rrr_graphslam.evaluation import map_harm
+    line = {i: (float(i), 0.0, 0.0) for i in range(100)}
+    moved = {i: (x + 3.0, y - 1.0, t) for i, (x, y, t) in line.items()}  # the same map elsewhere
+    bent = dict(line)
+    bent[50] = (50.0, 0.5, 0.0)  # one pose 0.5 m off: ATE about 5 cm over 100 nodes
+    assert not map_harm(moved, line).harmed
+    harm = map_harm(bent, line)
+    assert harm.harmed and harm.limit == 0.01 and harm.ate == pytest.approx(0.05, abs=0.002)
+    # With ground truth: the clean optimum's own ATE plus max(1 cm, 2% of it) is allowed.
+    truth = {i: (x, 0.1 * (-1) ** i, t) for i, (x, y, t) in line.items()}  # clean ATE 0.1 m
+    within = map_harm(line, line, truth)
+    assert within.clean_ate == pytest.approx(0.1, abs=1e-3) and not within.harmed
+    assert within.limit == pytest.approx(within.clean_ate + 0.01)
+    # RMS errors add in quadrature: 0.5 m on one node of 100 stays within the limit, 1.5 m not.
+    assert not map_harm(bent, line, truth).harmed
+    bent[50] = (50.0, 1.5, 0.0)
+    assert map_harm(bent, line, truth).harmed
+    assert map_harm({0: (0.0, 0.0, 0.0)}, line) is None
+
+
+def test_evaluate_prints_the_map_harm_against_a_reference(tmp_path):
+    ring = read_graph(os.path.join(DATA, "ring.g2o.gz"))
+    reference = tmp_path / "clean.g2o"
+    write_graph(ring, str(reference))
+    off = PoseGraph({i: (x, y + (0.5 if i == 3 else 0.0), t) for i, (x, y, t) in ring.poses.items()},
+                    ring.edges)
+    estimate = tmp_path / "opt.g2o"
+    write_graph(off, str(estimate))
+    loops = ring.loops()
+    (tmp_path / "d.tsv").write_text("from\tto\tcluster\tverdict\n" + "".join(
+        f"{e.source}\t{e.target}\t0\taccepted\n" for e in loops))
+    (tmp_path / "truth").write_text("".join(f"{e.source} {e.target} 1\n" for e in loops))
+
+    def evaluate(*args):
+        return subprocess.run([sys.executable, os.path.join(SCRIPTS, "evaluate"), "--truth",
+                               str(tmp_path / "truth"), "--decisions", str(tmp_path / "d.tsv"),
+                               *map(str, args)], capture_output=True, text=True)
+
+    same = evaluate("--graph", reference, "--reference", reference)
+    assert same.returncode == 0 and "map harm none: ATE 0.0000 m" in same.stdout, same.stderr
+    harmed = evaluate("--graph", estimate, "--reference", reference)
+    assert "map harm HARMED" in harmed.stdout and "limit 0.0100 m" in harmed.stdout
+    assert evaluate("--reference", reference).returncode == 2  # needs --graph
