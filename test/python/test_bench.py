@@ -60,9 +60,15 @@ for k in range(4):
     rows.append(f"{{k}}\\t{{k + 5}}\\t{{k}}\\t{{verdict}}\\tfake")
 with open(args[args.index("--decisions") + 1], "w") as f:
     f.write("\\n".join(rows) + "\\n")
+if "--output" in args:  # the map: the clean optimum of fake_bench's cache, one pose off
+    with open(args[args.index("--output") + 1], "w") as f:
+        f.write({graph!r}.replace("VERTEX_SE2 2 2 0 0", "VERTEX_SE2 2 2 0.5 0"))
 print("optimizations  " + str(10 + len(args)))
 print("time           0.250 s")
 """
+# A clean optimum for the map harm: three poses on a line.
+LINE_GRAPH = ("VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0\nVERTEX_SE2 2 2 0 0\n"
+              "EDGE_SE2 0 1 1 0 0 1 0 0 1 0 1\nEDGE_SE2 1 2 1 0 0 1 0 0 1 0 1\n")
 HEADER = ("| input | configuration | precision | recall | time s | optimizations | "
           "fp / fn vs default |")
 
@@ -76,7 +82,7 @@ def fake_bench(tmp_path, *options):
     (cache / "g_random4_s1_gated.g2o.labels").write_text("0 5 1\n1 6 1\n2 7 0\n3 8 0\n")
     log = tmp_path / "calls"
     fake = tmp_path / "rrr_offline"
-    fake.write_text(FAKE_OFFLINE.format(python=sys.executable, log=str(log)))
+    fake.write_text(FAKE_OFFLINE.format(python=sys.executable, log=str(log), graph=LINE_GRAPH))
     fake.chmod(0o755)
     out = io.StringIO()
     with contextlib.redirect_stdout(out):
@@ -115,9 +121,10 @@ def test_ablation_counts_each_switch_against_the_default(tmp_path):
 def test_ablation_beside_the_bench_and_only_when_asked(tmp_path):
     lines, calls, _ = fake_bench(tmp_path, "--baseline", "g:random:4")
     assert lines == [
-        "| dataset | kind | outliers | mode | precision | recall | time s | optimizations |",
-        "|---|---|---|---|---|---|---|---|",
-        "| g | random | 4 | batch --full-intra | 1.0000 | 1.0000 | 0.25 | 17 |",
+        "| dataset | kind | outliers | mode | precision | recall | time s | optimizations | "
+        "map harm |",
+        "|---|---|---|---|---|---|---|---|---|",
+        "| g | random | 4 | batch --full-intra | 1.0000 | 1.0000 | 0.25 | 17 | - |",
         "", "targets:", "", "worst precision 1.0000, worst recall 1.0000"]
     assert len(calls) == 1 and ".ablation-" not in calls[0]
     both, calls, _ = fake_bench(tmp_path / "both", "--baseline", "g:random:4", "--ablation",
@@ -155,17 +162,22 @@ def test_seeds_run_every_synthetic_input_on_each_and_summarize_the_worst(tmp_pat
         (cache / f"csail_random4_s{seed}_gated.g2o").write_text("")
         (cache / f"csail_random4_s{seed}_gated.g2o.labels").write_text(
             f"0 5 1\n1 6 {label}\n2 7 0\n3 8 0\n")
+    (cache / "csail_reference.g2o").write_text(LINE_GRAPH)
     lines, calls, _ = fake_bench(tmp_path, "--baseline", "--datasets", "csail", "--kinds", "random",
                                  "--counts", "4", "--seeds", "2", "3")
+    # The fake's map has one of three poses 0.5 m off the clean optimum: harmed.
     assert lines[:4] == [
-        "| dataset | kind | outliers | mode | precision | recall | time s | optimizations | seed |",
-        "|---|---|---|---|---|---|---|---|---|",
-        "| csail | random | 4 | batch | 1.0000 | 1.0000 | 0.25 | 16 | 2 |",
-        "| csail | random | 4 | batch | 0.5000 | 1.0000 | 0.25 | 16 | 3 |"]
+        "| dataset | kind | outliers | mode | precision | recall | time s | optimizations | "
+        "map harm | seed |",
+        "|---|---|---|---|---|---|---|---|---|---|",
+        "| csail | random | 4 | batch | 1.0000 | 1.0000 | 0.25 | 18 | HARMED 12.1 cm > 1.0 | 2 |",
+        "| csail | random | 4 | batch | 0.5000 | 1.0000 | 0.25 | 18 | HARMED 12.1 cm > 1.0 | 3 |"]
     assert ("| csail | random | 4 | 2,3 | 0.5000 / 0.7500 | 1.0000 / 1.0000 | 0.25 / 0.25 |"
             in lines)
     assert "  synthetic precision 1.000: 1 of 2; not: csail random 4 (0.5000)" in lines
-    assert len(calls) == 2
+    assert ("  synthetic map harm within max(1 cm, 2%): 0 of 2; not: csail random 4 s2 (HARMED "
+            "12.1 cm > 1.0), csail random 4 s3 (HARMED 12.1 cm > 1.0)") in lines
+    assert len(calls) == 2 and all("--output" in c for c in calls)
 
 
 def aliasing_row(graph, size, count, seed, precision, recall, time, random_time, latency=None):
