@@ -146,42 +146,6 @@ IntraClusterResult intraClusterConsistency(const std::vector<int>& cluster, doub
 
 namespace {
 
-// The links linearized at `poses`, with the map's covariance of the nodes they touch (from the
-// optimizer's last factorization).
-struct LinksLinearization {
-  Eigen::VectorXd residual;         // 3 per link
-  Eigen::MatrixXd link_covariance;  // block diagonal
-  Eigen::MatrixXd map_term;         // J Sigma_map J^T
-};
-
-LinksLinearization linearizeLinks(const VerificationGraph& graph, const std::vector<int>& links,
-                                  const std::vector<core::Pose2>& poses) {
-  const std::vector<int> nodes = graph.touchedNodes(links);
-  auto column = [&](int node) {
-    return 3 * static_cast<Eigen::Index>(std::lower_bound(nodes.begin(), nodes.end(), node) -
-                                         nodes.begin());
-  };
-  const Eigen::MatrixXd map_covariance = graph.optimizer().covariance(nodes);
-  const auto rows = 3 * static_cast<Eigen::Index>(links.size());
-  LinksLinearization out;
-  out.residual.resize(rows);
-  out.link_covariance = Eigen::MatrixXd::Zero(rows, rows);
-  Eigen::MatrixXd J = Eigen::MatrixXd::Zero(rows, map_covariance.cols());
-  for (std::size_t i = 0; i < links.size(); ++i) {
-    const LoopCandidate& c = graph.candidate(links[i]);
-    const core::EdgeLinearization lin =
-        core::linearizeEdge(poses[static_cast<std::size_t>(c.from)],
-                            poses[static_cast<std::size_t>(c.to)], c.measurement);
-    const auto r = 3 * static_cast<Eigen::Index>(i);
-    out.residual.segment<3>(r) = lin.error;
-    J.block<3, 3>(r, column(c.from)) += lin.J_from;
-    J.block<3, 3>(r, column(c.to)) += lin.J_to;
-    out.link_covariance.block<3, 3>(r, r) = c.information.inverse();
-  }
-  out.map_term = J * map_covariance * J.transpose();
-  return out;
-}
-
 struct Conflict {
   std::size_t at;  // in the active clusters
   double index;    // its leave-one-out index
@@ -213,28 +177,6 @@ std::optional<Conflict> mostConflicting(VerificationGraph& graph,
 }
 
 }  // namespace
-
-std::optional<double> predictedIndex(const VerificationGraph& graph, const std::vector<int>& links,
-                                     const std::vector<core::Pose2>& poses, double alpha) {
-  if (!graph.optimizer().covarianceAvailable() || links.empty()) return std::nullopt;
-  const LinksLinearization lin = linearizeLinks(graph, links, poses);
-  // Adding the links: the innovation covariance is the links' plus the map's.
-  const Eigen::MatrixXd S = lin.link_covariance + lin.map_term;
-  const double d2 = lin.residual.dot(S.ldlt().solve(lin.residual));
-  return failIfNotFinite(d2 / core::chi2Quantile(alpha, static_cast<int>(lin.residual.size())));
-}
-
-double leaveOneOutIndex(const VerificationGraph& graph, const std::vector<int>& links,
-                        const std::vector<core::Pose2>& poses, double alpha) {
-  if (links.empty()) return 0.0;
-  const LinksLinearization lin = linearizeLinks(graph, links, poses);
-  // Removing links the map already contains: their own share comes off their covariance.
-  const Eigen::MatrixXd S = lin.link_covariance - lin.map_term;
-  const Eigen::LDLT<Eigen::MatrixXd> ldlt(S);
-  if (ldlt.info() != Eigen::Success || (ldlt.vectorD().array() <= 0.0).any()) return 0.0;
-  const double d2 = lin.residual.dot(ldlt.solve(lin.residual));
-  return failIfNotFinite(d2 / core::chi2Quantile(alpha, static_cast<int>(lin.residual.size())));
-}
 
 InterClusterResult interClusterConsistency(VerificationGraph& graph,
                                            const std::vector<std::vector<int>>& cluster_links,

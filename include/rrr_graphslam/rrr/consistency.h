@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "rrr_graphslam/core/optimizer.h"
+#include "rrr_graphslam/rrr/linearized_tests.h"
 #include "rrr_graphslam/rrr/verification_graph.h"
 
 namespace rrr_graphslam::rrr {
@@ -45,19 +46,6 @@ std::string stopNote(core::StopReason stop);
 inline double failIfNotFinite(double statistic) {
   return statistic == statistic ? statistic : std::numeric_limits<double>::infinity();
 }
-
-/// Linearized tests of a set of links against the map the optimizer last factored (its marginal
-/// covariance, core::Optimizer::covariance), at `poses`: the chi2 the links would add to the map
-/// (predictedIndex), or the chi2 their removal would take off it (leaveOneOutIndex, the
-/// studentized residual of regression: the links' residual weighed by its own covariance, their
-/// covariance less the map's share, so a cluster that bends the map toward itself and fits it
-/// well still stands out). Each over chi2(alpha, 3 * links); exact for a linear model.
-/// predictedIndex: none when no factor is usable or there is no link. leaveOneOutIndex: 0 when
-/// the residual covariance is not positive definite (the links alone fix what they measure).
-std::optional<double> predictedIndex(const VerificationGraph& graph, const std::vector<int>& links,
-                                     const std::vector<core::Pose2>& poses, double alpha);
-double leaveOneOutIndex(const VerificationGraph& graph, const std::vector<int>& links,
-                        const std::vector<core::Pose2>& poses, double alpha);
 
 struct IntraClusterResult {
   std::vector<int> kept;                 ///< links that survive, in the cluster's order
