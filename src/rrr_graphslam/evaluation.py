@@ -18,7 +18,9 @@ from typing import Dict, List, NamedTuple, Optional, Sequence, Tuple
 
 import numpy as np
 
-from .graph_io import GraphFileError, Pose, read_graph, tagged_lines, text_lines, write_text_atomically
+from .graph_io import (GraphFileError, Pose, between, read_graph, tagged_lines, text_lines,
+                       write_text_atomically)
+from .outliers import chi2_against
 
 DECISION_HEADER = ["from", "to", "cluster", "verdict"]
 # The fifth column, the step of RRR that decided and its statistic; files written before it
@@ -238,6 +240,38 @@ def map_harm(estimate: Dict[int, Pose], clean_optimum: Dict[int, Pose],
     if ate is None or clean is None:
         return None
     return MapHarm(ate, clean, clean + max(0.01, 0.02 * clean))
+
+
+class AcceptedFalseLink(NamedTuple):
+    source: int
+    target: int
+    # Each None when `optimized` lacks the link (it was not the graph the decisions made):
+    chi2: Optional[float]     # of its measurement against the reference's relative pose
+    off_m: Optional[float]    # the map's relative pose between its ends against the reference's
+    off_deg: Optional[float]  # in metres and degrees
+
+
+def accepted_false_links(optimized, decisions: Sequence[Decision], truth: Sequence[Optional[bool]],
+                         reference: Dict[int, Pose]) -> List[AcceptedFalseLink]:
+    """Every accepted link the truth calls false, with the chi2 of its measurement against the
+    reference (how far from statistically indistinguishable it is) and how far the map
+    (`optimized`, rrr_offline --output, which holds the accepted links) puts its ends from the
+    reference's relative pose (what it did to the map there)."""
+    edges = {(e.source, e.target): e for e in optimized.edges}
+    out = []
+    for d, t in zip(decisions, truth):
+        if d.verdict != "accepted" or t is not False:
+            continue
+        edge = edges.get((d.source, d.target))
+        if edge is None or d.source not in reference or d.target not in reference:
+            out.append(AcceptedFalseLink(d.source, d.target, None, None, None))
+            continue
+        chi2 = chi2_against(reference, d.source, d.target, edge.measurement, edge.information)
+        e = between(between(optimized.poses[d.source], optimized.poses[d.target]),
+                    between(reference[d.source], reference[d.target]))
+        out.append(AcceptedFalseLink(d.source, d.target, chi2, math.hypot(e[0], e[1]),
+                                     abs(math.degrees(e[2]))))
+    return out
 
 
 def plot_decisions(path: str, poses, decisions: Sequence[Decision], truth: Optional[Sequence[bool]],

@@ -400,14 +400,21 @@ def test_evaluate_prints_the_map_harm_against_a_reference(tmp_path):
     ring = read_graph(os.path.join(DATA, "ring.g2o.gz"))
     reference = tmp_path / "clean.g2o"
     write_graph(ring, str(reference))
-    off = PoseGraph({i: (x, y + (0.5 if i == 3 else 0.0), t) for i, (x, y, t) in ring.poses.items()},
-                    ring.edges)
+    # The map: node 3 0.5 m off, and one accepted false loop 3 -> 9 whose measurement is 2 m off
+    # the reference's relative pose.
+    ids = sorted(ring.poses)
+    false = Edge(ids[3], ids[9], tuple(a + b for a, b in zip(
+        between(ring.poses[ids[3]], ring.poses[ids[9]]), (2.0, 0.0, 0.0))), ring.loops()[0].information)
+    assert not any({e.source, e.target} == {false.source, false.target} for e in ring.edges)
+    off = PoseGraph({i: (x, y + (0.5 if i == ids[3] else 0.0), t) for i, (x, y, t) in ring.poses.items()},
+                    ring.edges + [false])
     estimate = tmp_path / "opt.g2o"
     write_graph(off, str(estimate))
     loops = ring.loops()
     (tmp_path / "d.tsv").write_text("from\tto\tcluster\tverdict\n" + "".join(
-        f"{e.source}\t{e.target}\t0\taccepted\n" for e in loops))
-    (tmp_path / "truth").write_text("".join(f"{e.source} {e.target} 1\n" for e in loops))
+        f"{e.source}\t{e.target}\t0\taccepted\n" for e in loops + [false]))
+    (tmp_path / "truth").write_text("".join(f"{e.source} {e.target} 1\n" for e in loops)
+                                    + f"{false.source} {false.target} 0\n")
 
     def evaluate(*args):
         return subprocess.run([sys.executable, os.path.join(SCRIPTS, "evaluate"), "--truth",
@@ -416,6 +423,13 @@ def test_evaluate_prints_the_map_harm_against_a_reference(tmp_path):
 
     same = evaluate("--graph", reference, "--reference", reference)
     assert same.returncode == 0 and "map harm none: ATE 0.0000 m" in same.stdout, same.stderr
+    assert f"accepted false {ids[3]} {ids[9]}: not in the --graph" in same.stdout
     harmed = evaluate("--graph", estimate, "--reference", reference)
     assert "map harm HARMED" in harmed.stdout and "limit 0.0100 m" in harmed.stdout
+    listed = [line for line in harmed.stdout.splitlines() if line.startswith("accepted false")]
+    assert len(listed) == 1 and listed[0].startswith(f"accepted false {ids[3]} {ids[9]}: chi2 ")
+    chi2 = float(listed[0].split("chi2 ")[1].split()[0])
+    assert chi2 == pytest.approx(chi2_against(ring.poses, ids[3], ids[9], false.measurement,
+                                              false.information), rel=1e-3) and chi2 > gate(0.95)
+    assert "map off it by 0.5" in listed[0]  # node 3's 0.5 m
     assert evaluate("--reference", reference).returncode == 2  # needs --graph
