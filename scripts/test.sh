@@ -15,27 +15,6 @@ echo "[rrr] clang-format check"
 (cd "${RRR_REPO}" && git ls-files '*.cpp' '*.h' | xargs clang-format-14 --dry-run --Werror) ||
   { echo "[rrr] formatting differs from .clang-format: run clang-format-14 -i on the files above"; exit 1; }
 
-# Runs every test of the sourced workspace in the current folder and judges the results. The
-# test targets are built first, so a compile error fails here. `catkin_make run_tests` records
-# each test's result (a failing or crashing test included) and exits 0 for failed tests, so its
-# status says nothing: catkin_test_results does, and a run that counted fewer tests than its floor
-# ($1, a key of test/minimum_tests) fails too.
-# Results of earlier runs are removed first, so a test that no longer runs cannot pass on them.
-rrr_run_tests() {
-  rm -rf build/test_results
-  catkin_make tests >/dev/null || { echo "[rrr] building the tests failed"; return 1; }
-  # Its output is filtered to the test lines; its own status still counts (a target that fails
-  # to build or run), and grep finding no line is not a failure.
-  catkin_make run_tests 2>&1 | { grep -E '^\[ +(RUN|OK|FAILED|PASSED) +\]|Failure|error' || true; }
-  [[ ${PIPESTATUS[0]} == 0 ]] || { echo "[rrr] catkin_make run_tests failed"; return 1; }
-  local summary status=0
-  summary=$(catkin_test_results build/test_results) || status=$?
-  [[ $status != 0 ]] && catkin_test_results build/test_results --verbose | grep -vE '^Summary' || true
-  echo "${summary}" | tail -n 1
-  [[ $status == 0 ]] || return 1
-  rrr_enough_tests "$(echo "${summary}" | tail -n 1)" "$1"
-}
-
 if [[ $sanitize == 1 ]]; then
   echo "[rrr] sanitizer build (ASan + UBSan) of the core tests"
   (

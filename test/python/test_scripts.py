@@ -93,3 +93,30 @@ def test_the_test_floors_are_kept_for_both_runs():
     floors = dict(line.split() for line in open(os.path.join(SCRIPTS, "..", "test", "minimum_tests"))
                   if line.strip() and not line.startswith("#"))
     assert set(floors) == {"all", "sanitizer"} and all(int(v) > 700 for v in floors.values())
+
+
+def run_tests_with(tmp_path, build=0, run=0, results=0, summary="Summary: 10 tests, 0 errors, 0 failures, 0 skipped"):
+    """common.sh's rrr_run_tests with stand-ins for catkin_make (`tests` exits `build`,
+    `run_tests` exits `run`) and catkin_test_results (prints `summary`, exits `results`)."""
+    (tmp_path / "floors").write_text("all 10\n")
+    script = f"""
+source {os.path.join(SCRIPTS, "common.sh")}
+set +e
+catkin_make() {{ [[ $1 == tests ]] && return {build}; echo '[       OK ] A.b'; return {run}; }}
+catkin_test_results() {{ echo '{summary}'; return {results}; }}
+cd {tmp_path} && rrr_run_tests all
+"""
+    return subprocess.run(["bash", "-c", script], capture_output=True, text=True,
+                          env={**os.environ, "RRR_MINIMUM_TESTS": str(tmp_path / "floors")})
+
+
+def test_a_failing_build_run_or_test_fails_the_test_run(tmp_path):
+    assert run_tests_with(tmp_path).returncode == 0
+    assert "building the tests failed" in run_tests_with(tmp_path, build=2).stdout
+    assert run_tests_with(tmp_path, build=2).returncode == 1
+    assert run_tests_with(tmp_path, run=2).returncode == 1
+    failed = run_tests_with(tmp_path, results=1,
+                            summary="Summary: 10 tests, 0 errors, 1 failures, 0 skipped")
+    assert failed.returncode == 1 and "[rrr] tests failed" in failed.stdout
+    few = run_tests_with(tmp_path, summary="Summary: 9 tests, 0 errors, 0 failures, 0 skipped")
+    assert few.returncode == 1
