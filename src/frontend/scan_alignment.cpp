@@ -48,6 +48,22 @@ mrpt::maps::CSimplePointsMap pointsMap(const PointCloud& points) {
   return map;
 }
 
+// overlapFraction against a reference already in a points map (its KD-tree built once).
+double overlapIn(const mrpt::maps::CSimplePointsMap& reference, const PointCloud& query,
+                 const core::Pose2& query_pose, double distance_m) {
+  if (query.empty() || reference.empty()) return 0.0;
+  const Eigen::Matrix2d R = core::rotation(query_pose.z());
+  const double max_sq = distance_m * distance_m;
+  std::size_t within = 0;
+  for (const auto& p : query) {
+    const Eigen::Vector2d q = query_pose.head<2>() + R * p;
+    const float sq = reference.kdTreeClosestPoint2DsqrError(static_cast<float>(q.x()),
+                                                            static_cast<float>(q.y()));
+    within += static_cast<double>(sq) <= max_sq;
+  }
+  return static_cast<double>(within) / static_cast<double>(query.size());
+}
+
 }  // namespace
 
 core::Pose2 refineScanIcp(const PointCloud& reference, const PointCloud& query,
@@ -69,8 +85,8 @@ core::Pose2 refineScanIcp(const PointCloud& reference, const PointCloud& query,
   const mrpt::poses::CPose2D mean = pdf->getMeanVal();
   const core::Pose2 refined(mean.x(), mean.y(), core::normalizeAngle(mean.phi()));
   // ICP may slide along a corridor: keep its pose only where it overlaps at least as well.
-  return overlapFraction(reference, query, refined, params.resolution_m) >=
-                 overlapFraction(reference, query, initial, params.resolution_m)
+  return overlapIn(reference_map, query, refined, params.resolution_m) >=
+                 overlapIn(reference_map, query, initial, params.resolution_m)
              ? refined
              : initial;
 }
@@ -103,17 +119,7 @@ PointCloud surfacePoints(const PointCloud& points, double max_gap_m, double step
 double overlapFraction(const PointCloud& reference, const PointCloud& query,
                        const core::Pose2& query_pose, double distance_m) {
   if (query.empty() || reference.empty()) return 0.0;
-  const mrpt::maps::CSimplePointsMap reference_map = pointsMap(reference);
-  const Eigen::Matrix2d R = core::rotation(query_pose.z());
-  const double max_sq = distance_m * distance_m;
-  std::size_t within = 0;
-  for (const auto& p : query) {
-    const Eigen::Vector2d q = query_pose.head<2>() + R * p;
-    const float sq = reference_map.kdTreeClosestPoint2DsqrError(static_cast<float>(q.x()),
-                                                                static_cast<float>(q.y()));
-    within += static_cast<double>(sq) <= max_sq;
-  }
-  return static_cast<double>(within) / static_cast<double>(query.size());
+  return overlapIn(pointsMap(reference), query, query_pose, distance_m);
 }
 
 }  // namespace rrr_graphslam::frontend

@@ -281,6 +281,13 @@ def main(argv=None):
     return 0
 
 
+def tally(selection, bad, name):
+    """'met of all', then '; not: ' and name(r) of each input r for which bad(r)."""
+    names = [name(r) for r in selection if bad(r)]
+    return (f"{len(selection) - len(names)} of {len(selection)}"
+            + (f"; not: {', '.join(names)}" if names else ""))
+
+
 def seed_summary(rows):
     """Per synthetic (dataset, kind, count) run on several seeds: the worst and the mean
     precision, recall and time over them."""
@@ -380,10 +387,8 @@ def aliasing_summary(rows):
                      f"{sum(ratios) / len(ratios):.1f}x |")
 
     def failing(selection, what, bad):
-        names = [f"{r.graph} g{r.group_size} {r.count} s{r.seed} ({what(r)})"
-                 for r in selection if bad(r)]
-        met = len(selection) - len(names)
-        return f"{met} of {len(selection)}" + (f"; not: {', '.join(names)}" if names else "")
+        return tally(selection, bad, lambda r: f"{r.graph} g{r.group_size} {r.count} s{r.seed} "
+                                               f"({what(r)})")
 
     lines += ["", "targets (every aliased input, every seed):",
               "  precision 1.000: " + failing(rows, lambda r: f"{r.score.precision:.4f}",
@@ -458,10 +463,8 @@ def target_lines(rows):
     kitti = [r for r in rows if r.dataset.startswith("KITTI")]
 
     def share(selection, what, minimum):
-        failing = [f"{r.dataset} {r.kind} {r.count} ({getattr(r.score, what):.4f})"
-                   for r in selection if getattr(r.score, what) < minimum]
-        met = len(selection) - len(failing)
-        return f"{met} of {len(selection)}" + (f"; not: {', '.join(failing)}" if failing else "")
+        return tally(selection, lambda r: getattr(r.score, what) < minimum,
+                     lambda r: f"{r.dataset} {r.kind} {r.count} ({getattr(r.score, what):.4f})")
 
     def timed(dataset, kind, count, mode):
         return next((r.run for r in rows if r[:4] == (dataset, kind, count, mode)), None)
@@ -472,10 +475,9 @@ def target_lines(rows):
         lines.append("  synthetic recall >= 0.98: " + share(synthetic, "recall", 0.98))
     harmed = [r for r in synthetic if r.harm is not None]
     if harmed:
-        failing = [f"{r.dataset} {r.kind} {r.count} s{r.seed} ({harm_text(r.harm)})"
-                   for r in harmed if r.harm.harmed]
-        lines.append(f"  synthetic map harm within max(1 cm, 2%): {len(harmed) - len(failing)} of "
-                     f"{len(harmed)}" + (f"; not: {', '.join(failing)}" if failing else ""))
+        lines.append("  synthetic map harm within max(1 cm, 2%): " + tally(
+            harmed, lambda r: r.harm.harmed,
+            lambda r: f"{r.dataset} {r.kind} {r.count} s{r.seed} ({harm_text(r.harm)})"))
     if kitti:
         lines.append("  KITTI precision 1.000: " + share(kitti, "precision", 1.0))
     for dataset, label, limit in (("manhattanOlson3500_olson", "M3500", 1.0),

@@ -38,6 +38,7 @@ from scipy.spatial import cKDTree
 
 from .bench_sessions import GroundTruth, local_from_trajectory, read_corrected, read_raw_scans
 from .carmen import read_carmen
+from .evaluation import alignment_errors
 from .graph_io import Pose, between, compose, inverse
 from .relations import read_tum
 
@@ -202,21 +203,9 @@ def align(binary: str, log: str, revisits: Sequence[Revisit], p: CheckParams) ->
             r.aligned, r.overlap_aligned = forward, 0.5 * (forward_overlap + backward_overlap)
 
 
-def se2_alignment(source: np.ndarray, target: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
-    """(R, t) minimizing sum |R source_i + t - target_i|^2 (2-D Kabsch, no scale)."""
-    ms, mt = source.mean(axis=0), target.mean(axis=0)
-    u, _, vt = np.linalg.svd((source - ms).T @ (target - mt))
-    d = np.sign(np.linalg.det(vt.T @ u.T))
-    r = vt.T @ np.diag([1.0, d]) @ u.T
-    return r, mt - r @ ms
-
-
 def absolute_trajectory_error(estimate: Sequence[Pose], reference: Sequence[Pose]) -> Ate:
     """RMSE and maximum of the position error after aligning the estimate onto the reference."""
-    src = np.array([q[:2] for q in estimate])
-    dst = np.array([q[:2] for q in reference])
-    r, t = se2_alignment(src, dst)
-    err = np.linalg.norm(src @ r.T + t - dst, axis=1)
+    err = alignment_errors([q[:2] for q in estimate], [q[:2] for q in reference])
     return Ate(float(np.sqrt(np.mean(err ** 2))), float(err.max()), len(err))
 
 

@@ -199,6 +199,13 @@ def _rotation(angle: float) -> np.ndarray:
     return np.array([[c, -s], [s, c]])
 
 
+def alignment_errors(estimate, truth) -> np.ndarray:
+    """Distance of each estimate position (x, y rows) from its truth after align_se2."""
+    est, gt = np.asarray(estimate, dtype=float), np.asarray(truth, dtype=float)
+    angle, t = align_se2(est, gt)
+    return np.linalg.norm(est @ _rotation(angle).T + np.array(t) - gt, axis=1)
+
+
 def absolute_trajectory_error(estimate: Dict[int, Pose], truth: Dict[int, Pose]) -> Optional[float]:
     """RMSE of positions after SE(2) alignment over the common node ids (ids are matched in
     sorted order when the files number their nodes differently but have equal counts)."""
@@ -209,11 +216,8 @@ def absolute_trajectory_error(estimate: Dict[int, Pose], truth: Dict[int, Pose])
         pairs = [(i, i) for i in common]
     if len(pairs) < 2:
         return None
-    est = np.array([estimate[a][:2] for a, _ in pairs], dtype=float)
-    gt = np.array([truth[b][:2] for _, b in pairs], dtype=float)
-    angle, t = align_se2(est, gt)
-    residual = est @ _rotation(angle).T + np.array(t) - gt
-    return float(np.sqrt(np.mean(np.sum(residual * residual, axis=1))))
+    errors = alignment_errors([estimate[a][:2] for a, _ in pairs], [truth[b][:2] for _, b in pairs])
+    return float(np.sqrt(np.mean(errors ** 2)))
 
 
 class MapHarm(NamedTuple):
