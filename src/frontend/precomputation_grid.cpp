@@ -73,11 +73,51 @@ PrecomputationGrid::PrecomputationGrid(const MatchGrid& grid, int height)
   }
 }
 
+PrecomputationGrid PrecomputationGrid::coarser(const PrecomputationGrid& finer) {
+  if (finer.height_ >= 16) throw std::invalid_argument("precomputation height out of range");
+  const int s = 1 << finer.height_;  // the finer level's block side, and the step between blocks
+  PrecomputationGrid out;
+  out.height_ = finer.height_ + 1;
+  out.unknown_ = finer.unknown_;
+  out.offset_ = 2 * s - 1;
+  // The match grid's size, and the new level's x (and y) from -offset_ to its last cell.
+  const int grid_width = finer.width_ - finer.offset_;
+  const int grid_rows = finer.rows_ - finer.offset_;
+  out.width_ = grid_width + out.offset_;
+  out.rows_ = grid_rows + out.offset_;
+  // Rows: R(x, y) = max(P_h(x, y), P_h(x + s, y)) for the finer level's rows y.
+  std::vector<std::uint8_t> by_rows(static_cast<std::size_t>(out.width_) *
+                                    static_cast<std::size_t>(finer.rows_));
+  for (int j = 0; j < finer.rows_; ++j) {
+    const int y = j - finer.offset_;
+    std::uint8_t* row = by_rows.data() + static_cast<std::ptrdiff_t>(j) * out.width_;
+    for (int i = 0; i < out.width_; ++i) {
+      const int x = i - out.offset_;
+      row[i] = std::max(finer.at(x, y), finer.at(x + s, y));
+    }
+  }
+  // Columns: P_{h+1}(x, y) = max(R(x, y), R(x, y + s)), R read as `unknown` outside its rows.
+  auto rowsAt = [&](int i, int y) {
+    const int j = y + finer.offset_;
+    if (j < 0 || j >= finer.rows_) return out.unknown_;
+    return by_rows[static_cast<std::size_t>(j) * static_cast<std::size_t>(out.width_) +
+                   static_cast<std::size_t>(i)];
+  };
+  out.cells_.resize(static_cast<std::size_t>(out.width_) * static_cast<std::size_t>(out.rows_));
+  for (int j = 0; j < out.rows_; ++j) {
+    const int y = j - out.offset_;
+    std::uint8_t* cell = out.cells_.data() + static_cast<std::ptrdiff_t>(j) * out.width_;
+    for (int i = 0; i < out.width_; ++i) cell[i] = std::max(rowsAt(i, y), rowsAt(i, y + s));
+  }
+  return out;
+}
+
 PrecomputationGridStack::PrecomputationGridStack(const MatchGrid& grid, int depth)
     : resolution_(grid.resolution()), origin_(grid.origin()) {
   if (depth < 1) throw std::invalid_argument("branch-and-bound depth must be at least 1");
   levels_.reserve(static_cast<std::size_t>(depth));
-  for (int h = 0; h < depth; ++h) levels_.emplace_back(grid, h);
+  levels_.emplace_back(grid, 0);
+  for (int h = 1; h < depth; ++h) levels_.push_back(PrecomputationGrid::coarser(levels_.back()));
 }
 
 Eigen::Array2i PrecomputationGridStack::cellOf(const Eigen::Vector2d& p) const {

@@ -62,6 +62,26 @@ TEST(PrecomputationGrid, EqualsBruteForceMaxima) {
   }
 }
 
+// The stack builds each level from the one before (doubling); every level must equal the one
+// built from the grid directly, which the test above checks against brute-force maxima.
+TEST(PrecomputationGrid, StackLevelsByDoublingEqualDirectLevels) {
+  std::mt19937 rng(11);
+  for (const auto& [w, h] : {std::pair{23, 17}, std::pair{1, 40}, std::pair{64, 3}}) {
+    const MatchGrid grid = randomGrid(rng, w, h);
+    const PrecomputationGridStack stack(grid, 7);
+    for (int level = 0; level < stack.depth(); ++level) {
+      const PrecomputationGrid direct(grid, level);
+      const int side = 1 << level;
+      for (int y = -side - 3; y < grid.height() + 3; ++y) {
+        for (int x = -side - 3; x < grid.width() + 3; ++x) {
+          ASSERT_EQ(stack.level(level).at(x, y), direct.at(x, y))
+              << w << "x" << h << " level " << level << " at " << x << "," << y;
+        }
+      }
+    }
+  }
+}
+
 // A scan of the grid's strongest cells seen from a known pose, so that the best match is distinct.
 PointCloud scanOf(const MatchGrid& grid, const core::Pose2& pose, std::mt19937& rng, int n) {
   std::uniform_int_distribution<int> cx(0, grid.width() - 1);

@@ -24,8 +24,13 @@ class PrecomputationGrid {
  public:
   /// Level `height` of `grid`, by sliding-window maxima along rows then columns (O(cells)).
   PrecomputationGrid(const MatchGrid& grid, int height);
+  /// Level h + 1 from level h (`finer`), by doubling: a 2^(h+1) block is four 2^h blocks, so
+  ///     P_{h+1}(x, y) = max of P_h at (x, y), (x + 2^h, y), (x, y + 2^h), (x + 2^h, y + 2^h)
+  /// (along rows, then columns: two maxima per cell). Equal to PrecomputationGrid(grid, h + 1).
+  static PrecomputationGrid coarser(const PrecomputationGrid& finer);
 
   int height() const { return height_; }
+  std::uint8_t unknown() const { return unknown_; }
   /// P_h(x, y) in match-grid cell indices; any integers are valid.
   std::uint8_t at(int x, int y) const {
     const int i = x + offset_;
@@ -36,6 +41,8 @@ class PrecomputationGrid {
   }
 
  private:
+  PrecomputationGrid() = default;
+
   int height_;
   int offset_;  ///< 2^h - 1 cells before the match grid's first one
   int width_;
@@ -47,6 +54,7 @@ class PrecomputationGrid {
 /// Levels 0 .. depth-1 of one submap (level 0 is the quantized match grid itself).
 class PrecomputationGridStack {
  public:
+  /// Level 0 from the grid, each further level from the one before (PrecomputationGrid::coarser).
   PrecomputationGridStack(const MatchGrid& grid, int depth);
   int depth() const { return static_cast<int>(levels_.size()); }
   const PrecomputationGrid& level(int h) const { return levels_[static_cast<std::size_t>(h)]; }
