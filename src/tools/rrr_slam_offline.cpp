@@ -18,6 +18,7 @@
 #include <string>
 #include <type_traits>
 
+#include "decision_stream.h"
 #include "params_cli.h"
 #include "rrr_graphslam/core/atomic_file.h"
 #include "rrr_graphslam/core/graph_io.h"
@@ -84,6 +85,7 @@ const std::string& usage() {
       "usage: rrr_slam_offline LOG.clf[.gz] [--output GRAPH.g2o] [--decisions DECISIONS.tsv]\n"
       "                        [--trajectory TRAJ.txt] [--map MAP] [--map-resolution M]\n"
       "                        [--refine-resolution M] [--max-scans N] [--quiet]\n"
+      "                        [--decision-stream STREAM.tsv]\n"
       "                        [--load-map IN.rrrmap] [--save-map OUT.rrrmap]\n"
       "                        [--session-name NAME] [--session-trajectory TRAJ.txt]\n"
       "                        [--initial-pose X,Y,THETA] [--localization-only]\n"
@@ -96,6 +98,10 @@ const std::string& usage() {
       "loop\n"
       "                    candidate (rrr_offline can decide it again)\n"
       "  --decisions       TSV 'from to cluster verdict reason', one row per loop candidate\n"
+      "  --decision-stream TSV of the decisions as the run made them: a row per arrival and per\n"
+      "                    verdict change, with the scan and node at which it happened and the\n"
+      "                    scan's ipc_timestamp ('final' rows: the decision from scratch at the "
+      "end)\n"
       "  --trajectory      optimized pose of every scan, TUM format 't x y z qx qy qz qw' with "
       "the\n"
       "                    log's ipc_timestamp\n"
@@ -142,6 +148,7 @@ struct Arguments {
   std::string log;
   std::string output;
   std::string decisions;
+  std::string decision_stream;
   std::string trajectory;
   std::string map;
   double map_resolution = 0.05;
@@ -210,6 +217,8 @@ Arguments parseArguments(int argc, char** argv) {
       args.output = cli.value(i, a);
     } else if (a == "--decisions") {
       args.decisions = cli.value(i, a);
+    } else if (a == "--decision-stream") {
+      args.decision_stream = cli.value(i, a);
     } else if (a == "--trajectory") {
       args.trajectory = cli.value(i, a);
     } else if (a == "--map") {
@@ -379,6 +388,7 @@ int main(int argc, char** argv) {
     std::vector<double> latency;  // seconds of each addScan call
     latency.reserve(n);
     constexpr int kRefusalsShown = 10;
+    tools::DecisionStream stream;
     for (std::size_t k = 0; k < n; ++k) {
       const auto& record = log.scans[k];
       const auto scan_start = std::chrono::steady_clock::now();
@@ -395,6 +405,9 @@ int main(int argc, char** argv) {
               slam.stats().refused_scans == kRefusalsShown ? " (further ones counted)" : "");
         }
       }
+      if (!args.decision_stream.empty()) {
+        stream.record(slam.rrr(), k + 1, slam.rrr().numNodes(), record.timestamp, false);
+      }
       if (progress && (k % 100 == 0 || k + 1 == n)) {
         const auto status = slam.rrr().status();
         std::fprintf(
@@ -404,6 +417,9 @@ int main(int argc, char** argv) {
     }
     if (progress) std::fprintf(stderr, "\n");
     slam.finish();
+    if (!args.decision_stream.empty()) {
+      stream.record(slam.rrr(), n, slam.rrr().numNodes(), log.scans[n - 1].timestamp, true);
+    }
     const double seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     const auto& stats = slam.stats();
@@ -439,6 +455,10 @@ int main(int argc, char** argv) {
     if (!args.decisions.empty()) {
       rrr::writeDecisions(args.decisions, slam.rrr().decisionRows());
       std::printf("decisions      %s\n", args.decisions.c_str());
+    }
+    if (!args.decision_stream.empty()) {
+      stream.write(args.decision_stream);
+      std::printf("decision str.  %s (%zu rows)\n", args.decision_stream.c_str(), stream.size());
     }
     if (!args.trajectory.empty() || !args.session_trajectory.empty()) {
       const auto refine_start = std::chrono::steady_clock::now();

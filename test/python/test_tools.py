@@ -209,6 +209,47 @@ def test_slam_offline_builds_graph_trajectory_and_map_from_a_log(tmp_path):
 
 
 @needs_slam
+def test_slam_offline_decision_stream_holds_every_arrival_and_ends_in_the_final_verdicts(tmp_path):
+    import csv
+    stream, decisions = tmp_path / "stream.tsv", tmp_path / "d.tsv"
+    result = run(SLAM_OFFLINE, ACES_HEAD, "--decisions", decisions, "--decision-stream", stream,
+                 "--scans-per-submap", 10, "--min-node-separation", 15, "--refine-resolution", 0,
+                 "--quiet")
+    assert result.returncode == 0, result.stderr
+    rows = list(csv.DictReader(stream.open(), delimiter="\t"))
+    final = read_decisions(str(decisions))
+    assert len(final) > 0 and f"({len(rows)} rows)" in result.stdout
+    arrivals = [r for r in rows if r["previous"] == r["verdict"] == "pending"]
+    # Each candidate arrives once, online, in arrival order, between its own two nodes.
+    assert [int(r["candidate"]) for r in arrivals] == list(range(len(final)))
+    assert all(r["when"] == "online" for r in arrivals)
+    assert [(int(r["from"]), int(r["to"])) for r in arrivals] == [(d.source, d.target) for d in final]
+    # Scans, nodes and stamps never go back; changes follow their candidate's arrival.
+    from rrr_graphslam.carmen import read_carmen
+    for column in ("scan", "nodes"):
+        values = [int(r[column]) for r in rows]
+        assert values == sorted(values)
+    scans = len(read_carmen(ACES_HEAD).lasers)
+    assert all(int(r["scan"]) == scans for r in rows if r["when"] == "final")
+    assert all(1 <= int(r["scan"]) <= scans for r in rows)
+    assert [float(r["stamp"]) for r in rows] == sorted(float(r["stamp"]) for r in rows)
+    last = {}
+    for r in rows:
+        c = int(r["candidate"])
+        if r["previous"] == r["verdict"] == "pending":
+            assert c not in last
+            last[c] = "pending"
+        else:
+            assert c in last, "a change follows its candidate's arrival"
+            assert r["previous"] == last[c], "a change starts from the last verdict"
+            last[c] = r["verdict"]
+    # The last verdict of each candidate is the decisions table's.
+    assert [last.get(c, "pending") for c in range(len(final))] == [d.verdict for d in final]
+    assert any(r["when"] == "online" and r["verdict"] != "pending" for r in rows), \
+        "some decisions are made during the run"
+
+
+@needs_slam
 def test_slam_offline_refines_the_trajectory_against_the_final_map(tmp_path):
     from rrr_graphslam.relations import read_tum
     trajectories = {}
