@@ -424,9 +424,19 @@ def mapped_space_entry(node_positions: Sequence[Optional[Tuple[float, float]]], 
                        radius_m: float) -> Optional[int]:
     """The session's node (index from its first node) at which the session [first, end) first comes
     within radius_m of a node of an earlier session (nodes before `first`); None if never."""
+    inside = mapped_space_nodes(node_positions, first, end, radius_m)
+    return inside[0] if inside else None
+
+
+def mapped_space_nodes(node_positions: Sequence[Optional[Tuple[float, float]]], first: int, end: int,
+                       radius_m: float) -> List[int]:
+    """The session's nodes (indices from its first node) of [first, end) that lie within radius_m
+    of a node of an earlier session (nodes before `first`): the session in mapped space, which it
+    may leave and enter again."""
     earlier = [p for p in node_positions[:first] if p is not None]
+    inside: List[int] = []
     if not earlier:
-        return None
+        return inside
     cell = radius_m
     grid: Dict[Tuple[int, int], List[Tuple[float, float]]] = defaultdict(list)
     for p in earlier:
@@ -436,12 +446,15 @@ def mapped_space_entry(node_positions: Sequence[Optional[Tuple[float, float]]], 
         if p is None:
             continue
         cx, cy = math.floor(p[0] / cell), math.floor(p[1] / cell)
+        near = False
         for dx in (-1, 0, 1):
             for dy in (-1, 0, 1):
                 for q in grid.get((cx + dx, cy + dy), ()):
                     if math.hypot(p[0] - q[0], p[1] - q[1]) <= radius_m:
-                        return k - first
-    return None
+                        near = True
+        if near:
+            inside.append(k - first)
+    return inside
 
 
 def place_scans(session_stamps: Sequence[float], session_poses: Sequence[Pose],
@@ -537,6 +550,7 @@ class SessionRow:
     gzipped_log_bytes: int
     nodes: int = 0                  # the session's (single: the run's)
     entry_node: Optional[int] = None
+    mapped_nodes: List[int] = field(default_factory=list)  # the session's nodes in mapped space
     loops: Optional[LoopCheck] = None
     all_error: Optional[RelationError] = None
     cross_error: Optional[RelationError] = None
@@ -560,23 +574,25 @@ def fmt_error(e: Optional[RelationError]) -> str:
 def fmt_row(r: SessionRow) -> str:
     s = r.summary
     if r.session is None:
-        what, reloc, entry, after = "one run", "–", "–", "–"
+        what, reloc, entry, after, inside = "one run", "–", "–", "–", "–"
     else:
         what = f"{r.session + 1} of {r.sessions}"
         if r.session == 0:
-            reloc, entry, after = "(first)", "–", "–"
+            reloc, entry, after, inside = "(first)", "–", "–", "–"
         else:
             reloc = {"at": f"node {s.tied_node} ({s.tied_after_s:.1f} s)", "final": "at the end",
                      "no": "no"}.get(s.relocalized, "?")
             entry = "never" if r.entry_node is None else f"node {r.entry_node}"
             after = (f"{s.tied_node - r.entry_node}" if s.relocalized == "at" and r.entry_node is not None
                      else "–")
+            inside = (f"{sum(1 for n in r.mapped_nodes if n < s.tied_node)}"
+                      if s.relocalized == "at" and r.entry_node is not None else "–")
     loops = "–" if r.loops is None or r.session in (None, 0) else \
         f"{r.loops.inter_session} ({r.loops.inter_session_false})"
     ratio = r.map_bytes / r.gzipped_log_bytes if r.gzipped_log_bytes else math.nan
     seed = "–" if r.seed is None else str(r.seed)
     return (f"| {r.log} | {r.sessions if r.session is not None else 1} | {seed} | {what} | "
-            f"{s.scans} / {r.nodes} | {s.time_s:.1f} | {reloc} | {entry} | {after} | {loops} | "
+            f"{s.scans} / {r.nodes} | {s.time_s:.1f} | {reloc} | {entry} | {after} | {inside} | {loops} | "
             f"{'–' if math.isnan(r.load_s) else f'{r.load_s:.2f}'} | "
             f"{'–' if math.isnan(r.save_s) else f'{r.save_s:.2f}'} | "
             f"{r.map_bytes / 1e6:.2f} MB ({ratio:.2f}×) | {fmt_error(r.all_error)} | "
@@ -584,7 +600,8 @@ def fmt_row(r: SessionRow) -> str:
 
 
 HEADER = ("| log | sessions | seed | session | scans / nodes | time (s) | relocalized at the session's "
-          "node (s after start) | entered mapped space | nodes from entry to tie | inter-session loops "
+          "node (s after start) | entered mapped space | nodes from entry to tie | nodes in mapped space "
+          "before the tie | inter-session loops "
           "accepted at the end of its run (false) | load (s) | save (s) | map file (× gzipped log) | "
           "relation error, all (relations) | relation error, cross-session (relations) |")
 
@@ -689,11 +706,12 @@ def run_sessions(tools: Tools, data: LogData, cache: str, count: int, seed: int,
             p = truth(t)
             positions.append(None if p is None else (p[0], p[1]))
         end = first_nodes[k] + info.session_nodes[k]
-        entry = mapped_space_entry(positions, first_nodes[k], end, criteria.mapped_radius) if k else None
+        inside = mapped_space_nodes(positions, first_nodes[k], end, criteria.mapped_radius) if k else []
+        entry = inside[0] if inside else None
         accepted = accepted_loops(files[k]["graph"], files[k]["decisions"])
         loops = check_loops(accepted, stamps, of_node, truth, criteria.false_m, criteria.false_deg, involving=k)
         row = SessionRow(data.name, count, seed, k, summaries[k], info.bytes, sum(gz[:k + 1]),
-                         info.session_nodes[k], entry_node=entry, loops=loops, transform=transforms[k],
+                         info.session_nodes[k], entry_node=entry, mapped_nodes=inside, loops=loops, transform=transforms[k],
                          load_s=summaries[k].load_s if k else math.nan, save_s=summaries[k].save_s)
         if data.relations:
             t_stamps, t_poses = read_tum(files[k]["trajectory"])

@@ -6,7 +6,8 @@ import math
 import pytest
 from rrr_graphslam.bench_sessions import (GroundTruth, Loop, RawScan, accepted_loops, check_loops,
                                           session_components,
-                                          cross_relations, mapped_space_entry, parse_map_info,
+                                          cross_relations, mapped_space_entry,
+                                          mapped_space_nodes, parse_map_info,
                                           parse_summary, place_scans, random_transforms,
                                           session_of_node, split_lines, write_sessions)
 from rrr_graphslam.graph_io import between, compose
@@ -164,6 +165,10 @@ def test_mapped_space_is_the_first_node_near_an_earlier_session():
     assert mapped_space_entry(positions, 3, 8, 1.0) == 3   # node 6, 0.71 m from node 2
     assert mapped_space_entry(positions, 3, 6, 1.0) is None
     assert mapped_space_entry(positions, 0, 3, 1.0) is None
+    # A session leaves mapped space and enters it again: node 7 is back at node 1's place.
+    assert mapped_space_nodes(positions, 3, 8, 1.0) == [3, 4]
+    assert mapped_space_nodes(positions, 3, 8, 0.5) == [4]
+    assert mapped_space_nodes(positions, 0, 3, 1.0) == []
 
 
 def test_scans_keep_their_offset_from_their_node():
