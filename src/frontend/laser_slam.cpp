@@ -30,6 +30,14 @@ LaserSlam::LaserSlam(const LaserSlamParams& params, const std::string& session_n
 }
 
 std::optional<int> LaserSlam::addScan(const RangeScan& scan, const core::Pose2& odom_pose) {
+  if (map_sensor_) {
+    const SensorSetup setup = SensorSetup::of(scan);
+    if (!setup.sameAs(*map_sensor_)) {
+      throw SensorMismatch("the scan's laser has " + setup.describe() + "; the map's scans have " +
+                           map_sensor_->describe() +
+                           ": a map made with another sensor setup cannot be continued");
+    }
+  }
   auto start = std::chrono::steady_clock::now();
   LocalSlamResult result;
   try {

@@ -1,6 +1,9 @@
 #include "rrr_graphslam/frontend/range_scan.h"
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <string>
 
 #include <mrpt/poses/CPose3D.h>
 
@@ -31,6 +34,46 @@ PointCloud matchingPoints(const RangeScan& scan, const RangeScanParams& params) 
                      R * Eigen::Vector2d(r * std::cos(a), r * std::sin(a)));
   }
   return voxelFilter(points, params.voxel_size_m);
+}
+
+SensorSetup SensorSetup::of(const RangeScan& scan) {
+  SensorSetup setup;
+  setup.beams = static_cast<int>(scan.ranges.size());
+  setup.aperture_rad = static_cast<double>(setup.beams) * scan.angle_increment;
+  setup.centre_in_robot = scan.laser_in_robot;
+  setup.centre_in_robot.z() =
+      core::normalizeAngle(scan.laser_in_robot.z() + scan.angle_min + 0.5 * setup.aperture_rad);
+  return setup;
+}
+
+SensorSetup SensorSetup::of(const mrpt::obs::CObservation2DRangeScan& observation) {
+  SensorSetup setup;
+  setup.beams = static_cast<int>(observation.getScanSize());
+  setup.aperture_rad = observation.aperture;
+  setup.centre_in_robot = core::Pose2(observation.sensorPose.x(), observation.sensorPose.y(),
+                                      core::normalizeAngle(observation.sensorPose.yaw()));
+  return setup;
+}
+
+bool SensorSetup::sameAs(const SensorSetup& other) const {
+  constexpr double kPosition = 0.01;  // m
+  const double beam = beamAngle();
+  const double two_beams = 2.0 * std::max(beam, other.beamAngle());
+  return beams > 0 && other.beams > 0 && std::abs(beam - other.beamAngle()) <= 0.01 * beam &&
+         std::abs(aperture_rad - other.aperture_rad) <= two_beams &&
+         std::abs(core::normalizeAngle(centre_in_robot.z() - other.centre_in_robot.z())) <=
+             two_beams &&
+         (centre_in_robot.head<2>() - other.centre_in_robot.head<2>()).norm() <= kPosition;
+}
+
+std::string SensorSetup::describe() const {
+  char text[160];
+  std::snprintf(text, sizeof(text),
+                "%d beams %.3f deg apart over %.2f deg, centred at %.2f deg, at (%.3f, %.3f) m "
+                "on the robot",
+                beams, beamAngle() * 180.0 / M_PI, aperture_rad * 180.0 / M_PI,
+                centre_in_robot.z() * 180.0 / M_PI, centre_in_robot.x(), centre_in_robot.y());
+  return text;
 }
 
 mrpt::obs::CObservation2DRangeScan toObservation(const RangeScan& scan,

@@ -396,6 +396,10 @@ int main(int argc, char** argv) {
         slam.addScan(frontend::RangeScan::fromCarmen(record), record.odom_pose);
         placed.push_back(k);
         latency.push_back(core::secondsSince(scan_start));
+      } catch (const frontend::SensorMismatch& e) {
+        throw std::runtime_error(args.log + ":" + std::to_string(record.line) + ": scan " +
+                                 std::to_string(k + 1) + " cannot continue " + args.load_map +
+                                 ": " + e.what());
       } catch (const frontend::ScanRefused& e) {
         if (slam.stats().refused_scans <= kRefusalsShown) {
           std::fprintf(

@@ -210,6 +210,54 @@ TEST(MapFile, AMapMadeWithOtherSubmapsIsRefusedNamingTheParameter) {
   }
 }
 
+TEST(MapFile, ScansFromAnotherSensorSetupAreRefusedNamingBothSetups) {
+  const MapSnapshot map = readMapFile(savedMap());
+  auto slam = LaserSlam::fromMap(map, smallMaps(), "second");
+  const std::size_t nodes = slam->rrr().numNodes();
+  const RangeScan same = castScan(room(), truthAt(0));
+  auto refused = [&](RangeScan scan, const std::string& expected) {
+    try {
+      slam->addScan(scan, truthAt(0));
+      ADD_FAILURE() << "continued with " << SensorSetup::of(scan).describe();
+    } catch (const SensorMismatch& e) {
+      EXPECT_NE(std::string(e.what()).find("the scan's laser has " + expected), std::string::npos)
+          << e.what();
+      EXPECT_NE(std::string(e.what()).find("the map's scans have 360 beams 1.000 deg apart over "
+                                           "360.00 deg, centred at 0.00 deg, at (0.000, 0.000) m"),
+                std::string::npos)
+          << e.what();
+    }
+  };
+  RangeScan half = same;  // every other beam: half the resolution
+  half.ranges.resize(180);
+  half.angle_increment *= 2.0;
+  for (int i = 0; i < 180; ++i) half.ranges[static_cast<std::size_t>(i)] = same.ranges[2 * i];
+  refused(half, "180 beams 2.000 deg apart over 360.00 deg");
+  RangeScan narrow = same;  // a 270-degree sensor
+  narrow.ranges.resize(270);
+  refused(narrow, "270 beams 1.000 deg apart over 270.00 deg");
+  RangeScan moved = same;  // mounted 0.2 m forward
+  moved.laser_in_robot = core::Pose2(0.2, 0.0, 0.0);
+  refused(moved,
+          "360 beams 1.000 deg apart over 360.00 deg, centred at 0.00 deg, at (0.200, "
+          "0.000) m");
+  RangeScan turned = same;  // turned by a right angle
+  turned.laser_in_robot = core::Pose2(0.0, 0.0, M_PI / 2);
+  refused(turned, "360 beams 1.000 deg apart over 360.00 deg, centred at 90.00 deg");
+  EXPECT_EQ(static_cast<std::size_t>(slam->rrr().numNodes()), nodes) << "nothing was added";
+  // The map's own setup goes on, and what one sensor varies by: a beam less, the aperture's
+  // centre a quarter of a beam on (an interlacing scanner), 2 mm of mounting.
+  RangeScan interlaced = same;
+  interlaced.ranges.pop_back();
+  interlaced.angle_min += 0.25 * interlaced.angle_increment;
+  interlaced.laser_in_robot = core::Pose2(0.002, 0.0, 0.0);
+  RangeScan ok = same;
+  for (RangeScan* scan : {&ok, &interlaced}) {
+    scan->timestamp = 1000.0 + 0.1 * (scan == &interlaced);
+    EXPECT_NO_THROW(slam->addScan(*scan, truthAt(0))) << SensorSetup::of(*scan).describe();
+  }
+}
+
 TEST(MapFile, ANewSessionInAnotherOdometryFrameIsTiedToTheMap) {
   const MapSnapshot map = readMapFile(savedMap());
   auto slam = LaserSlam::fromMap(map, smallMaps(), "second");

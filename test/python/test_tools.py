@@ -383,6 +383,21 @@ def test_damaged_or_incompatible_maps_are_refused_naming_the_file(tmp_path):
     assert result.returncode == 1 and "submap_resolution is 0.1 here but the map was made with 0.05" in result.stderr
     result = run(MAP_INFO, ACES_HEAD)
     assert result.returncode == 1 and "not an rrr_graphslam map file" in result.stderr
+    # The same log from a laser with 150 beams over its 180 degrees: another sensor setup.
+    import gzip
+    other = tmp_path / "other_laser.clf"
+    with gzip.open(ACES_HEAD, "rt") as src, open(other, "w") as out:
+        for line in src:
+            f = line.split()
+            if f and f[0] == "FLASER":
+                n = int(f[1])
+                f = ["FLASER", "150"] + f[2:2 + 150] + f[2 + n:]
+            out.write(" ".join(f) + "\n")
+    result = run(SLAM_OFFLINE, other, "--load-map", good, "--quiet")
+    assert result.returncode == 1, result.stdout
+    assert re.search(rf"{re.escape(str(other))}:\d+: scan 1 cannot continue {re.escape(str(good))}: "
+                     r"the scan's laser has 150 beams 1\.200 deg apart .*; the map's scans have 180 beams "
+                     r"1\.000 deg apart", result.stderr), result.stderr
 
 
 @needs_map_info

@@ -21,6 +21,7 @@
 
 #include <memory>
 #include <optional>
+#include <stdexcept>
 #include <string>
 #include <utility>
 #include <vector>
@@ -60,6 +61,13 @@ struct LaserSlamStats {
   long long relocalization_searches = 0;  ///< node-submap pairs searched whole (untied session)
 };
 
+/// A scan from another sensor setup than the loaded map's (SensorSetup): the run cannot continue
+/// the map with it. The message names both setups.
+class SensorMismatch : public std::invalid_argument {
+ public:
+  using std::invalid_argument::invalid_argument;
+};
+
 class LaserSlam {
  public:
   /// A new map; its first session is named `session_name`.
@@ -85,7 +93,8 @@ class LaserSlam {
   std::vector<std::pair<std::string, std::string>> snapshotParams() const;
 
   /// One scan with the robot's odometry pose at its time. Returns the node it became, if any.
-  /// Throws ScanRefused (local_slam.h) for a scan it cannot place; the run goes on.
+  /// Throws ScanRefused (local_slam.h) for a scan it cannot place; the run goes on. Throws
+  /// SensorMismatch for a scan whose sensor setup differs from the loaded map's scans'.
   std::optional<int> addScan(const RangeScan& scan, const core::Pose2& odom_pose);
   /// End of the run: RRR decides every cluster from scratch.
   void finish();
@@ -171,8 +180,9 @@ class LaserSlam {
     core::Pose2 map_pose;
   };
   std::optional<Hint> hint_;
-  int relocalization_matches_ = 0;       // nodes that matched the earlier sessions since the rest
-  int relocalization_paused_until_ = 0;  // no whole-map search before this node
+  std::optional<SensorSetup> map_sensor_;  // of the loaded map's scans
+  int relocalization_matches_ = 0;         // nodes that matched the earlier sessions since the rest
+  int relocalization_paused_until_ = 0;    // no whole-map search before this node
   struct Crossing {
     int candidate;     // between this session and an earlier one
     int session_node;  // its end in this session

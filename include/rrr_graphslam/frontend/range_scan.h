@@ -2,6 +2,8 @@
 // One laser scan as the front end uses it: the points to match (robot frame, range-limited,
 // voxel-filtered) and the MRPT observation to insert into occupancy grids.
 
+#include <string>
+
 #include <mrpt/obs/CObservation2DRangeScan.h>
 
 #include "rrr_graphslam/frontend/branch_and_bound.h"
@@ -26,6 +28,27 @@ struct RangeScan {
 
   static RangeScan fromCarmen(const LaserRecord& record);
   bool isMiss(std::size_t i) const { return !std::isfinite(ranges[i]) || ranges[i] >= max_range; }
+};
+
+/// What of the laser a map's submaps and scans depend on: its beams, the angle they span and
+/// where it sits on the robot (the heading is the aperture's centre). A map is continued only with
+/// scans of the same setup (LaserSlam::addScan), up to what one sensor varies by: an interlacing
+/// SICK (FR clinic's log) alternates 181 beams from -90 deg with 180 from -89.75, -89.5 and
+/// -89.25 deg.
+struct SensorSetup {
+  int beams = 0;
+  double aperture_rad = 0.0;  ///< beams x angle_increment
+  core::Pose2 centre_in_robot = core::Pose2::Zero();
+
+  static SensorSetup of(const RangeScan& scan);
+  /// Of a scan as toObservation() made it.
+  static SensorSetup of(const mrpt::obs::CObservation2DRangeScan& observation);
+  /// The angle between beams within 1%, the aperture and its centre within two beams' angle, and
+  /// the position within 1 cm.
+  bool sameAs(const SensorSetup& other) const;
+  double beamAngle() const { return beams > 0 ? aperture_rad / beams : 0.0; }
+  /// "N beams over A deg, centred at H deg, at (x, y) m on the robot".
+  std::string describe() const;
 };
 
 /// Hit points in the robot frame within [min_range, max_range], one per voxel.
