@@ -70,8 +70,8 @@ bool IncrementalRrr::advanceTo(int node) {
   if (current_node_ >= next_rebatch_) {
     const int every = rrr_.params().incremental_rebatch_every;
     next_rebatch_ = (current_node_ / every + 1) * every;
-    rrr_.decideFromScratch();
-  } else {
+    if (!defer_) rrr_.decideFromScratch();
+  } else if (!defer_) {
     rrr_.decideIncrementally();
   }
   return true;

@@ -301,6 +301,7 @@ std::unique_ptr<OnlineRrr> OnlineRrr::fromPoseGraph(const core::PoseGraph& graph
     }
   }
   const std::vector<NodeArrivals> arrivals = arrivalsByNode(static_cast<int>(ids.size()), edges);
+  online->incremental_.deferDecisions(true);  // finish() decides the whole graph once
   for (std::size_t k = 0; k < ids.size(); ++k) {
     const int n = online->appendNode(ids[k], graph.pose(ids[k]));
     for (int i : arrivals[k].odometry) {
@@ -321,6 +322,7 @@ std::unique_ptr<OnlineRrr> OnlineRrr::fromPoseGraph(const core::PoseGraph& graph
                               graph.information(e));
     }
   }
+  online->incremental_.deferDecisions(false);
   online->finish();
   return online;
 }

@@ -31,6 +31,10 @@ class IncrementalRrr {
   bool advanceTo(int node);
   /// After the last candidate: closes every open cluster and decides all of them from scratch.
   void finish();
+  /// While deferred, a closed cluster gets its intra test only and no decision is made: a saved
+  /// graph replayed to be decided once, by finish() (whose decision from scratch does not depend
+  /// on the decisions before it, so making them would be wasted).
+  void deferDecisions(bool defer) { defer_ = defer; }
   /// Decides the closed clusters again from scratch (the batch decision over them); open
   /// clusters stay open.
   void decideClosedFromScratch() { rrr_.decideFromScratch(); }
@@ -53,6 +57,7 @@ class IncrementalRrr {
   int current_node_ = 0;
   int next_rebatch_;  // node at which the next decision is made from scratch
   std::vector<OpenCluster> open_;
+  bool defer_ = false;
 };
 
 /// Replays `graph` as a robot builds it (replay_plan.h: nodes in order with their odometry, each
