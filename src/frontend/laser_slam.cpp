@@ -1,4 +1,5 @@
 #include "rrr_graphslam/frontend/laser_slam.h"
+#include "rrr_graphslam/frontend/plausible_pose.h"
 
 #include <algorithm>
 #include <chrono>
@@ -30,13 +31,18 @@ LaserSlam::LaserSlam(const LaserSlamParams& params, const std::string& session_n
 }
 
 std::optional<int> LaserSlam::addScan(const RangeScan& scan, const core::Pose2& odom_pose) {
-  if (map_sensor_) {
+  // The sensor setup is checked once, on the session's first scan with a plausible laser pose
+  // (an implausible one is local SLAM's to refuse): a converter that interpolates the laser pose
+  // may vary the mounting from scan to scan, which must not stop a run half-way.
+  if (map_sensor_ && scan.laser_in_robot.allFinite() &&
+      scan.laser_in_robot.head<2>().norm() <= kMaxLaserOffset) {
     const SensorSetup setup = SensorSetup::of(scan);
     if (!setup.sameAs(*map_sensor_)) {
       throw SensorMismatch("the scan's laser has " + setup.describe() + "; the map's scans have " +
                            map_sensor_->describe() +
                            ": a map made with another sensor setup cannot be continued");
     }
+    map_sensor_.reset();
   }
   auto start = std::chrono::steady_clock::now();
   LocalSlamResult result;

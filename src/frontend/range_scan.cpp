@@ -56,14 +56,18 @@ SensorSetup SensorSetup::of(const mrpt::obs::CObservation2DRangeScan& observatio
 }
 
 bool SensorSetup::sameAs(const SensorSetup& other) const {
-  constexpr double kPosition = 0.01;  // m
+  constexpr double kMaxOffset_m = 0.01;
   const double beam = beamAngle();
   const double two_beams = 2.0 * std::max(beam, other.beamAngle());
-  return beams > 0 && other.beams > 0 && std::abs(beam - other.beamAngle()) <= 0.01 * beam &&
+  // A full circle's centre is where its driver starts counting (angle_min 0 or -pi), not where
+  // it looks.
+  const bool full_circle = aperture_rad >= 2.0 * M_PI - two_beams;
+  return beams > 0 && other.beams > 0 &&
+         std::abs(beam - other.beamAngle()) <= 0.01 * std::max(beam, other.beamAngle()) &&
          std::abs(aperture_rad - other.aperture_rad) <= two_beams &&
-         std::abs(core::normalizeAngle(centre_in_robot.z() - other.centre_in_robot.z())) <=
-             two_beams &&
-         (centre_in_robot.head<2>() - other.centre_in_robot.head<2>()).norm() <= kPosition;
+         (full_circle || std::abs(core::normalizeAngle(centre_in_robot.z() -
+                                                       other.centre_in_robot.z())) <= two_beams) &&
+         (centre_in_robot.head<2>() - other.centre_in_robot.head<2>()).norm() <= kMaxOffset_m;
 }
 
 std::string SensorSetup::describe() const {

@@ -81,6 +81,10 @@ void IncrementalRrr::finish() {
   for (const OpenCluster& open : open_) rrr_.addCluster(open.members);
   open_.clear();
   rrr_.decideFromScratch();
+  // The next decision from scratch is at the next multiple of incremental_rebatch_every past
+  // here: a loaded graph goes on from its own end, not from a schedule its replay left behind.
+  const int every = rrr_.params().incremental_rebatch_every;
+  if (every > 0) next_rebatch_ = (current_node_ / every + 1) * every;
 }
 
 RrrSummary runIncrementalRrr(VerificationGraph& graph, const RrrParams& params,

@@ -452,6 +452,7 @@ def mapped_space_nodes(node_positions: Sequence[Optional[Tuple[float, float]]], 
                 for q in grid.get((cx + dx, cy + dy), ()):
                     if math.hypot(p[0] - q[0], p[1] - q[1]) <= radius_m:
                         near = True
+                        break
         if near:
             inside.append(k - first)
     return inside

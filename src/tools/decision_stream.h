@@ -17,9 +17,10 @@ namespace rrr_graphslam::tools {
 
 class DecisionStream {
  public:
-  /// Takes `rrr`'s changes since the last call: they happened at log scan `scan` (1-based; 0:
-  /// before the first), when the graph had `nodes` nodes, at ipc_timestamp `stamp`. `final`: the
-  /// decision from scratch at the end of the run.
+  /// Takes `rrr`'s changes since the last call: they happened at log scan `scan` (1-based), when
+  /// the graph had `nodes` nodes, at ipc_timestamp `stamp`. `final`: the decision from scratch at
+  /// the end of the run. The candidates of a loaded map arrived in earlier runs: they have no
+  /// arrival row, only their changes.
   void record(rrr::OnlineRrr& rrr, std::size_t scan, int nodes, double stamp, bool final) {
     for (rrr::DecisionChange& change : rrr.takeChanges()) {
       rows_.push_back({scan, nodes, stamp, final, std::move(change)});

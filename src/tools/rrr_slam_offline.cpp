@@ -100,8 +100,8 @@ const std::string& usage() {
       "  --decisions       TSV 'from to cluster verdict reason', one row per loop candidate\n"
       "  --decision-stream TSV of the decisions as the run made them: a row per arrival and per\n"
       "                    verdict change, with the scan and node at which it happened and the\n"
-      "                    scan's ipc_timestamp ('final' rows: the decision from scratch at the "
-      "end)\n"
+      "                    scan's ipc_timestamp ('final' rows: the decision from scratch at the\n"
+      "                    end; a loaded map's candidates have no arrival row)\n"
       "  --trajectory      optimized pose of every scan, TUM format 't x y z qx qy qz qw' with "
       "the\n"
       "                    log's ipc_timestamp\n"
@@ -462,7 +462,7 @@ int main(int argc, char** argv) {
     }
     if (!args.decision_stream.empty()) {
       stream.write(args.decision_stream);
-      std::printf("decision str.  %s (%zu rows)\n", args.decision_stream.c_str(), stream.size());
+      std::printf("decision stream %s (%zu rows)\n", args.decision_stream.c_str(), stream.size());
     }
     if (!args.trajectory.empty() || !args.session_trajectory.empty()) {
       const auto refine_start = std::chrono::steady_clock::now();

@@ -169,6 +169,9 @@ def test_mapped_space_is_the_first_node_near_an_earlier_session():
     assert mapped_space_nodes(positions, 3, 8, 1.0) == [3, 4]
     assert mapped_space_nodes(positions, 3, 8, 0.5) == [4]
     assert mapped_space_nodes(positions, 0, 3, 1.0) == []
+    # In, out, in again: the count skips the nodes away from the map.
+    away = [(0.0, 0.0), (5.0, 0.0), (0.3, 0.0), (40.0, 0.0), (50.0, 0.0), (5.2, 0.1)]
+    assert mapped_space_nodes(away, 2, 6, 1.0) == [0, 3]
 
 
 def test_scans_keep_their_offset_from_their_node():

@@ -173,6 +173,55 @@ TEST(OnlineRrr, ARaisedCancelFlagCutsEveryOptimizationShort) {
   EXPECT_GT(cancelled, 0);
 }
 
+// A robot driving a circle of `per_lap` nodes (odometry exact); loops join node k to k - per_lap.
+core::Pose2 onCircle(int k, int per_lap) {
+  const double a = 2.0 * M_PI * k / per_lap;
+  return core::Pose2(10.0 * std::sin(a), 10.0 - 10.0 * std::cos(a), a);
+}
+
+TEST(OnlineRrr, ALoadedGraphDecidesItsNextClusterOnlineNotFromScratch) {
+  // A graph whose replay passes a multiple of incremental_rebatch_every after its last cluster
+  // closed: the decision from scratch is the loaded graph's own (finish), and the next cluster
+  // after it is decided online, as if the graph had been built here.
+  constexpr int kPerLap = 60;
+  OnlineRrrParams params = paramsWithGap(3);
+  params.rrr.incremental_rebatch_every = 100;
+  const Eigen::Matrix3d info = Eigen::Vector3d(1e4, 1e4, 1e5).asDiagonal();
+  core::PoseGraph graph;
+  for (int k = 0; k < 130; ++k) {
+    graph.addNode(k, onCircle(k, kPerLap));
+    if (k > 0) {
+      graph.addEdge(k - 1, k, core::between(onCircle(k - 1, kPerLap), onCircle(k, kPerLap)), info,
+                    core::EdgeKind::kOdometry);
+    }
+  }
+  for (int k = 62; k < 66; ++k) {  // one cluster, closed long before node 100
+    graph.addEdge(k - kPerLap, k,
+                  core::between(onCircle(k - kPerLap, kPerLap), onCircle(k, kPerLap)), info,
+                  core::EdgeKind::kLoopCandidate);
+  }
+  const auto loaded = OnlineRrr::fromPoseGraph(graph, params);
+  loaded->takeChanges();
+  ASSERT_EQ(loaded->verdict(0), Verdict::kAccepted);
+  for (int k = 130; k < 140; ++k) {
+    loaded->addOdometry(k - 1, k, core::between(onCircle(k - 1, kPerLap), onCircle(k, kPerLap)),
+                        info);
+  }
+  loaded->addCandidate(131 - kPerLap, 131,
+                       core::between(onCircle(131 - kPerLap, kPerLap), onCircle(131, kPerLap)),
+                       info);
+  for (int k = 140; k < 150; ++k) {  // the robot leaves it behind: the cluster closes
+    loaded->addOdometry(k - 1, k, core::between(onCircle(k - 1, kPerLap), onCircle(k, kPerLap)),
+                        info);
+  }
+  std::string reason;
+  for (const DecisionChange& c : loaded->takeChanges()) {
+    if (c.candidate == 4 && c.verdict != Verdict::kPending) reason = c.reason;
+  }
+  EXPECT_EQ(reason.rfind("online:", 0), 0u) << "decided by: " << reason;
+  EXPECT_EQ(loaded->verdict(4), Verdict::kAccepted);
+}
+
 TEST(OnlineRrr, SavedGraphLoadsBackToTheSameDecisions) {
   const core::PoseGraph input = intelWithOutliers(40, 4, 5);
   OnlineRrr online(paramsWithGap(5));

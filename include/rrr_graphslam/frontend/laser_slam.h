@@ -94,7 +94,8 @@ class LaserSlam {
 
   /// One scan with the robot's odometry pose at its time. Returns the node it became, if any.
   /// Throws ScanRefused (local_slam.h) for a scan it cannot place; the run goes on. Throws
-  /// SensorMismatch for a scan whose sensor setup differs from the loaded map's scans'.
+  /// SensorMismatch when the session's first scan comes from another sensor setup than the
+  /// loaded map's scans.
   std::optional<int> addScan(const RangeScan& scan, const core::Pose2& odom_pose);
   /// End of the run: RRR decides every cluster from scratch.
   void finish();
@@ -180,7 +181,7 @@ class LaserSlam {
     core::Pose2 map_pose;
   };
   std::optional<Hint> hint_;
-  std::optional<SensorSetup> map_sensor_;  // of the loaded map's scans
+  std::optional<SensorSetup> map_sensor_;  // of the loaded map's scans, until a scan was checked
   int relocalization_matches_ = 0;         // nodes that matched the earlier sessions since the rest
   int relocalization_paused_until_ = 0;    // no whole-map search before this node
   struct Crossing {

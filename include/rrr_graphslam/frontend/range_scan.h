@@ -43,8 +43,9 @@ struct SensorSetup {
   static SensorSetup of(const RangeScan& scan);
   /// Of a scan as toObservation() made it.
   static SensorSetup of(const mrpt::obs::CObservation2DRangeScan& observation);
-  /// The angle between beams within 1%, the aperture and its centre within two beams' angle, and
-  /// the position within 1 cm.
+  /// The angle between beams within 1%, the aperture and its centre within two beams' angle (a
+  /// full circle's centre is not compared: it is where the driver starts counting), and the
+  /// position within 1 cm.
   bool sameAs(const SensorSetup& other) const;
   double beamAngle() const { return beams > 0 ? aperture_rad / beams : 0.0; }
   /// "N beams over A deg, centred at H deg, at (x, y) m on the robot".

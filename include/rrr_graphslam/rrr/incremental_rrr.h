@@ -24,7 +24,7 @@ class IncrementalRrr {
   /// A candidate arrives; normally its newest end is the robot's current node. A late one (a
   /// front end that searched in the background) joins the open clusters within the gap; one more
   /// than the gap behind the robot forms a cluster of its own, closed and decided at once.
-  /// Returns true if a cluster was closed (and a decision made).
+  /// Returns true if a cluster was closed (and, unless deferred, a decision made).
   bool addCandidate(int candidate);
   /// The robot reached `node`: closes and decides the clusters it has left behind (from scratch
   /// when it passed a multiple of RrrParams::incremental_rebatch_every since the last time).
