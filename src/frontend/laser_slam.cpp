@@ -34,8 +34,7 @@ std::optional<int> LaserSlam::addScan(const RangeScan& scan, const core::Pose2& 
   // The sensor setup is checked once, on the session's first scan with a plausible laser pose
   // (an implausible one is local SLAM's to refuse): a converter that interpolates the laser pose
   // may vary the mounting from scan to scan, which must not stop a run half-way.
-  if (map_sensor_ && scan.laser_in_robot.allFinite() &&
-      scan.laser_in_robot.head<2>().norm() <= kMaxLaserOffset) {
+  if (map_sensor_ && plausibleLaserPose(scan.laser_in_robot)) {
     const SensorSetup setup = SensorSetup::of(scan);
     if (!setup.sameAs(*map_sensor_)) {
       throw SensorMismatch("the scan's laser has " + setup.describe() + "; the map's scans have " +

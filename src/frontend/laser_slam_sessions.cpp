@@ -227,12 +227,7 @@ std::unique_ptr<LaserSlam> LaserSlam::fromMap(const MapSnapshot& map, const Lase
   for (const std::exception_ptr& e : failed) {
     if (e) std::rethrow_exception(e);
   }
-  for (auto node = map.nodes.rbegin(); node != map.nodes.rend(); ++node) {
-    if (node->scan) {
-      slam->map_sensor_ = SensorSetup::of(*node->scan);
-      break;
-    }
-  }
+  if (n > 0) slam->map_sensor_ = SensorSetup::of(*map.nodes.back().scan);  // check(): all have one
   slam->finished_spans_ = map.submaps;
   slam->lifelong_ = map.lifelong;
   slam->sessions_ = map.sessions;

@@ -26,7 +26,7 @@ void LocalSlam::checkPlausible(const RangeScan& scan, const core::Pose2& odom_po
     throw ScanRefused("odometry pose " + format(odom_pose) + " is not finite or beyond " +
                       std::to_string(static_cast<int>(kMaxCoordinate)) + " m");
   }
-  if (!scan.laser_in_robot.allFinite() || scan.laser_in_robot.head<2>().norm() > kMaxLaserOffset) {
+  if (!plausibleLaserPose(scan.laser_in_robot)) {
     throw ScanRefused("laser pose in the robot frame " + format(scan.laser_in_robot) +
                       " is not finite or more than 100 m from the robot");
   }

@@ -58,12 +58,13 @@ SensorSetup SensorSetup::of(const mrpt::obs::CObservation2DRangeScan& observatio
 bool SensorSetup::sameAs(const SensorSetup& other) const {
   constexpr double kMaxOffset_m = 0.01;
   const double beam = beamAngle();
-  const double two_beams = 2.0 * std::max(beam, other.beamAngle());
+  const double coarser_beam = std::max(beam, other.beamAngle());
+  const double two_beams = 2.0 * coarser_beam;
   // A full circle's centre is where its driver starts counting (angle_min 0 or -pi), not where
   // it looks.
   const bool full_circle = aperture_rad >= 2.0 * M_PI - two_beams;
   return beams > 0 && other.beams > 0 &&
-         std::abs(beam - other.beamAngle()) <= 0.01 * std::max(beam, other.beamAngle()) &&
+         std::abs(beam - other.beamAngle()) <= 0.01 * coarser_beam &&
          std::abs(aperture_rad - other.aperture_rad) <= two_beams &&
          (full_circle || std::abs(core::normalizeAngle(centre_in_robot.z() -
                                                        other.centre_in_robot.z())) <= two_beams) &&
@@ -87,14 +88,12 @@ mrpt::obs::CObservation2DRangeScan toObservation(const RangeScan& scan,
   // MRPT 2.5's grid insertion spaces the rays aperture/N apart starting at -aperture/2 (not
   // aperture/(N-1) as getScanAngle() does; test_scan_matcher checks the geometry): choose the
   // aperture and the sensor's heading so that ray i falls at angle_min + i * angle_increment.
-  const double aperture = static_cast<double>(n) * scan.angle_increment;
-  const double centre = scan.angle_min + 0.5 * aperture;
-  obs.aperture = static_cast<float>(aperture);
+  const SensorSetup setup = SensorSetup::of(scan);
+  obs.aperture = static_cast<float>(setup.aperture_rad);
   obs.rightToLeft = true;
   obs.maxRange = static_cast<float>(params.max_range_m);
-  obs.sensorPose =
-      mrpt::poses::CPose3D(scan.laser_in_robot.x(), scan.laser_in_robot.y(), 0.0,
-                           core::normalizeAngle(scan.laser_in_robot.z() + centre), 0.0, 0.0);
+  obs.sensorPose = mrpt::poses::CPose3D(setup.centre_in_robot.x(), setup.centre_in_robot.y(), 0.0,
+                                        setup.centre_in_robot.z(), 0.0, 0.0);
   obs.resizeScan(n);
   for (std::size_t i = 0; i < n; ++i) {
     const float r = scan.ranges[i];

@@ -68,8 +68,7 @@ bool IncrementalRrr::advanceTo(int node) {
   open_.swap(still_open);
   if (!closed) return false;
   if (current_node_ >= next_rebatch_) {
-    const int every = rrr_.params().incremental_rebatch_every;
-    next_rebatch_ = (current_node_ / every + 1) * every;
+    scheduleNextRebatch();
     if (!defer_) rrr_.decideFromScratch();
   } else if (!defer_) {
     rrr_.decideIncrementally();
@@ -81,8 +80,11 @@ void IncrementalRrr::finish() {
   for (const OpenCluster& open : open_) rrr_.addCluster(open.members);
   open_.clear();
   rrr_.decideFromScratch();
-  // The next decision from scratch is at the next multiple of incremental_rebatch_every past
-  // here: a loaded graph goes on from its own end, not from a schedule its replay left behind.
+  // A loaded graph goes on from its own end, not from a schedule its replay left behind.
+  scheduleNextRebatch();
+}
+
+void IncrementalRrr::scheduleNextRebatch() {
   const int every = rrr_.params().incremental_rebatch_every;
   if (every > 0) next_rebatch_ = (current_node_ / every + 1) * every;
 }

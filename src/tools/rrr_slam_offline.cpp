@@ -411,6 +411,8 @@ int main(int argc, char** argv) {
       }
       if (!args.decision_stream.empty()) {
         stream.record(slam.rrr(), k + 1, slam.rrr().numNodes(), record.timestamp, false);
+      } else {
+        slam.rrr().takeChanges();  // nobody reads them: they would pile up for the whole run
       }
       if (progress && (k % 100 == 0 || k + 1 == n)) {
         const auto status = slam.rrr().status();

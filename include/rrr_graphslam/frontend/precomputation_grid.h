@@ -30,7 +30,6 @@ class PrecomputationGrid {
   static PrecomputationGrid coarser(const PrecomputationGrid& finer);
 
   int height() const { return height_; }
-  std::uint8_t unknown() const { return unknown_; }
   /// P_h(x, y) in match-grid cell indices; any integers are valid.
   std::uint8_t at(int x, int y) const {
     const int i = x + offset_;

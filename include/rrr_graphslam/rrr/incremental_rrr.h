@@ -51,6 +51,10 @@ class IncrementalRrr {
     int newest = -1;  // largest node index among the members' ends
   };
 
+  /// The next decision from scratch: at the next multiple of incremental_rebatch_every past the
+  /// current node.
+  void scheduleNextRebatch();
+
   VerificationGraph& graph_;
   Rrr rrr_;
   int gap_;
