@@ -14,10 +14,20 @@ namespace rrr_graphslam::frontend {
 
 using core::secondsSince;
 
+namespace {
+
+// RRR ties a session to the map as the front end counts it tied: by loops this far apart.
+LaserSlamParams withPlacementSpread(LaserSlamParams params) {
+  params.rrr.rrr.placement_min_spread_m = params.loops.relocalization_confirm_distance_m;
+  return params;
+}
+
+}  // namespace
+
 LaserSlam::LaserSlam(const LaserSlamParams& params, const std::string& session_name)
-    : params_(params),
+    : params_(withPlacementSpread(params)),
       local_(params.local),
-      rrr_(std::make_unique<rrr::OnlineRrr>(params.rrr)),
+      rrr_(std::make_unique<rrr::OnlineRrr>(params_.rrr)),
       sessions_{{session_name, 0.0, 0}} {
   if (!(params.odometry_stddev.array() > 0.0).all()) {
     throw std::invalid_argument("odometry_stddev must be positive");
@@ -87,6 +97,7 @@ std::optional<int> LaserSlam::addScan(const RangeScan& scan, const core::Pose2& 
       search_state_.resize(static_cast<std::size_t>(result.finished_submap->index()) + 1);
       ++stats_.finished_submaps;
     }
+    keepSessionPoints(node, result.points);
     searchLoops(node, result.points);
     if (!tied_at_ && sessions_.size() > 1 && tied()) tied_at_ = node;
   }
@@ -185,11 +196,27 @@ void LaserSlam::searchLoops(int node, const PointCloud& scan_points) {
     (s.whole ? stats_.relocalization_searches : stats_.loop_searches) += 1;
   }
   bool relocalized = false;
+  std::vector<PlacedSubmap> earlier_submaps;  // placed once, for the first match to check
   for (const Search& s : searches) {
     if (!s.loop) continue;
+    const bool to_earlier_session = relocalizing && s.submap->index() < session_first_submap_;
+    if (to_earlier_session && p.relocalization_max_conflict < 1.0) {
+      if (earlier_submaps.empty()) {
+        for (const auto& submap : finished_) {
+          if (submap->index() >= session_first_submap_) continue;
+          earlier_submaps.push_back(
+              placeSubmap(*submap, map[static_cast<std::size_t>(submap->anchorNode())]));
+        }
+      }
+      const MapAgreement agreement = sessionAgreement(*s.loop, map, earlier_submaps);
+      if (agreement.contradicts(p.agreement, p.relocalization_max_conflict)) {
+        ++stats_.contradicted_matches;
+        continue;
+      }
+    }
     search_state_[static_cast<std::size_t>(s.submap->index())].last_matched = node;
     addLoop(*s.loop);
-    relocalized = relocalized || (relocalizing && s.submap->index() < session_first_submap_);
+    relocalized = relocalized || to_earlier_session;
   }
   // A cluster is decided once the robot is cluster_gap nodes past its newest link: after a few
   // nodes matched the map, its search rests that long, so RRR decides them (places the session,
@@ -199,6 +226,44 @@ void LaserSlam::searchLoops(int node, const PointCloud& scan_points) {
     relocalization_matches_ = 0;
     relocalization_paused_until_ = node + params_.rrr.rrr.cluster_gap + 1;
   }
+}
+
+void LaserSlam::keepSessionPoints(int node, const PointCloud& points) {
+  const LoopSearchParams& p = params_.loops;
+  if (sessions_.size() < 2 || p.relocalization_max_conflict >= 1.0 || tied()) {
+    session_points_.clear();
+    return;
+  }
+  // A few dozen points a node: the check is about where walls are, not about matching.
+  constexpr std::size_t kPointsPerNode = 48;
+  const std::size_t step =
+      std::max<std::size_t>(1, (points.size() + kPointsPerNode - 1) / kPointsPerNode);
+  KeptPoints kept{node, {}};
+  for (std::size_t i = 0; i < points.size(); i += step) kept.points.push_back(points[i]);
+  session_points_.push_back(std::move(kept));
+  const double travel = node_travel_[static_cast<std::size_t>(node)];
+  while (travel - node_travel_[static_cast<std::size_t>(session_points_.front().node)] >
+         p.relocalization_check_travel_m) {
+    session_points_.pop_front();
+  }
+}
+
+MapAgreement LaserSlam::sessionAgreement(const LoopMatch& loop,
+                                         const std::vector<core::Pose2>& poses,
+                                         const std::vector<PlacedSubmap>& map) const {
+  // Where the match puts the node, and with it the session's earlier nodes (the session's own
+  // estimate of its path).
+  const core::Pose2 placed =
+      core::compose(poses[static_cast<std::size_t>(loop.from)], loop.measurement);
+  const core::Pose2& node_pose = poses[static_cast<std::size_t>(loop.to)];
+  std::vector<Eigen::Vector2d> points;
+  for (const KeptPoints& kept : session_points_) {
+    const core::Pose2 pose =
+        core::compose(placed, core::between(node_pose, poses[static_cast<std::size_t>(kept.node)]));
+    const Eigen::Matrix2d rotation = core::rotation(pose.z());
+    for (const Eigen::Vector2d& q : kept.points) points.push_back(rotation * q + pose.head<2>());
+  }
+  return mapAgreement(map, points, params_.loops.agreement);
 }
 
 void LaserSlam::addLoop(const LoopMatch& loop) {

@@ -181,7 +181,7 @@ std::unique_ptr<LaserSlam> LaserSlam::fromMap(const MapSnapshot& map, const Lase
   const bool localizing = mode == SessionMode::kLocalization;
   if (n > 0) {
     slam->rrr_ = rrr::OnlineRrr::fromPoseGraph(
-        localizing ? graphToLocalizeIn(map) : graphToContinue(map), params.rrr);
+        localizing ? graphToLocalizeIn(map) : graphToContinue(map), slam->params_.rrr);
     if (localizing) slam->rrr_->fixNodes();
   }
   slam->rrr_->takeChanges();  // the loaded decisions are the starting point, not news

@@ -80,6 +80,7 @@ void IncrementalRrr::finish() {
   for (const OpenCluster& open : open_) rrr_.addCluster(open.members);
   open_.clear();
   rrr_.decideFromScratch();
+  rrr_.rejectUnplaced();
   // A loaded graph goes on from its own end, not from a schedule its replay left behind.
   scheduleNextRebatch();
 }

@@ -68,6 +68,7 @@ void OdometryChain::linkNewestNode(const Link& link) {
   pose_.pop_back();
   world_covariance_.pop_back();
   last_steps_.pop_back();
+  travel_.pop_back();
   append(&step);
 }
 
@@ -79,6 +80,7 @@ void OdometryChain::append(const Step* step) {
     pose_.push_back(Pose2::Zero());
     world_covariance_.push_back(Eigen::Matrix3d::Zero());
     last_steps_.push_back(Step{Pose2::Zero(), Eigen::Matrix3d::Identity()});
+    travel_.push_back(0.0);
     return;
   }
   session_.push_back(session_[k - 1]);
@@ -88,6 +90,7 @@ void OdometryChain::append(const Step* step) {
   world_covariance_.push_back(world_covariance_[k - 1] +
                               Ad * step->information.inverse() * Ad.transpose());
   last_steps_.push_back(*step);
+  travel_.push_back(travel_[k - 1] + step->z.head<2>().norm());
 }
 
 Pose2 OdometryChain::relativePose(int a, int b) const {

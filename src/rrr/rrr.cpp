@@ -95,8 +95,13 @@ void Rrr::addTestedCluster(const std::vector<int>& members, const LinkResiduals*
 void Rrr::decideFromScratch() {
   syncWithGraph();
   startFromIntraResults();
+  std::vector<char> placed_sessions;
   const std::vector<core::Pose2> initial =
-      params_.place_sessions ? placeSessions(graph_.initialPoses()) : graph_.initialPoses();
+      params_.place_sessions ? placeSessions(graph_.initialPoses(), &placed_sessions)
+                             : graph_.initialPoses();
+  if (params_.place_sessions && params_.placement_min_spread_m > 0.0) {
+    holdUnplacedSessions(placed_sessions);
+  }
   base_ = initial;
 
   // Realize: the hypotheses are tested jointly; the consistent ones become the good set. The
@@ -140,6 +145,7 @@ void Rrr::decideFromScratch() {
 
   if (params_.leave_one_out_check) leaveOneOutCheck();
   if (params_.joint_link_check) jointLinkCheck();
+  if (params_.placement_min_spread_m > 0.0 && holdLoosePlacements()) optimizeGoodMap();
   if (params_.place_sessions) unplaceLooseSessions();
 }
 
@@ -258,7 +264,9 @@ Verdict Rrr::verdict(int candidate) const {
   const int c = clusterOf(candidate);  // -1 also for candidates added since the last call
   if (c < 0) return Verdict::kPending;
   const Cluster& cluster = clusters_[static_cast<std::size_t>(c)];
-  if (cluster.status == Status::kPending) return Verdict::kPending;
+  if (cluster.status == Status::kPending || cluster.status == Status::kUnplaced) {
+    return Verdict::kPending;
+  }
   if (cluster.status != Status::kGood) return Verdict::kRejected;
   const auto& kept = kept_links_[static_cast<std::size_t>(c)];
   return std::find(kept.begin(), kept.end(), candidate) != kept.end() ? Verdict::kAccepted
@@ -273,6 +281,7 @@ std::string Rrr::reason(int candidate) const {
   const bool in_kept = std::find(kept.begin(), kept.end(), candidate) != kept.end();
   if (!in_kept) return link_reason_[static_cast<std::size_t>(candidate)];
   if (cluster.status == Status::kPending) return "intra-cluster: passed; awaits a joint test";
+  if (cluster.status == Status::kUnplaced) return cluster.reason;
   return cluster.reason;
 }
 

@@ -58,7 +58,18 @@ void Rrr::decideAgainstMap() {
         break;
     }
   };
-  for (int c : clustersWith(Status::kPending)) sort_out(c, "online");
+  // Clusters joining a session not yet tied to the map wait for a group of them that places it
+  // (placement_min_spread_m): the group is tested jointly, the others once the session is tied.
+  auto admit = [&](std::vector<int> clusters, const char* step) {
+    if (params_.placement_min_spread_m > 0.0) {
+      const std::vector<int> waiting = clustersWith(Status::kUnplaced);
+      clusters.insert(clusters.end(), waiting.begin(), waiting.end());
+      const std::vector<int> groups = takePlacingClusters(clusters);
+      joint.insert(joint.end(), groups.begin(), groups.end());
+    }
+    for (int c : clusters) sort_out(c, step);
+  };
+  admit(clustersWith(Status::kPending), "online");
   // Joint tests (realize / reverse) of the good set and the undecided clusters, which also fold
   // the clusters accepted since the last update into the map; while the good set grows, the
   // rejected clusters that now fit its map are recovered.
@@ -69,7 +80,7 @@ void Rrr::decideAgainstMap() {
         realize(joint, params_.warm_start ? base_ : graph_.initialPoses(), "realize", true, true);
     joint.clear();
     if (!grew) return;
-    for (int c : recoverHypotheses(true)) sort_out(c, "recover");
+    admit(recoverHypotheses(true), "recover");
   }
 }
 

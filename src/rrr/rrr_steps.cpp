@@ -10,6 +10,7 @@
 #include "rrr_graphslam/core/lago.h"
 #include "rrr_graphslam/core/union_find.h"
 #include "rrr_graphslam/rrr/rrr.h"
+#include "rrr_graphslam/rrr/session_placement.h"
 
 namespace rrr_graphslam::rrr {
 
@@ -94,15 +95,17 @@ std::vector<core::Pose2> Rrr::robustOrderingMap(const std::vector<int>& pending,
 
 // --- place_sessions
 
-std::vector<core::Pose2> Rrr::placeSessions(const std::vector<core::Pose2>& initial) const {
+std::vector<core::Pose2> Rrr::placeSessions(const std::vector<core::Pose2>& initial,
+                                            std::vector<char>* placed_sessions) const {
   // Sessions are what trusted constraints hold together (a trimmed session's chains, joined by
   // its marginal constraints, move as one).
   const std::vector<int> session = graph_.trustedComponents();
   const int sessions = session.empty() ? 0 : *std::max_element(session.begin(), session.end()) + 1;
   std::vector<core::Pose2> poses = initial;
+  std::vector<char> placed(static_cast<std::size_t>(sessions), 0);
+  if (placed_sessions != nullptr) *placed_sessions = std::vector<char>(placed.size(), 1);
   if (sessions < 2) return poses;
   auto of = [&](int node) { return session[static_cast<std::size_t>(node)]; };
-  std::vector<char> placed(static_cast<std::size_t>(sessions), 0);
   placed[static_cast<std::size_t>(of(0))] = 1;
   // Clusters joining two sessions (a cluster's links all join the same two: clustering.h),
   // largest first by their kept links.
@@ -119,14 +122,54 @@ std::vector<core::Pose2> Rrr::placeSessions(const std::vector<core::Pose2>& init
   }
   std::stable_sort(joining.begin(), joining.end(),
                    [](const Joining& a, const Joining& b) { return a.links > b.links; });
+  // With placement_min_spread_m, a session is placed by the largest cluster of the largest group
+  // of its clusters to the placed part that agree on where it lies, and not at all without such
+  // a group (session_placement.h).
+  std::vector<char> no_group(static_cast<std::size_t>(sessions), 0);
+  auto placing_cluster = [&](const Joining& largest, int session_to_place) {
+    if (params_.placement_min_spread_m <= 0.0) return largest.cluster;
+    std::vector<int> clusters;
+    std::vector<JoiningLink> links;
+    for (const Joining& j : joining) {
+      const int k = kept_links_[static_cast<std::size_t>(j.cluster)].front();
+      const LoopCandidate& c = graph_.candidate(k);
+      const bool from_placed = placed[static_cast<std::size_t>(of(c.from))] != 0;
+      const bool to_placed = placed[static_cast<std::size_t>(of(c.to))] != 0;
+      if (from_placed == to_placed || of(from_placed ? c.to : c.from) != session_to_place) continue;
+      clusters.push_back(j.cluster);
+      links.push_back(from_placed ? JoiningLink{k, c.from, c.to} : JoiningLink{k, c.to, c.from});
+    }
+    const PlacementGroup group = largestAgreeingGroup(graph_, poses, links, params_.alpha);
+    std::vector<int> ends;  // every kept link's end in the session, as takePlacingClusters counts
+    for (int k : group.members) {
+      for (int link :
+           kept_links_[static_cast<std::size_t>(clusters[static_cast<std::size_t>(k)])]) {
+        const LoopCandidate& c = graph_.candidate(link);
+        ends.push_back(of(c.from) == session_to_place ? c.from : c.to);
+      }
+    }
+    if (group.members.size() < 2 || spread(graph_, poses, ends) < params_.placement_min_spread_m) {
+      return -1;
+    }
+    return clusters[static_cast<std::size_t>(group.members.front())];  // `joining` is by size
+  };
   for (bool moved = true; moved;) {
     moved = false;
-    for (const Joining& j : joining) {
+    for (const Joining& largest : joining) {
+      const LoopCandidate& first =
+          graph_.candidate(kept_links_[static_cast<std::size_t>(largest.cluster)].front());
+      const bool first_from_placed = placed[static_cast<std::size_t>(of(first.from))] != 0;
+      if (first_from_placed == (placed[static_cast<std::size_t>(of(first.to))] != 0)) continue;
+      const int session_to_place = of(first_from_placed ? first.to : first.from);
+      if (no_group[static_cast<std::size_t>(session_to_place)] != 0) continue;
+      const int cluster = placing_cluster(largest, session_to_place);
+      if (cluster < 0) {
+        no_group[static_cast<std::size_t>(session_to_place)] = 1;
+        continue;
+      }
       const LoopCandidate& link =
-          graph_.candidate(kept_links_[static_cast<std::size_t>(j.cluster)].front());
+          graph_.candidate(kept_links_[static_cast<std::size_t>(cluster)].front());
       const bool from_placed = placed[static_cast<std::size_t>(of(link.from))] != 0;
-      const bool to_placed = placed[static_cast<std::size_t>(of(link.to))] != 0;
-      if (from_placed == to_placed) continue;
       // Where the link puts its unplaced end, and the rigid motion of that end's session there.
       const int fixed = from_placed ? link.from : link.to;
       const int moving = from_placed ? link.to : link.from;
@@ -143,10 +186,12 @@ std::vector<core::Pose2> Rrr::placeSessions(const std::vector<core::Pose2>& init
         }
       }
       placed[static_cast<std::size_t>(moved_session)] = 1;
+      std::fill(no_group.begin(), no_group.end(), 0);  // the placed part grew: groups may too
       moved = true;
       break;  // the largest cluster joining the grown placed part comes next
     }
   }
+  if (placed_sessions != nullptr) *placed_sessions = placed;
   return poses;
 }
 

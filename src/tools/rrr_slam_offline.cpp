@@ -445,6 +445,12 @@ int main(int argc, char** argv) {
                                         : 0.0,
                 stats.loop_search_seconds, args.params.loops.threads);
     std::printf("candidates     %d in %d clusters\n", status.candidates, status.clusters);
+    if (stats.contradicted_matches > 0) {
+      std::printf(
+          "contradicted   %d matches to the map not proposed (the session's path they place "
+          "ends in the map's free space)\n",
+          stats.contradicted_matches);
+    }
     std::printf("accepted       %d\n", status.accepted);
     std::printf("rejected       %d\n", status.rejected);
     tools::printSessions(slam);

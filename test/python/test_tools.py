@@ -359,7 +359,8 @@ def test_a_saved_map_is_continued_as_a_new_session_from_another_odometry_frame(t
     assert stamps1 == stamps2
     errors = [math.hypot(a[0] - b[0], a[1] - b[1]) for t, a, b in zip(stamps1, poses1, poses2)
               if t >= stamps1[0] + tied_after]
-    assert len(errors) > 40  # tied once loops 2 m apart along the replay were accepted
+    # Tied once agreeing loops 2 m apart along the replay were accepted: 41 s into its 46 s.
+    assert len(errors) > 25
     # 2-10 cm apart, depending on which loops the two runs found (a wrong tie: metres).
     assert sorted(errors)[len(errors) // 2] < 0.1 and max(errors) < 0.15, errors
     stamps_all, _ = read_tum(str(tmp_path / "all.txt"))

@@ -19,6 +19,7 @@
 // cycle), and a session tied that way would stop searching. While accepted loops place a session
 // but do not yet tie it, its nodes are also searched around where they place it.
 
+#include <deque>
 #include <memory>
 #include <optional>
 #include <stdexcept>
@@ -59,6 +60,9 @@ struct LaserSlamStats {
   int candidates = 0;
   int refused_candidates = 0;  ///< matches OnlineRrr refused (not positive definite, duplicates)
   long long relocalization_searches = 0;  ///< node-submap pairs searched whole (untied session)
+  /// Matches to earlier sessions not proposed: the session's path they place conflicts with the
+  /// map (relocalization_max_conflict).
+  int contradicted_matches = 0;
 };
 
 /// A scan from another sensor setup than the loaded map's (SensorSetup): the run cannot continue
@@ -150,6 +154,13 @@ class LaserSlam {
  private:
   void searchLoops(int node, const PointCloud& points);
   void addLoop(const LoopMatch& loop);
+  /// Keeps a thinned copy of the node's scan while its session is not tied, over the last
+  /// relocalization_check_travel_m of the path.
+  void keepSessionPoints(int node, const PointCloud& points);
+  /// The map agreement (map_agreement.h) of the session's kept scans placed by `loop` (a match
+  /// of the newest node to an earlier session's submap); `map` the earlier sessions' submaps.
+  MapAgreement sessionAgreement(const LoopMatch& loop, const std::vector<core::Pose2>& poses,
+                                const std::vector<PlacedSubmap>& map) const;
 
   LaserSlamParams params_;
   SessionMode mode_ = SessionMode::kMapping;
@@ -190,6 +201,11 @@ class LaserSlam {
   };
   std::vector<Crossing> crossing_;
   std::vector<double> node_travel_;  // path length from the node's session start (m)
+  struct KeptPoints {
+    int node;
+    PointCloud points;  // thinned, in the node's frame
+  };
+  std::deque<KeptPoints> session_points_;  // while the session is not tied
 };
 
 }  // namespace rrr_graphslam::frontend

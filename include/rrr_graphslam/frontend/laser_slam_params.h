@@ -107,8 +107,15 @@ void forEachSlamParam(Params& p, F&& f) {
                     "after N nodes matched the loaded map, its search rests until RRR decides"},
     loops.relocalization_matches);
   f(core::ParamInfo{"relocalization_confirm_distance", 0.0, 1e6,
-                    "m; a session is tied once its accepted loops to the map lie this far apart"},
+                    "m; RRR ties a session to the map by agreeing loops this far apart along it"},
     loops.relocalization_confirm_distance_m);
+  f(core::ParamInfo{"relocalization_max_conflict", 0.0, 1.0,
+                    "a match to the map is dropped when more of the session's scans it places "
+                    "end in the map's free space (1: off)"},
+    loops.relocalization_max_conflict);
+  f(core::ParamInfo{"relocalization_check_travel", 0.0, 1e6,
+                    "m of the session's path whose scans that check places"},
+    loops.relocalization_check_travel_m);
   f(core::ParamInfo{"loop_search_threads", 1, 256, "threads matching a node against its submaps"},
     loops.threads);
   f(core::ParamInfo{"loop_search_max_range", 0.1, 1e3,

@@ -8,6 +8,7 @@
 
 #include <optional>
 
+#include "rrr_graphslam/frontend/map_agreement.h"
 #include "rrr_graphslam/frontend/scan_matcher.h"
 #include "rrr_graphslam/frontend/submap.h"
 
@@ -45,9 +46,22 @@ struct LoopSearchParams {
   int relocalization_matches = 3;
   /// A session counts as tied to the map once its accepted loops to the earlier sessions lie at
   /// least this far apart along its own path (m): one place alone can match the wrong corridor of
-  /// a building, self-consistently, with nothing in the graph to contradict it. Until then the
-  /// whole-map search goes on beside the search around where those loops place it; default 10 m.
+  /// a building, self-consistently, with nothing in the graph to contradict it. RRR ties a
+  /// session only so (LaserSlam sets RrrParams::placement_min_spread_m to it): until a group of
+  /// agreeing loops this far apart exists they wait, and the whole-map search goes on; default
+  /// 10 m.
   double relocalization_confirm_distance_m = 10.0;
+  /// While a session is not tied: a match to an earlier session is not proposed when the
+  /// session's scans over the last relocalization_check_travel_m of its path, placed where the
+  /// match puts them, end in space the map has seen free for more than this fraction of their
+  /// points on observed cells (map_agreement.h); 1 proposes every match. Default 0.06: true
+  /// matches of ACES and Intel sessions 0.03 at most, ACES's 180-degree aliased ones 0.08 and
+  /// more (doc/benchmarks.md#sessions).
+  double relocalization_max_conflict = 0.06;
+  /// m of the session's path, back from the matched node, whose scans the check places (the
+  /// session's own drift grows with it); default 50.
+  double relocalization_check_travel_m = 50.0;
+  MapAgreementParams agreement;
   /// Least-squares refinement of a match (weak pull toward the branch-and-bound pose).
   LeastSquaresParams refinement{1.0, 1.0, 1.0, 20, {0.05, 0.05, 0.5 * M_PI / 180}};
 };

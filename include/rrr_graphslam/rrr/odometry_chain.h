@@ -56,6 +56,8 @@ class OdometryChain {
 
   /// Pose of `node` in the frame of its session's first node, by composing odometry.
   const core::Pose2& chainPose(int node) const { return pose_[static_cast<std::size_t>(node)]; }
+  /// Path length (m) from the session's first node to `node`, along the odometry.
+  double travel(int node) const { return travel_[static_cast<std::size_t>(node)]; }
   /// Odometry-composed pose of b in a's frame (same session, either order).
   core::Pose2 relativePose(int a, int b) const;
   /// Covariance of relativePose(a, b), a != b, same session.
@@ -77,6 +79,7 @@ class OdometryChain {
   int num_sessions_ = 0;
   std::vector<core::Pose2> pose_;                  // chain poses from the session start
   std::vector<Eigen::Matrix3d> world_covariance_;  // S_k, restarting at each session
+  std::vector<double> travel_;                     // path length from the session start
 };
 
 }  // namespace rrr_graphslam::rrr

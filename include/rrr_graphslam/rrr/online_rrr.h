@@ -147,6 +147,10 @@ class OnlineRrr {
   /// The marginal constraints, by dense node index.
   const std::vector<MarginalLink>& marginalLinks() const { return graph_.marginalLinks(); }
   Verdict verdict(int candidate) const { return reported_[static_cast<std::size_t>(candidate)]; }
+  /// Why the candidate has its verdict (Rrr::reason).
+  std::string reason(int candidate) const { return incremental_.rrr().reason(candidate); }
+  /// The graph RRR decides on (dense node indices).
+  const VerificationGraph& verificationGraph() const { return graph_; }
 
   /// Nodes at their odometry-frame poses, the odometry, the marginal constraints, then every
   /// candidate in arrival order: the input, which rrr_offline decides again.

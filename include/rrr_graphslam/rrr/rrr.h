@@ -76,6 +76,9 @@ class Rrr {
   /// False once the candidate's cluster was tested and its intra-cluster test dropped it (alone or
   /// with its whole cluster); true otherwise.
   bool passedIntraTest(int candidate) const;
+  /// After the last decision (placement_min_spread_m): the clusters still waiting for their
+  /// session to be placed are rejected, with the reason they waited.
+  void rejectUnplaced();
   /// The map: poses of the good set's last solution, continued by odometry over the nodes added
   /// since (a new session's first node at its initial pose).
   std::vector<core::Pose2> mapEstimate() const;
@@ -83,7 +86,9 @@ class Rrr {
   void setProgress(ProgressFunction progress) { progress_ = std::move(progress); }
 
  private:
-  enum class Status : std::uint8_t { kPending, kGood, kRejected, kInconsistent };
+  // kUnplaced: joins a session not tied to the map, which no group of clusters places yet
+  // (placement_min_spread_m); undecided, and in no joint test until then.
+  enum class Status : std::uint8_t { kPending, kGood, kRejected, kInconsistent, kUnplaced };
   enum class OnlineVerdict : std::uint8_t { kFits, kDoesNotFit, kNeedsJointTest };
   struct Cluster {
     std::vector<int> members;
@@ -135,7 +140,10 @@ class Rrr {
   /// kept link of the largest cluster joining it to the sessions placed so far holds exactly
   /// (sessions no cluster reaches stay where they are). Only a start: every cluster is tested
   /// from it as from the odometry.
-  std::vector<core::Pose2> placeSessions(const std::vector<core::Pose2>& initial) const;
+  /// With placement_min_spread_m, a session is placed only by a group of agreeing clusters
+  /// (session_placement.h); `placed_sessions` (if given) says per session whether it was.
+  std::vector<core::Pose2> placeSessions(const std::vector<core::Pose2>& initial,
+                                         std::vector<char>* placed_sessions = nullptr) const;
   /// After a decision that started from placeSessions(): the sessions no good cluster joins to
   /// the first one's go back to their own odometry frame in the map (a rejected cluster placed
   /// them only to be tested).
@@ -165,6 +173,20 @@ class Rrr {
   /// batch_removal_fraction of the worst of all), the map is optimized again, and so on. Returns
   /// true if a link was dropped.
   bool jointLinkCheck();
+
+  // --- placement_min_spread_m (rrr_placement.cpp).
+  /// Takes out of `pending` the clusters that join a session not tied to the map (by good
+  /// clusters) to anything: each such session's largest agreeing group of clusters joining it to
+  /// the map is returned (status pending) when its session ends lie placement_min_spread_m
+  /// apart; the others wait (kUnplaced, with the group's size and spread as reason).
+  std::vector<int> takePlacingClusters(std::vector<int>& pending);
+  /// After a batch decision: a session the good clusters join to the others only at places
+  /// closer than placement_min_spread_m has those clusters wait (kUnplaced) and goes back to its
+  /// own frame; repeated while a session is let go. Returns true if a cluster was.
+  bool holdLoosePlacements();
+  /// Before a batch decision: the clusters with an end in a session placeSessions() could not
+  /// place wait (kUnplaced) instead of taking part.
+  void holdUnplacedSessions(const std::vector<char>& placed_sessions);
 
   // --- Incremental (rrr_online.cpp).
   OnlineVerdict checkAgainstMap(int cluster, double& statistic) const;

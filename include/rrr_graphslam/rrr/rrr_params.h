@@ -84,6 +84,12 @@ struct RrrParams {
   /// is moved rigidly onto the placed ones by the largest cluster joining them, instead of its
   /// own odometry frame (which says nothing of where it lies in the others'); default true.
   bool place_sessions = true;
+  /// Multi-session graphs: a session is tied to the map only by a group of its joining clusters
+  /// that agree with one another and whose ends in the session lie at least this far apart (m);
+  /// the others wait (pending) until such a group exists (session_placement.h). 0: any cluster
+  /// that passes the tests ties a session (paper). LaserSlam sets it to the front end's
+  /// relocalization_confirm_distance_m; default 0.
+  double placement_min_spread_m = 0.0;
 
   // --- Incremental RRR.
   /// A new cluster that fits the good set's map unchanged (index < 1) is accepted, and one whose

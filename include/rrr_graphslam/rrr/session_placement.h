@@ -1,0 +1,52 @@
+#pragma once
+// Placing a session in the map (multi-session RRR). A cluster that joins a session no good
+// cluster ties to the map yet closes no cycle: no test of RRR can tell a true relocalization
+// from an aliased one (a corridor like another, a room like the next), and the first such cluster
+// accepted would decide every later one against itself. So a session is placed only by a group
+// of its joining clusters that agree with one another on where it lies and that it saw from
+// places at least `min_spread` apart: one place can be mistaken, a stretch of path rarely is.
+//
+// Two joining clusters agree when the cycle through their first links closes: the map between
+// their map ends taken as the good set's map has it, the session's odometry between their session
+// ends with its covariance (pairwise_consistency.h does the same within one session). The group
+// is a maximum clique of agreeing clusters (core::maximumClique).
+
+#include <vector>
+
+#include "rrr_graphslam/core/se2.h"
+#include "rrr_graphslam/rrr/verification_graph.h"
+
+namespace rrr_graphslam::rrr {
+
+/// A candidate joining `session` to the rest, oriented from its map end to its session end.
+struct JoiningLink {
+  int candidate;
+  int map_node;
+  int session_node;
+};
+
+/// Chi-square (3 dof) of the cycle through two links joining the same session to the map, at
+/// `poses` (the map side as it is; the session side's relative pose from `poses` too, its
+/// covariance from the odometry chain, which must hold both session ends).
+double placementCycleChi2(const VerificationGraph& graph, const std::vector<core::Pose2>& poses,
+                          const JoiningLink& a, const JoiningLink& b);
+
+/// How far apart the nodes of one session are: the path length between the first and the last
+/// of them along the session's odometry (as the front end counts a session's travel), or where
+/// they lie in different odometry chains (a trimmed session joined by marginal constraints), the
+/// largest distance between two of them at `poses`. 0 for fewer than two.
+double spread(const VerificationGraph& graph, const std::vector<core::Pose2>& poses,
+              const std::vector<int>& nodes);
+
+struct PlacementGroup {
+  std::vector<int> members;  ///< indices into the links given, sorted
+  double spread_m = 0.0;     ///< spread() of the given links' session ends
+};
+
+/// The largest group of mutually agreeing links (cycle chi2 below chi2(alpha, 3)), and how far
+/// apart the session saw them; links[k] stands for the k-th cluster.
+PlacementGroup largestAgreeingGroup(const VerificationGraph& graph,
+                                    const std::vector<core::Pose2>& poses,
+                                    const std::vector<JoiningLink>& links, double alpha);
+
+}  // namespace rrr_graphslam::rrr

@@ -1,0 +1,160 @@
+// placement_min_spread_m: a session joins the map through a group of clusters that agree on where
+// it lies and that it saw from places apart (session_placement.h), never through one alone.
+
+#include <algorithm>
+#include <cstdio>
+#include <map>
+
+#include "rrr_graphslam/core/union_find.h"
+#include "rrr_graphslam/rrr/rrr.h"
+#include "rrr_graphslam/rrr/session_placement.h"
+
+namespace rrr_graphslam::rrr {
+namespace {
+
+std::string metres(double m) {
+  char text[32];
+  std::snprintf(text, sizeof(text), "%.1f m", m);
+  return text;
+}
+
+}  // namespace
+
+std::vector<int> Rrr::takePlacingClusters(std::vector<int>& pending) {
+  const std::vector<int> session = graph_.trustedComponents();
+  const auto sessions = static_cast<std::size_t>(
+      session.empty() ? 0 : *std::max_element(session.begin(), session.end()) + 1);
+  auto of = [&](int node) {
+    return static_cast<std::size_t>(session[static_cast<std::size_t>(node)]);
+  };
+  // The sessions good clusters tie to the first node's.
+  core::UnionFind tied(sessions);
+  for (int k : acceptedCandidates()) {
+    const LoopCandidate& c = graph_.candidate(k);
+    tied.unite(of(c.from), of(c.to));
+  }
+  const std::size_t map = sessions > 0 ? tied.find(of(0)) : 0;
+  auto in_map = [&](int node) { return tied.find(of(node)) == map; };
+
+  // Per untied session, its clusters joining it to the map (first kept link, oriented).
+  std::map<std::size_t, std::vector<std::pair<int, JoiningLink>>> joining;
+  std::vector<int> rest;
+  for (int c : pending) {
+    const auto& kept = kept_links_[static_cast<std::size_t>(c)];
+    if (kept.empty()) {
+      rest.push_back(c);
+      continue;
+    }
+    const LoopCandidate& link = graph_.candidate(kept.front());
+    const bool from_in = in_map(link.from);
+    const bool to_in = in_map(link.to);
+    if (from_in && to_in) {
+      rest.push_back(c);
+      continue;
+    }
+    if (from_in != to_in) {
+      const JoiningLink oriented = from_in ? JoiningLink{kept.front(), link.from, link.to}
+                                           : JoiningLink{kept.front(), link.to, link.from};
+      joining[tied.find(of(oriented.session_node))].push_back({c, oriented});
+      continue;
+    }
+    // Between two sessions neither of which is placed: it waits for them.
+    setStatus(c, Status::kUnplaced, "placement: joins two sessions not yet tied to the map");
+  }
+  pending.swap(rest);
+
+  std::vector<int> groups;
+  for (const auto& [untied, clusters] : joining) {
+    std::vector<JoiningLink> links;
+    for (const auto& [c, link] : clusters) links.push_back(link);
+    PlacementGroup group = largestAgreeingGroup(graph_, base_, links, params_.alpha);
+    // How far apart the session saw the group: over every kept link, not only the first ones.
+    std::vector<int> ends;
+    for (int k : group.members) {
+      const int c = clusters[static_cast<std::size_t>(k)].first;
+      for (int link : kept_links_[static_cast<std::size_t>(c)]) {
+        const LoopCandidate& l = graph_.candidate(link);
+        ends.push_back(in_map(l.from) ? l.to : l.from);
+      }
+    }
+    group.spread_m = spread(graph_, base_, ends);
+    const bool placed =
+        group.members.size() >= 2 && group.spread_m >= params_.placement_min_spread_m;
+    for (std::size_t k = 0; k < clusters.size(); ++k) {
+      const int c = clusters[k].first;
+      if (placed &&
+          std::binary_search(group.members.begin(), group.members.end(), static_cast<int>(k))) {
+        setStatus(c, Status::kPending, "");
+        groups.push_back(c);
+        continue;
+      }
+      setStatus(c, Status::kUnplaced,
+                "placement: its session is not tied to the map; the largest group of agreeing "
+                "clusters joining them has " +
+                    std::to_string(group.members.size()) + " of " +
+                    std::to_string(clusters.size()) + ", seen " + metres(group.spread_m) +
+                    " apart (" + metres(params_.placement_min_spread_m) + " needed)");
+    }
+  }
+  return groups;
+}
+
+bool Rrr::holdLoosePlacements() {
+  bool held_any = false;
+  for (bool held = true; held;) {
+    held = false;
+    const std::vector<int> session = graph_.trustedComponents();
+    // Per session, the good clusters with one end in it, and those ends.
+    std::map<int, std::vector<int>> clusters_of, ends_of;
+    for (int c : clustersWith(Status::kGood)) {
+      const auto& kept = kept_links_[static_cast<std::size_t>(c)];
+      for (int k : kept) {
+        const LoopCandidate& link = graph_.candidate(k);
+        const int a = session[static_cast<std::size_t>(link.from)];
+        const int b = session[static_cast<std::size_t>(link.to)];
+        if (a == b) continue;
+        ends_of[a].push_back(link.from);
+        ends_of[b].push_back(link.to);
+        if (clusters_of[a].empty() || clusters_of[a].back() != c) clusters_of[a].push_back(c);
+        if (clusters_of[b].empty() || clusters_of[b].back() != c) clusters_of[b].push_back(c);
+      }
+    }
+    for (const auto& [s, clusters] : clusters_of) {
+      if (s == session[0]) continue;  // the map's own first session is where the others go
+      const double seen = spread(graph_, base_, ends_of[s]);
+      if (seen >= params_.placement_min_spread_m) continue;
+      for (int c : clusters) {
+        setStatus(c, Status::kUnplaced,
+                  "placement: the good clusters joining its session to the others were seen " +
+                      metres(seen) + " apart (" + metres(params_.placement_min_spread_m) +
+                      " needed)");
+      }
+      held = held_any = true;
+      break;  // the sessions' ties changed: look again
+    }
+  }
+  return held_any;
+}
+
+void Rrr::holdUnplacedSessions(const std::vector<char>& placed_sessions) {
+  const std::vector<int> session = graph_.trustedComponents();
+  auto placed = [&](int node) {
+    return placed_sessions[static_cast<std::size_t>(session[static_cast<std::size_t>(node)])] != 0;
+  };
+  for (int c : clustersWith(Status::kPending)) {
+    const auto& kept = kept_links_[static_cast<std::size_t>(c)];
+    const LoopCandidate& link = graph_.candidate(kept.front());
+    if (placed(link.from) && placed(link.to)) continue;
+    setStatus(c, Status::kUnplaced,
+              "placement: no group of agreeing clusters seen " +
+                  metres(params_.placement_min_spread_m) + " apart places its session in the map");
+  }
+}
+
+void Rrr::rejectUnplaced() {
+  for (int c : clustersWith(Status::kUnplaced)) {
+    setStatus(c, Status::kRejected, clusters_[static_cast<std::size_t>(c)].reason);
+  }
+}
+
+}  // namespace rrr_graphslam::rrr

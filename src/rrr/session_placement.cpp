@@ -1,0 +1,102 @@
+#include "rrr_graphslam/rrr/session_placement.h"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <limits>
+
+#include "rrr_graphslam/core/chi2.h"
+#include "rrr_graphslam/core/max_clique.h"
+
+namespace rrr_graphslam::rrr {
+namespace {
+
+// The link's measurement from its map end to its session end, with its covariance.
+struct Oriented {
+  core::Pose2 z;
+  Eigen::Matrix3d covariance;
+};
+
+Oriented oriented(const VerificationGraph& graph, const JoiningLink& link) {
+  const LoopCandidate& c = graph.candidate(link.candidate);
+  const Eigen::Matrix3d covariance = c.information.inverse();
+  if (c.from == link.map_node) return {c.measurement, covariance};
+  return {core::inverse(c.measurement), core::covarianceOfInverse(c.measurement, covariance)};
+}
+
+}  // namespace
+
+double placementCycleChi2(const VerificationGraph& graph, const std::vector<core::Pose2>& poses,
+                          const JoiningLink& a, const JoiningLink& b) {
+  // The later session end is predicted from the earlier one's link and the session's odometry,
+  // and compared with where its own link puts it: the residual and the covariances in its frame.
+  if (!graph.chain().sameSession(a.session_node, b.session_node)) {
+    return std::numeric_limits<double>::infinity();  // no odometry between them to compare
+  }
+  const JoiningLink& first = a.session_node <= b.session_node ? a : b;
+  const JoiningLink& second = a.session_node <= b.session_node ? b : a;
+  const auto pose = [&](int node) -> const core::Pose2& {
+    return poses[static_cast<std::size_t>(node)];
+  };
+  const Oriented l1 = oriented(graph, first);
+  const Oriented l2 = oriented(graph, second);
+  const core::Pose2 odometry = core::between(pose(first.session_node), pose(second.session_node));
+  const core::Pose2 predicted = core::compose(core::compose(pose(first.map_node), l1.z), odometry);
+  const core::Pose2 observed = core::compose(pose(second.map_node), l2.z);
+  Eigen::Vector3d r = core::between(observed, predicted);
+  r(2) = core::normalizeAngle(r(2));
+  // l1's noise moves the prediction through the odometry; the odometry's own noise and l2's
+  // are already in the second end's frame.
+  const Eigen::Matrix3d to_second = core::adjoint(core::inverse(odometry));
+  Eigen::Matrix3d covariance = to_second * l1.covariance * to_second.transpose() + l2.covariance;
+  if (first.session_node != second.session_node) {
+    covariance += graph.chain().relativeCovariance(first.session_node, second.session_node);
+  }
+  return r.dot(covariance.ldlt().solve(r));
+}
+
+double spread(const VerificationGraph& graph, const std::vector<core::Pose2>& poses,
+              const std::vector<int>& nodes) {
+  if (nodes.size() < 2) return 0.0;
+  const OdometryChain& chain = graph.chain();
+  const bool one_chain = std::all_of(nodes.begin(), nodes.end(),
+                                     [&](int n) { return chain.sameSession(n, nodes.front()); });
+  if (one_chain) {
+    const auto [low, high] = std::minmax_element(nodes.begin(), nodes.end(), [&](int a, int b) {
+      return chain.travel(a) < chain.travel(b);
+    });
+    return chain.travel(*high) - chain.travel(*low);
+  }
+  double farthest = 0.0;
+  for (int p : nodes) {
+    for (int q : nodes) {
+      farthest = std::max(farthest, (poses[static_cast<std::size_t>(p)].head<2>() -
+                                     poses[static_cast<std::size_t>(q)].head<2>())
+                                        .norm());
+    }
+  }
+  return farthest;
+}
+
+PlacementGroup largestAgreeingGroup(const VerificationGraph& graph,
+                                    const std::vector<core::Pose2>& poses,
+                                    const std::vector<JoiningLink>& links, double alpha) {
+  const int n = static_cast<int>(links.size());
+  const double threshold = core::chi2Quantile(alpha, 3);
+  core::AdjacencyMatrix agree(n);
+  for (int p = 0; p < n; ++p) {
+    for (int q = p + 1; q < n; ++q) {
+      if (placementCycleChi2(graph, poses, links[static_cast<std::size_t>(p)],
+                             links[static_cast<std::size_t>(q)]) < threshold) {
+        agree.connect(p, q);
+      }
+    }
+  }
+  PlacementGroup group;
+  group.members = core::maximumClique(agree);
+  std::vector<int> ends;
+  for (int p : group.members) ends.push_back(links[static_cast<std::size_t>(p)].session_node);
+  group.spread_m = spread(graph, poses, ends);
+  return group;
+}
+
+}  // namespace rrr_graphslam::rrr

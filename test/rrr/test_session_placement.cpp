@@ -1,0 +1,157 @@
+// Placing a session in the map (session_placement.h, RrrParams::placement_min_spread_m): links
+// that agree on where a session lies close their cycle, an aliased one does not; a session is tied
+// by a group of agreeing clusters seen far enough apart, never by a lone cluster that arrived
+// first.
+
+#include <gtest/gtest.h>
+
+#include <string>
+#include <vector>
+
+#include "rrr_graphslam/rrr/online_rrr.h"
+#include "rrr_graphslam/rrr/session_placement.h"
+
+namespace rrr_graphslam::rrr {
+namespace {
+
+using NodeId = core::PoseGraph::NodeId;
+
+// The map: 200 nodes 0.5 m apart along a corridor (x). The new session drives the same corridor
+// from x = 10 m, in its own odometry frame.
+constexpr int kMapNodes = 200;
+constexpr NodeId kSessionStart = 1000;
+const Eigen::Matrix3d kOdometryInformation = Eigen::Vector3d(1e4, 1e4, 1e5).asDiagonal();
+const Eigen::Matrix3d kLoopInformation = Eigen::Vector3d(400.0, 400.0, 2500.0).asDiagonal();
+
+core::Pose2 mapTruth(int k) { return {0.5 * k, 0.0, 0.0}; }
+core::Pose2 sessionTruth(int k) { return {10.0 + 0.5 * k, 0.1, 0.0}; }
+const core::Pose2 kSessionFrame(-40.0, 25.0, 1.0);  // where its odometry frame lies in the map
+
+void addMap(OnlineRrr& online) {
+  online.startSession(0, mapTruth(0));
+  for (int k = 1; k < kMapNodes; ++k) {
+    online.addOdometry(k - 1, k, core::between(mapTruth(k - 1), mapTruth(k)), kOdometryInformation);
+  }
+}
+
+void addSessionNode(OnlineRrr& online, int k) {
+  const NodeId id = kSessionStart + static_cast<NodeId>(k);
+  if (k == 0) {
+    online.startSession(id, core::compose(core::inverse(kSessionFrame), sessionTruth(0)));
+    return;
+  }
+  online.addOdometry(id - 1, id, core::between(sessionTruth(k - 1), sessionTruth(k)),
+                     kOdometryInformation);
+}
+
+// Session node k seen from map node m; `alias` shifts the map end (a corridor like another).
+void addLoop(OnlineRrr& online, int m, int k, int alias = 0) {
+  online.addCandidate(static_cast<NodeId>(m + alias), kSessionStart + static_cast<NodeId>(k),
+                      core::between(mapTruth(m), sessionTruth(k)), kLoopInformation);
+}
+
+TEST(SessionPlacement, AgreeingLinksCloseTheirCycleAnAliasedOneDoesNot) {
+  OnlineRrr online;
+  addMap(online);
+  for (int k = 0; k < 60; ++k) addSessionNode(online, k);
+  addLoop(online, 25, 5);       // candidate 0: right
+  addLoop(online, 75, 55);      // candidate 1: right, 25 m further along
+  addLoop(online, 45, 25, 30);  // candidate 2: the same view put 15 m off
+  const VerificationGraph& graph = online.verificationGraph();
+  const std::vector<core::Pose2> poses = online.mapPoses();
+  auto joining = [&](int candidate) {
+    const LoopCandidate& c = graph.candidate(candidate);
+    return JoiningLink{candidate, c.from, c.to};
+  };
+  EXPECT_LT(placementCycleChi2(graph, poses, joining(0), joining(1)), 1.0);
+  EXPECT_GT(placementCycleChi2(graph, poses, joining(0), joining(2)), 1e3);
+  EXPECT_GT(placementCycleChi2(graph, poses, joining(2), joining(1)), 1e3);
+  // Symmetric: either order predicts the later end.
+  EXPECT_DOUBLE_EQ(placementCycleChi2(graph, poses, joining(0), joining(1)),
+                   placementCycleChi2(graph, poses, joining(1), joining(0)));
+
+  const PlacementGroup group =
+      largestAgreeingGroup(graph, poses, {joining(0), joining(2), joining(1)}, 0.95);
+  EXPECT_EQ(group.members, (std::vector<int>{0, 2}));
+  EXPECT_NEAR(group.spread_m, 25.0, 1e-6);
+}
+
+// The robot enters the corridor; an aliased match comes first, true ones later, 15 m apart.
+OnlineRrr& drive(OnlineRrr& online, int until, std::vector<int>* checkpoints = nullptr) {
+  for (int k = 0; k <= until; ++k) {
+    addSessionNode(online, k);
+    if (k == 5) {
+      addLoop(online, 25, 5, 30);
+      addLoop(online, 26, 5, 30);
+    }
+    if (k == 30) {
+      addLoop(online, 50, 30);
+      addLoop(online, 51, 30);
+    }
+    if (k == 60) {
+      addLoop(online, 80, 60);
+      addLoop(online, 81, 60);
+    }
+    if (checkpoints != nullptr) checkpoints->push_back(online.numCandidates());
+  }
+  return online;
+}
+
+OnlineRrrParams withSpread(double spread_m) {
+  OnlineRrrParams params;
+  params.rrr.placement_min_spread_m = spread_m;
+  return params;
+}
+
+TEST(SessionPlacement, ALoneAliasedClusterWaitsAndTheAgreeingGroupTiesTheSession) {
+  OnlineRrr online(withSpread(10.0));
+  addMap(online);
+  drive(online, 25);  // the aliased cluster closed (gap 10): alone, it waits
+  ASSERT_EQ(online.numCandidates(), 2);
+  for (int c : {0, 1}) {
+    EXPECT_EQ(online.verdict(c), Verdict::kPending);
+    EXPECT_NE(online.reason(c).find("placement:"), std::string::npos) << online.reason(c);
+  }
+  OnlineRrr more(withSpread(10.0));
+  addMap(more);
+  drive(more, 50);  // the first true cluster closed: 0 m of spread in any group yet
+  for (int c = 0; c < more.numCandidates(); ++c) EXPECT_EQ(more.verdict(c), Verdict::kPending);
+
+  OnlineRrr all(withSpread(10.0));
+  addMap(all);
+  drive(all, 75);  // the second true one closed, 15 m from the first: the session is placed
+  EXPECT_EQ(all.verdict(0), Verdict::kRejected) << all.reason(0);
+  EXPECT_EQ(all.verdict(1), Verdict::kRejected);
+  for (int c = 2; c < 6; ++c) EXPECT_EQ(all.verdict(c), Verdict::kAccepted) << all.reason(c);
+  all.finish();
+  EXPECT_EQ(all.verdict(0), Verdict::kRejected);
+  for (int c = 2; c < 6; ++c) EXPECT_EQ(all.verdict(c), Verdict::kAccepted) << all.reason(c);
+}
+
+TEST(SessionPlacement, WithoutTheRuleTheFirstLoneClusterTiesTheSession) {
+  // What the rule prevents: the paper's online decision accepts the aliased cluster (it closes no
+  // cycle) and then rejects the true ones against it.
+  OnlineRrr online(withSpread(0.0));
+  addMap(online);
+  drive(online, 25);
+  EXPECT_EQ(online.verdict(0), Verdict::kAccepted);
+  OnlineRrr later(withSpread(0.0));
+  addMap(later);
+  drive(later, 75);
+  EXPECT_EQ(later.verdict(0), Verdict::kAccepted);
+  EXPECT_EQ(later.verdict(2), Verdict::kRejected);
+}
+
+TEST(SessionPlacement, ASessionNeverPlacedEndsWithItsClustersRejectedSayingWhy) {
+  OnlineRrr online(withSpread(10.0));
+  addMap(online);
+  drive(online, 40);  // the aliased cluster and one true one: no group spans 10 m
+  online.finish();
+  for (int c = 0; c < online.numCandidates(); ++c) {
+    EXPECT_EQ(online.verdict(c), Verdict::kRejected);
+    EXPECT_NE(online.reason(c).find("placement:"), std::string::npos) << online.reason(c);
+  }
+}
+
+}  // namespace
+}  // namespace rrr_graphslam::rrr
