@@ -82,6 +82,16 @@ rrr_install_missing() {
 
 rrr_build() {
   mkdir -p "${RRR_WS}/src"
+  # make compares times only: objects built from another checkout can look newer than this
+  # checkout's sources (a copy that kept its files' times, an older edit), so a workspace that
+  # last built another checkout is rebuilt from scratch.
+  local repo stamp="${RRR_WS}/.rrr_graphslam_checkout"
+  repo=$(cd "${RRR_REPO}" && pwd -P)
+  if [[ -f "${stamp}" && "$(cat "${stamp}")" != "${repo}" ]]; then
+    echo "[rrr] ${RRR_WS} last built $(cat "${stamp}"): building from scratch"
+    rm -rf "${RRR_WS}/build" "${RRR_WS}/devel"
+  fi
+  echo "${repo}" > "${stamp}"
   ln -sfn "${RRR_REPO}" "${RRR_WS}/src/rrr_graphslam"
   echo "[rrr] building in ${RRR_WS}"
   (cd "${RRR_WS}" && catkin_make -DCMAKE_BUILD_TYPE=Release ${RRR_CMAKE_ARGS:-} "$@")

@@ -80,7 +80,6 @@ void IncrementalRrr::finish() {
   for (const OpenCluster& open : open_) rrr_.addCluster(open.members);
   open_.clear();
   rrr_.decideFromScratch();
-  rrr_.rejectUnplaced();
   // A loaded graph goes on from its own end, not from a schedule its replay left behind.
   scheduleNextRebatch();
 }
@@ -152,6 +151,7 @@ RrrSummary runIncrementalRrr(VerificationGraph& graph, const RrrParams& params,
     }
   }
   incremental.finish();
+  incremental.rrr().rejectUnplaced();
 
   std::vector<Verdict> robot_verdicts;
   std::vector<int> robot_clusters;

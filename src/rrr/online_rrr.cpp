@@ -190,6 +190,7 @@ void OnlineRrr::admitWaitingCandidates() {
 
 void OnlineRrr::finish() {
   incremental_.finish();
+  incremental_.rrr().rejectUnplaced();  // the run ends: what still waits stays unjoined
   collectChanges();
 }
 
@@ -323,7 +324,10 @@ std::unique_ptr<OnlineRrr> OnlineRrr::fromPoseGraph(const core::PoseGraph& graph
     }
   }
   online->incremental_.deferDecisions(false);
-  online->finish();
+  // Decided once, as a run's end would, but a loaded map goes on: clusters waiting for their
+  // session to be placed keep waiting.
+  online->incremental_.finish();
+  online->collectChanges();
   return online;
 }
 

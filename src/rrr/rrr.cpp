@@ -94,11 +94,15 @@ void Rrr::addTestedCluster(const std::vector<int>& members, const LinkResiduals*
 // Algorithm 3. Hypotheses are the clusters neither good nor rejected (status kPending).
 void Rrr::decideFromScratch() {
   syncWithGraph();
+  // The last decision's map, which its loops made better than odometry, places sessions.
+  const std::vector<core::Pose2> last_map = base_;
+  const bool have_map = base_is_solution_;
   startFromIntraResults();
   std::vector<char> placed_sessions;
   const std::vector<core::Pose2> initial =
-      params_.place_sessions ? placeSessions(graph_.initialPoses(), &placed_sessions)
-                             : graph_.initialPoses();
+      params_.place_sessions
+          ? placeSessions(graph_.initialPoses(), &placed_sessions, have_map ? &last_map : nullptr)
+          : graph_.initialPoses();
   if (params_.place_sessions && params_.placement_min_spread_m > 0.0) {
     holdUnplacedSessions(placed_sessions);
   }
@@ -159,6 +163,7 @@ void Rrr::startFromIntraResults() {
     cluster.reason.clear();
   }
   base_ = graph_.initialPoses();
+  base_is_solution_ = false;
   unoptimized_accepts_ = 0;
   last_removed_.clear();
 }
@@ -257,6 +262,7 @@ bool Rrr::apply(const std::vector<int>& tested, const InterClusterResult& inter,
               std::string(step) + ": " + indexTest("CI", inter.consistent_index[i]) + ", " + joint);
   }
   base_ = graph_.optimizer().poses();
+  base_is_solution_ = true;
   return grew;
 }
 

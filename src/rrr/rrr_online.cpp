@@ -41,6 +41,7 @@ Rrr::OnlineVerdict Rrr::checkAgainstMap(int cluster, double& statistic) const {
 
 void Rrr::decideAgainstMap() {
   std::vector<int> joint;
+  std::vector<int> placing_groups;  // in `joint`: groups placing an untied session
   auto sort_out = [&](int c, const char* step) {
     double statistic = 0.0;
     switch (checkAgainstMap(c, statistic)) {
@@ -66,6 +67,7 @@ void Rrr::decideAgainstMap() {
       clusters.insert(clusters.end(), waiting.begin(), waiting.end());
       const std::vector<int> groups = takePlacingClusters(clusters);
       joint.insert(joint.end(), groups.begin(), groups.end());
+      placing_groups.insert(placing_groups.end(), groups.begin(), groups.end());
     }
     for (int c : clusters) sort_out(c, step);
   };
@@ -76,9 +78,16 @@ void Rrr::decideAgainstMap() {
   for (int round = 0; round < params_.max_rounds; ++round) {
     if (joint.empty() && unoptimized_accepts_ < params_.incremental_map_update_every) return;
     unoptimized_accepts_ = 0;
-    const bool grew =
+    const bool placing = !placing_groups.empty();
+    placing_groups.clear();
+    bool grew =
         realize(joint, params_.warm_start ? base_ : graph_.initialPoses(), "realize", true, true);
     joint.clear();
+    // The joint test may have kept fewer of a placing group than tie a session.
+    if (placing && holdLoosePlacements()) {
+      optimizeGoodMap();
+      factorGoodMap();
+    }
     if (!grew) return;
     admit(recoverHypotheses(true), "recover");
   }

@@ -36,10 +36,19 @@ std::vector<int> Rrr::takePlacingClusters(std::vector<int>& pending) {
   const std::size_t map = sessions > 0 ? tied.find(of(0)) : 0;
   auto in_map = [&](int node) { return tied.find(of(node)) == map; };
 
-  // Per untied session, its clusters joining it to the map (first kept link, oriented).
+  // Per untied session, its clusters joining it to the map (first kept link, oriented). A
+  // cluster a joint test rejected while its session was untied (the session in its own frame)
+  // stays a candidate for a group.
+  std::vector<int> candidates = pending;
+  for (int c : clustersWith(Status::kRejected)) {
+    const auto& kept = kept_links_[static_cast<std::size_t>(c)];
+    if (kept.empty()) continue;
+    const LoopCandidate& link = graph_.candidate(kept.front());
+    if (in_map(link.from) != in_map(link.to)) candidates.push_back(c);
+  }
   std::map<std::size_t, std::vector<std::pair<int, JoiningLink>>> joining;
   std::vector<int> rest;
-  for (int c : pending) {
+  for (int c : candidates) {
     const auto& kept = kept_links_[static_cast<std::size_t>(c)];
     if (kept.empty()) {
       rest.push_back(c);
@@ -48,7 +57,8 @@ std::vector<int> Rrr::takePlacingClusters(std::vector<int>& pending) {
     const LoopCandidate& link = graph_.candidate(kept.front());
     const bool from_in = in_map(link.from);
     const bool to_in = in_map(link.to);
-    if (from_in && to_in) {
+    // Within the map, or within one untied session (its own loops): decided as any other.
+    if (tied.find(of(link.from)) == tied.find(of(link.to))) {
       rest.push_back(c);
       continue;
     }
@@ -80,6 +90,31 @@ std::vector<int> Rrr::takePlacingClusters(std::vector<int>& pending) {
     group.spread_m = spread(graph_, base_, ends);
     const bool placed =
         group.members.size() >= 2 && group.spread_m >= params_.placement_min_spread_m;
+    if (placed) {
+      // The joint test starts with the session moved rigidly onto the group's largest cluster's
+      // first link (as placeSessions does): its own frame says nothing of where it lies.
+      std::size_t largest = static_cast<std::size_t>(group.members.front());
+      for (int k : group.members) {
+        const auto size = [&](std::size_t i) {
+          return kept_links_[static_cast<std::size_t>(clusters[i].first)].size();
+        };
+        if (size(static_cast<std::size_t>(k)) > size(largest))
+          largest = static_cast<std::size_t>(k);
+      }
+      const JoiningLink& link = clusters[largest].second;
+      const LoopCandidate& c = graph_.candidate(link.candidate);
+      const core::Pose2 target =
+          core::compose(base_[static_cast<std::size_t>(link.map_node)],
+                        c.from == link.map_node ? c.measurement : core::inverse(c.measurement));
+      const core::Pose2 motion =
+          core::compose(target, core::inverse(base_[static_cast<std::size_t>(link.session_node)]));
+      for (int n = 0; n < graph_.numNodes(); ++n) {
+        if (tied.find(of(n)) == untied) {
+          base_[static_cast<std::size_t>(n)] =
+              core::compose(motion, base_[static_cast<std::size_t>(n)]);
+        }
+      }
+    }
     for (std::size_t k = 0; k < clusters.size(); ++k) {
       const int c = clusters[k].first;
       if (placed &&
@@ -122,12 +157,13 @@ bool Rrr::holdLoosePlacements() {
     for (const auto& [s, clusters] : clusters_of) {
       if (s == session[0]) continue;  // the map's own first session is where the others go
       const double seen = spread(graph_, base_, ends_of[s]);
-      if (seen >= params_.placement_min_spread_m) continue;
+      if (clusters.size() >= 2 && seen >= params_.placement_min_spread_m) continue;
       for (int c : clusters) {
         setStatus(c, Status::kUnplaced,
-                  "placement: the good clusters joining its session to the others were seen " +
-                      metres(seen) + " apart (" + metres(params_.placement_min_spread_m) +
-                      " needed)");
+                  "placement: the " + std::to_string(clusters.size()) +
+                      " good clusters joining its session to the others were seen " + metres(seen) +
+                      " apart (two or more, " + metres(params_.placement_min_spread_m) +
+                      " apart, needed)");
       }
       held = held_any = true;
       break;  // the sessions' ties changed: look again
@@ -144,7 +180,9 @@ void Rrr::holdUnplacedSessions(const std::vector<char>& placed_sessions) {
   for (int c : clustersWith(Status::kPending)) {
     const auto& kept = kept_links_[static_cast<std::size_t>(c)];
     const LoopCandidate& link = graph_.candidate(kept.front());
-    if (placed(link.from) && placed(link.to)) continue;
+    const bool own =
+        session[static_cast<std::size_t>(link.from)] == session[static_cast<std::size_t>(link.to)];
+    if (own || (placed(link.from) && placed(link.to))) continue;
     setStatus(c, Status::kUnplaced,
               "placement: no group of agreeing clusters seen " +
                   metres(params_.placement_min_spread_m) + " apart places its session in the map");

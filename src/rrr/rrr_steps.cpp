@@ -96,7 +96,8 @@ std::vector<core::Pose2> Rrr::robustOrderingMap(const std::vector<int>& pending,
 // --- place_sessions
 
 std::vector<core::Pose2> Rrr::placeSessions(const std::vector<core::Pose2>& initial,
-                                            std::vector<char>* placed_sessions) const {
+                                            std::vector<char>* placed_sessions,
+                                            const std::vector<core::Pose2>* good_map) const {
   // Sessions are what trusted constraints hold together (a trimmed session's chains, joined by
   // its marginal constraints, move as one).
   const std::vector<int> session = graph_.trustedComponents();
@@ -139,7 +140,8 @@ std::vector<core::Pose2> Rrr::placeSessions(const std::vector<core::Pose2>& init
       clusters.push_back(j.cluster);
       links.push_back(from_placed ? JoiningLink{k, c.from, c.to} : JoiningLink{k, c.to, c.from});
     }
-    const PlacementGroup group = largestAgreeingGroup(graph_, poses, links, params_.alpha);
+    const PlacementGroup group = largestAgreeingGroup(
+        graph_, good_map != nullptr ? *good_map : poses, links, params_.alpha, good_map != nullptr);
     std::vector<int> ends;  // every kept link's end in the session, as takePlacingClusters counts
     for (int k : group.members) {
       for (int link :

@@ -26,7 +26,7 @@ Oriented oriented(const VerificationGraph& graph, const JoiningLink& link) {
 }  // namespace
 
 double placementCycleChi2(const VerificationGraph& graph, const std::vector<core::Pose2>& poses,
-                          const JoiningLink& a, const JoiningLink& b) {
+                          const JoiningLink& a, const JoiningLink& b, bool map_exact) {
   // The later session end is predicted from the earlier one's link and the session's odometry,
   // and compared with where its own link puts it: the residual and the covariances in its frame.
   if (!graph.chain().sameSession(a.session_node, b.session_node)) {
@@ -50,6 +50,14 @@ double placementCycleChi2(const VerificationGraph& graph, const std::vector<core
   Eigen::Matrix3d covariance = to_second * l1.covariance * to_second.transpose() + l2.covariance;
   if (first.session_node != second.session_node) {
     covariance += graph.chain().relativeCovariance(first.session_node, second.session_node);
+  }
+  if (!map_exact && first.map_node != second.map_node &&
+      graph.chain().sameSession(first.map_node, second.map_node)) {
+    // The map's odometry noise between the map ends moves the second end's observed pose: the
+    // covariance of the second map end in the first's frame, carried to the second session end.
+    const Eigen::Matrix3d to_session = core::adjoint(core::inverse(l2.z));
+    covariance += to_session * graph.chain().relativeCovariance(first.map_node, second.map_node) *
+                  to_session.transpose();
   }
   return r.dot(covariance.ldlt().solve(r));
 }
@@ -79,14 +87,15 @@ double spread(const VerificationGraph& graph, const std::vector<core::Pose2>& po
 
 PlacementGroup largestAgreeingGroup(const VerificationGraph& graph,
                                     const std::vector<core::Pose2>& poses,
-                                    const std::vector<JoiningLink>& links, double alpha) {
+                                    const std::vector<JoiningLink>& links, double alpha,
+                                    bool map_exact) {
   const int n = static_cast<int>(links.size());
   const double threshold = core::chi2Quantile(alpha, 3);
   core::AdjacencyMatrix agree(n);
   for (int p = 0; p < n; ++p) {
     for (int q = p + 1; q < n; ++q) {
       if (placementCycleChi2(graph, poses, links[static_cast<std::size_t>(p)],
-                             links[static_cast<std::size_t>(q)]) < threshold) {
+                             links[static_cast<std::size_t>(q)], map_exact) < threshold) {
         agree.connect(p, q);
       }
     }

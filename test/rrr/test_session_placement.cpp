@@ -153,5 +153,27 @@ TEST(SessionPlacement, ASessionNeverPlacedEndsWithItsClustersRejectedSayingWhy) 
   }
 }
 
+TEST(SessionPlacement, AnUntiedSessionsOwnLoopsAreDecidedAsAnyOther) {
+  // Only the clusters joining the session to the map wait: its loops within itself close cycles
+  // through its own odometry and are decided at once, tied or not, and kept at the end.
+  OnlineRrr online(withSpread(10.0));
+  addMap(online);
+  for (int k = 0; k <= 60; ++k) {
+    addSessionNode(online, k);
+    if (k == 40) {
+      for (int from : {2, 3}) {
+        online.addCandidate(kSessionStart + static_cast<NodeId>(from), kSessionStart + 40,
+                            core::between(sessionTruth(from), sessionTruth(40)), kLoopInformation);
+      }
+    }
+  }
+  ASSERT_EQ(online.numCandidates(), 2);
+  EXPECT_EQ(online.verdict(0), Verdict::kAccepted) << online.reason(0);
+  EXPECT_EQ(online.verdict(1), Verdict::kAccepted);
+  online.finish();
+  EXPECT_EQ(online.verdict(0), Verdict::kAccepted) << online.reason(0);
+  EXPECT_EQ(online.verdict(1), Verdict::kAccepted);
+}
+
 }  // namespace
 }  // namespace rrr_graphslam::rrr

@@ -30,6 +30,7 @@ class IncrementalRrr {
   /// when it passed a multiple of RrrParams::incremental_rebatch_every since the last time).
   bool advanceTo(int node);
   /// After the last candidate: closes every open cluster and decides all of them from scratch.
+  /// Clusters waiting for their session to be placed still wait (Rrr::rejectUnplaced ends that).
   void finish();
   /// While deferred, a closed cluster gets its intra test only and no decision is made: a saved
   /// graph replayed to be decided once, by finish() (whose decision from scratch does not depend

@@ -142,8 +142,11 @@ class Rrr {
   /// from it as from the odometry.
   /// With placement_min_spread_m, a session is placed only by a group of agreeing clusters
   /// (session_placement.h); `placed_sessions` (if given) says per session whether it was.
+  /// The agreement test measures the map side on `good_map` if given (a decision's solution),
+  /// otherwise on `initial` with the map's odometry covariance.
   std::vector<core::Pose2> placeSessions(const std::vector<core::Pose2>& initial,
-                                         std::vector<char>* placed_sessions = nullptr) const;
+                                         std::vector<char>* placed_sessions = nullptr,
+                                         const std::vector<core::Pose2>* good_map = nullptr) const;
   /// After a decision that started from placeSessions(): the sessions no good cluster joins to
   /// the first one's go back to their own odometry frame in the map (a rejected cluster placed
   /// them only to be tested).
@@ -229,6 +232,7 @@ class Rrr {
   std::vector<int> cluster_of_;
   std::vector<std::string> link_reason_;  // per candidate dropped by a link test: why
   std::vector<core::Pose2> base_;         // solution of the good set
+  bool base_is_solution_ = false;         // false until a decision optimized base_
   std::vector<int> previous_good_;        // good set before the current joint test
   std::vector<int> last_removed_;         // clusters the last joint test rejected
   int time_clusters_ = 0;                 // addCluster calls so far

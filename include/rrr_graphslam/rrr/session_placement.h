@@ -26,10 +26,13 @@ struct JoiningLink {
 };
 
 /// Chi-square (3 dof) of the cycle through two links joining the same session to the map, at
-/// `poses` (the map side as it is; the session side's relative pose from `poses` too, its
-/// covariance from the odometry chain, which must hold both session ends).
+/// `poses`: the session side's relative pose from `poses`, its covariance from the odometry chain
+/// (infinite, no agreement, if the chain does not hold both session ends); the map side's
+/// relative pose from `poses` too, exact when `map_exact` (poses of the good map, which loops
+/// made), otherwise with the covariance of the map's own odometry between its two ends (poses
+/// that odometry made; ends in different chains are then taken as exact).
 double placementCycleChi2(const VerificationGraph& graph, const std::vector<core::Pose2>& poses,
-                          const JoiningLink& a, const JoiningLink& b);
+                          const JoiningLink& a, const JoiningLink& b, bool map_exact = true);
 
 /// How far apart the nodes of one session are: the path length between the first and the last
 /// of them along the session's odometry (as the front end counts a session's travel), or where
@@ -47,6 +50,7 @@ struct PlacementGroup {
 /// apart the session saw them; links[k] stands for the k-th cluster.
 PlacementGroup largestAgreeingGroup(const VerificationGraph& graph,
                                     const std::vector<core::Pose2>& poses,
-                                    const std::vector<JoiningLink>& links, double alpha);
+                                    const std::vector<JoiningLink>& links, double alpha,
+                                    bool map_exact = true);
 
 }  // namespace rrr_graphslam::rrr
