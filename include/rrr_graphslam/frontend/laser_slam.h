@@ -11,13 +11,15 @@
 // Sessions: a map saved by snapshot() (map_file.h) is continued by fromMap() as a new session in
 // its own odometry frame. Until it is tied to the earlier sessions, every
 // relocalization_every_n_nodes-th node is matched against every submap of the earlier sessions,
-// whole (branch and bound over the submap and all rotations); RRR decides those candidates like
-// any other, so one wrong relocalization cannot bend the map. A session is tied once RRR accepted
-// loops to the earlier sessions at places of the session at least relocalization_confirm_distance
-// apart along its path: at one place only, nothing in the graph can contradict a self-consistent
-// match with the wrong one of two alike corridors (the first link between two sessions closes no
-// cycle), and a session tied that way would stop searching. While accepted loops place a session
-// but do not yet tie it, its nodes are also searched around where they place it.
+// whole (branch and bound over the submap and all rotations); a match whose placement of the
+// session's recent path conflicts with the map's free space is dropped (map_agreement.h); RRR
+// decides the others like any loop, so one wrong relocalization cannot bend the map. RRR ties the
+// session only through a group of agreeing loops to the earlier sessions at places of the session
+// at least relocalization_confirm_distance apart along its path (rrr/session_placement.h): at one
+// place only, nothing in the graph can contradict a self-consistent match with the wrong one of
+// two alike corridors (the first link between two sessions closes no cycle). Should a later
+// decision keep loops that place the session without tying it, its nodes are also searched
+// around where they place it.
 
 #include <deque>
 #include <memory>
