@@ -101,13 +101,7 @@ std::vector<int> Rrr::takePlacingClusters(std::vector<int>& pending) {
         if (size(static_cast<std::size_t>(k)) > size(largest))
           largest = static_cast<std::size_t>(k);
       }
-      const JoiningLink& link = clusters[largest].second;
-      const LoopCandidate& c = graph_.candidate(link.candidate);
-      const core::Pose2 target =
-          core::compose(base_[static_cast<std::size_t>(link.map_node)],
-                        c.from == link.map_node ? c.measurement : core::inverse(c.measurement));
-      const core::Pose2 motion =
-          core::compose(target, core::inverse(base_[static_cast<std::size_t>(link.session_node)]));
+      const core::Pose2 motion = placingMotion(graph_, base_, clusters[largest].second);
       for (int n = 0; n < graph_.numNodes(); ++n) {
         if (tied.find(of(n)) == untied) {
           base_[static_cast<std::size_t>(n)] =

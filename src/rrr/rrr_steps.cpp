@@ -172,15 +172,12 @@ std::vector<core::Pose2> Rrr::placeSessions(const std::vector<core::Pose2>& init
       const LoopCandidate& link =
           graph_.candidate(kept_links_[static_cast<std::size_t>(cluster)].front());
       const bool from_placed = placed[static_cast<std::size_t>(of(link.from))] != 0;
-      // Where the link puts its unplaced end, and the rigid motion of that end's session there.
-      const int fixed = from_placed ? link.from : link.to;
-      const int moving = from_placed ? link.to : link.from;
-      const core::Pose2 target =
-          core::compose(poses[static_cast<std::size_t>(fixed)],
-                        from_placed ? link.measurement : core::inverse(link.measurement));
-      const core::Pose2 motion =
-          core::compose(target, core::inverse(poses[static_cast<std::size_t>(moving)]));
-      const int moved_session = of(moving);
+      // The rigid motion of the unplaced end's session to where the link puts that end.
+      const int k = kept_links_[static_cast<std::size_t>(cluster)].front();
+      const JoiningLink joining_link =
+          from_placed ? JoiningLink{k, link.from, link.to} : JoiningLink{k, link.to, link.from};
+      const core::Pose2 motion = placingMotion(graph_, poses, joining_link);
+      const int moved_session = of(joining_link.session_node);
       for (int n = 0; n < graph_.numNodes(); ++n) {
         if (of(n) == moved_session) {
           poses[static_cast<std::size_t>(n)] =

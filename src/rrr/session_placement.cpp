@@ -25,6 +25,13 @@ Oriented oriented(const VerificationGraph& graph, const JoiningLink& link) {
 
 }  // namespace
 
+core::Pose2 placingMotion(const VerificationGraph& graph, const std::vector<core::Pose2>& poses,
+                          const JoiningLink& link) {
+  const core::Pose2 target =
+      core::compose(poses[static_cast<std::size_t>(link.map_node)], oriented(graph, link).z);
+  return core::compose(target, core::inverse(poses[static_cast<std::size_t>(link.session_node)]));
+}
+
 double placementCycleChi2(const VerificationGraph& graph, const std::vector<core::Pose2>& poses,
                           const JoiningLink& a, const JoiningLink& b, bool map_exact) {
   // The later session end is predicted from the earlier one's link and the session's odometry,

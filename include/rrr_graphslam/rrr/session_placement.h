@@ -25,6 +25,11 @@ struct JoiningLink {
   int session_node;
 };
 
+/// The rigid motion that takes the session, at `poses`, to where `link` puts its session end
+/// (its map end where `poses` has it): compose it onto every node of the session.
+core::Pose2 placingMotion(const VerificationGraph& graph, const std::vector<core::Pose2>& poses,
+                          const JoiningLink& link);
+
 /// Chi-square (3 dof) of the cycle through two links joining the same session to the map, at
 /// `poses`: the session side's relative pose from `poses`, its covariance from the odometry chain
 /// (infinite, no agreement, if the chain does not hold both session ends); the map side's
