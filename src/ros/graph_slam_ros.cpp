@@ -281,6 +281,21 @@ void GraphSlamRos::process(const Input& input) {
       ++services_handled_;
       std::get<Command>(input)();
     }
+  } catch (const frontend::SensorMismatch& e) {
+    // Not one bad message but every scan of this sensor: said once, in full, and in ~status.
+    ++malformed_;
+    ++sensor_mismatch_scans_;
+    if (sensor_mismatch_.empty()) {
+      sensor_mismatch_ = e.what();
+      ROS_ERROR(
+          "%s: %s; every scan from this sensor is dropped until ~load_map or ~reset "
+          "(~status sensor_mismatch)",
+          nh_.resolveName(topic).c_str(), e.what());
+    } else {
+      ROS_ERROR_THROTTLE(30.0, "%s: %llu scans dropped so far: another sensor setup than the map's",
+                         nh_.resolveName(topic).c_str(),
+                         static_cast<unsigned long long>(sensor_mismatch_scans_));
+    }
   } catch (const std::invalid_argument& e) {
     ++malformed_;
     logInputError(topic, std::string(e.what()) + "; message dropped");
@@ -478,6 +493,7 @@ void GraphSlamRos::publishStatus() {
     const auto& sessions = slam_->sessions();
     msg.session = static_cast<std::uint32_t>(sessions.size() - 1);
     msg.tied_to_map = slam_->tied();
+    msg.sensor_mismatch = !sensor_mismatch_.empty();
     if (const auto tied = slam_->tiedAt()) {
       msg.tied_after_sec =
           slam_->nodeTimestamps()[static_cast<std::size_t>(*tied)] - sessions.back().start_time;

@@ -147,6 +147,8 @@ void GraphSlamRos::startSlam(const frontend::MapSnapshot* map) {
   }
   slam_ = std::move(slam);
   slam_->rrr().setCancelFlag(&cancel_);
+  sensor_mismatch_.clear();  // a new map: its scans' setup is checked anew
+  sensor_mismatch_scans_ = 0;
   node_stamps_ = std::move(stamps);
   node_odom_poses_.clear();  // the current session's nodes
   last_scan_stamp_ = ros::Time();

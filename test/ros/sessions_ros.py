@@ -1,5 +1,6 @@
 #!/usr/bin/python3
 """rostest: ~save_map, ~load_map and a new session from another odometry frame, tied to the map."""
+import gzip
 import os
 import re
 import subprocess
@@ -164,6 +165,30 @@ class Sessions(unittest.TestCase):
         finally:
             node.terminate()
             node.wait(timeout=30)
+
+    def test_d_scans_of_another_sensor_are_refused_once_and_flagged(self):
+        # The map's scans have 180 beams 1 degree apart; every other beam is another sensor setup:
+        # each such scan is dropped (counted malformed), the error is logged once, ~status says so.
+        answer = self.load_map(path=self.map_path)
+        self.assertTrue(answer.success, answer.message)
+        self.assertTrue(wait_for(lambda: not self.status.sensor_mismatch, 10.0))
+        thinned = os.path.join(self.folder, "thinned.clf")
+        with gzip.open(self.log, "rt") as src, open(thinned, "w") as out:
+            for line in src:
+                fields = line.split()
+                if fields and fields[0] == "FLASER":
+                    n = int(fields[1])
+                    ranges = fields[2:2 + n][::2]
+                    line = " ".join(["FLASER", str(len(ranges))] + ranges + fields[2 + n:]) + "\n"
+                out.write(line)
+        malformed = self.status.messages_malformed
+        self.play(thinned, "replay_thinned")
+        self.assertTrue(wait_for(lambda: self.status.sensor_mismatch, 10.0), str(self.status))
+        self.assertGreater(self.status.messages_malformed - malformed, 100)
+        # A new map (here the same file again) checks the scans' setup anew.
+        answer = self.load_map(path=self.map_path)
+        self.assertTrue(answer.success, answer.message)
+        self.assertTrue(wait_for(lambda: not self.status.sensor_mismatch, 10.0), str(self.status))
 
 
 if __name__ == "__main__":

@@ -168,6 +168,10 @@ class GraphSlamRos {
   InputErrorLog input_errors_;
   std::atomic<std::uint64_t> received_{0}, processed_{0}, malformed_{0}, ignored_{0};
   std::uint64_t decisions_published_ = 0, services_handled_ = 0;  // worker only
+  // Slam mode: why the scans are dropped when they come from another sensor setup than the
+  // loaded map's (empty: they do not); logged once, cleared with a new front end (worker only).
+  std::string sensor_mismatch_;
+  std::uint64_t sensor_mismatch_scans_ = 0;
 
   // Shared with the tf timer.
   std::mutex tf_mutex_;
