@@ -20,21 +20,29 @@ std::string metres(double m) {
 
 }  // namespace
 
-std::vector<int> Rrr::takePlacingClusters(std::vector<int>& pending) {
+std::vector<std::size_t> Rrr::joinedSessions() const {
   const std::vector<int> session = graph_.trustedComponents();
   const auto sessions = static_cast<std::size_t>(
       session.empty() ? 0 : *std::max_element(session.begin(), session.end()) + 1);
   auto of = [&](int node) {
     return static_cast<std::size_t>(session[static_cast<std::size_t>(node)]);
   };
-  // The sessions good clusters tie to the first node's.
-  core::UnionFind tied(sessions);
+  core::UnionFind joined(sessions);
   for (int k : acceptedCandidates()) {
     const LoopCandidate& c = graph_.candidate(k);
-    tied.unite(of(c.from), of(c.to));
+    joined.unite(of(c.from), of(c.to));
   }
-  const std::size_t map = sessions > 0 ? tied.find(of(0)) : 0;
-  auto in_map = [&](int node) { return tied.find(of(node)) == map; };
+  std::vector<std::size_t> out(session.size());
+  for (std::size_t n = 0; n < session.size(); ++n) out[n] = joined.find(of(static_cast<int>(n)));
+  return out;
+}
+
+std::vector<int> Rrr::takePlacingClusters(std::vector<int>& pending) {
+  // The sessions good clusters tie to the first node's make the map.
+  const std::vector<std::size_t> joined = joinedSessions();
+  auto joined_of = [&](int node) { return joined[static_cast<std::size_t>(node)]; };
+  const std::size_t map = joined.empty() ? 0 : joined.front();
+  auto in_map = [&](int node) { return joined_of(node) == map; };
 
   // Per untied session, its clusters joining it to the map (first kept link, oriented). A
   // cluster a joint test rejected while its session was untied (the session in its own frame)
@@ -58,14 +66,14 @@ std::vector<int> Rrr::takePlacingClusters(std::vector<int>& pending) {
     const bool from_in = in_map(link.from);
     const bool to_in = in_map(link.to);
     // Within the map, or within one untied session (its own loops): decided as any other.
-    if (tied.find(of(link.from)) == tied.find(of(link.to))) {
+    if (joined_of(link.from) == joined_of(link.to)) {
       rest.push_back(c);
       continue;
     }
     if (from_in != to_in) {
       const JoiningLink oriented = from_in ? JoiningLink{kept.front(), link.from, link.to}
                                            : JoiningLink{kept.front(), link.to, link.from};
-      joining[tied.find(of(oriented.session_node))].push_back({c, oriented});
+      joining[joined_of(oriented.session_node)].push_back({c, oriented});
       continue;
     }
     // Between two sessions neither of which is placed: it waits for them.
@@ -103,7 +111,7 @@ std::vector<int> Rrr::takePlacingClusters(std::vector<int>& pending) {
       }
       const core::Pose2 motion = placingMotion(graph_, base_, clusters[largest].second);
       for (int n = 0; n < graph_.numNodes(); ++n) {
-        if (tied.find(of(n)) == untied) {
+        if (joined_of(n) == untied) {
           base_[static_cast<std::size_t>(n)] =
               core::compose(motion, base_[static_cast<std::size_t>(n)]);
         }

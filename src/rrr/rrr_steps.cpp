@@ -198,19 +198,11 @@ void Rrr::unplaceLooseSessions() {
   const std::vector<int> session = graph_.trustedComponents();
   const int sessions = session.empty() ? 0 : *std::max_element(session.begin(), session.end()) + 1;
   if (sessions < 2) return;
-  auto of = [&](int node) {
-    return static_cast<std::size_t>(session[static_cast<std::size_t>(node)]);
-  };
-  core::UnionFind joined(static_cast<std::size_t>(sessions));
-  for (int k : acceptedCandidates()) {
-    const LoopCandidate& c = graph_.candidate(k);
-    joined.unite(of(c.from), of(c.to));
-  }
-  const std::size_t first = joined.find(of(0));
+  const std::vector<std::size_t> joined = joinedSessions();
   const std::vector<core::Pose2>& initial = graph_.initialPoses();
   bool changed = false;
   for (int n = 0; n < graph_.numNodes(); ++n) {
-    if (joined.find(of(n)) == first) continue;
+    if (joined[static_cast<std::size_t>(n)] == joined.front()) continue;
     base_[static_cast<std::size_t>(n)] = initial[static_cast<std::size_t>(n)];
     changed = true;
   }

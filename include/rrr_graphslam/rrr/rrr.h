@@ -178,6 +178,9 @@ class Rrr {
   bool jointLinkCheck();
 
   // --- placement_min_spread_m (rrr_placement.cpp).
+  /// Per node, the set of sessions (trusted components) the good clusters join its session to,
+  /// as one id: two nodes share it when accepted loops tie their sessions together.
+  std::vector<std::size_t> joinedSessions() const;
   /// Takes out of `pending` the clusters that join a session not tied to the map (by good
   /// clusters) to anything: each such session's largest agreeing group of clusters joining it to
   /// the map is returned (status pending) when its session ends lie placement_min_spread_m
