@@ -98,13 +98,14 @@ void Rrr::decideFromScratch() {
   const std::vector<core::Pose2> last_map = base_;
   const bool have_map = base_is_solution_;
   startFromIntraResults();
-  const SessionStart sessions =
-      params_.place_sessions ? placeSessions(graph_.initialPoses(), have_map ? &last_map : nullptr)
-                             : SessionStart{graph_.initialPoses(), {}, {}};
+  std::vector<char> placed_sessions;
+  const std::vector<core::Pose2> initial =
+      params_.place_sessions
+          ? placeSessions(graph_.initialPoses(), &placed_sessions, have_map ? &last_map : nullptr)
+          : graph_.initialPoses();
   if (params_.place_sessions && params_.placement_min_spread_m > 0.0) {
-    holdUnplacedSessions(sessions.placed);
+    holdUnplacedSessions(placed_sessions);
   }
-  const std::vector<core::Pose2>& initial = sessions.poses;
   base_ = initial;
 
   // Realize: the hypotheses are tested jointly; the consistent ones become the good set. The
@@ -114,7 +115,7 @@ void Rrr::decideFromScratch() {
   std::vector<int> hypotheses = clustersWith(Status::kPending);
   const bool ordered = params_.robust_ordering && hypotheses.size() > 1;
   if (ordered) {
-    hypotheses = orderByRobustMap(hypotheses, start, sessions.outvoted);
+    hypotheses = orderByRobustMap(hypotheses, start);
   } else if (!params_.robust_ordering) {
     hypotheses = preselect(hypotheses);
   }

@@ -96,7 +96,8 @@ std::vector<int> Rrr::takePlacingClusters(std::vector<int>& pending) {
       }
     }
     group.spread_m = spread(graph_, base_, ends);
-    const bool placed = group.places(params_.placement_min_spread_m);
+    const bool placed =
+        group.members.size() >= 2 && group.spread_m >= params_.placement_min_spread_m;
     if (placed) {
       // The joint test starts with the session moved rigidly onto the group's largest cluster's
       // first link (as placeSessions does): its own frame says nothing of where it lies.
@@ -129,8 +130,7 @@ std::vector<int> Rrr::takePlacingClusters(std::vector<int>& pending) {
                 "clusters joining them has " +
                     std::to_string(group.members.size()) + " of " +
                     std::to_string(clusters.size()) + ", seen " + metres(group.spread_m) +
-                    " apart (" + metres(params_.placement_min_spread_m) +
-                    " needed), the next disagreeing group " + std::to_string(group.rival_size));
+                    " apart (" + metres(params_.placement_min_spread_m) + " needed)");
     }
   }
   return groups;

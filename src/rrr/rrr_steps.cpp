@@ -17,12 +17,11 @@ namespace rrr_graphslam::rrr {
 // --- robust_ordering
 
 std::vector<int> Rrr::orderByRobustMap(const std::vector<int>& hypotheses,
-                                       std::vector<core::Pose2>& start,
-                                       const std::vector<int>& outvoted) {
+                                       std::vector<core::Pose2>& start) {
   // Many clusters at once: test first those that agree with a map outliers cannot bend; the
   // others are tested in the recover step, against the good set's map.
   const std::vector<core::Pose2> initial = start;
-  start = robustOrderingMap(hypotheses, initial, outvoted);
+  start = robustOrderingMap(hypotheses, initial);
   std::vector<int> agreeing, set_aside;
   std::vector<double> set_aside_index;
   for (int c : hypotheses) {
@@ -46,13 +45,11 @@ std::vector<int> Rrr::orderByRobustMap(const std::vector<int>& hypotheses,
   return agreeing;
 }
 
-std::vector<int> Rrr::robustMapLinks(const std::vector<int>& pending,
-                                     const std::vector<int>& outvoted) const {
+std::vector<int> Rrr::robustMapLinks(const std::vector<int>& pending) const {
   // Random false links are mostly alone in their cluster, and long single links fill the
   // Cholesky factor; when clusters of two or more links hold most links, they make the map.
   std::vector<int> all, multi;
   auto add = [&](int c) {
-    if (std::binary_search(outvoted.begin(), outvoted.end(), c)) return;
     const auto& kept = kept_links_[static_cast<std::size_t>(c)];
     all.insert(all.end(), kept.begin(), kept.end());
     if (kept.size() >= 2) multi.insert(multi.end(), kept.begin(), kept.end());
@@ -63,9 +60,8 @@ std::vector<int> Rrr::robustMapLinks(const std::vector<int>& pending,
 }
 
 std::vector<core::Pose2> Rrr::robustOrderingMap(const std::vector<int>& pending,
-                                                const std::vector<core::Pose2>& initial,
-                                                const std::vector<int>& outvoted) {
-  const std::vector<int> links = robustMapLinks(pending, outvoted);
+                                                const std::vector<core::Pose2>& initial) {
+  const std::vector<int> links = robustMapLinks(pending);
   std::map<int, int> links_per_time_cluster;
   auto time_cluster = [&](int k) {
     return clusters_[static_cast<std::size_t>(clusterOf(k))].time_cluster;
@@ -99,17 +95,17 @@ std::vector<core::Pose2> Rrr::robustOrderingMap(const std::vector<int>& pending,
 
 // --- place_sessions
 
-Rrr::SessionStart Rrr::placeSessions(const std::vector<core::Pose2>& initial,
-                                     const std::vector<core::Pose2>* good_map) const {
+std::vector<core::Pose2> Rrr::placeSessions(const std::vector<core::Pose2>& initial,
+                                            std::vector<char>* placed_sessions,
+                                            const std::vector<core::Pose2>* good_map) const {
   // Sessions are what trusted constraints hold together (a trimmed session's chains, joined by
   // its marginal constraints, move as one).
   const std::vector<int> session = graph_.trustedComponents();
   const int sessions = session.empty() ? 0 : *std::max_element(session.begin(), session.end()) + 1;
-  SessionStart start{initial, std::vector<char>(static_cast<std::size_t>(sessions), 1), {}};
-  if (sessions < 2) return start;
-  std::vector<core::Pose2>& poses = start.poses;
-  std::vector<char>& placed = start.placed;
-  std::fill(placed.begin(), placed.end(), 0);
+  std::vector<core::Pose2> poses = initial;
+  std::vector<char> placed(static_cast<std::size_t>(sessions), 0);
+  if (placed_sessions != nullptr) *placed_sessions = std::vector<char>(placed.size(), 1);
+  if (sessions < 2) return poses;
   auto of = [&](int node) { return session[static_cast<std::size_t>(node)]; };
   placed[static_cast<std::size_t>(of(0))] = 1;
   // Clusters joining two sessions (a cluster's links all join the same two: clustering.h),
@@ -131,10 +127,8 @@ Rrr::SessionStart Rrr::placeSessions(const std::vector<core::Pose2>& initial,
   // of its clusters to the placed part that agree on where it lies, and not at all without such
   // a group (session_placement.h).
   std::vector<char> no_group(static_cast<std::size_t>(sessions), 0);
-  std::vector<int> placing;  // the clusters of the groups that placed sessions
-  // The placing group's clusters, its largest first (none: no group places the session).
-  auto placing_group = [&](const Joining& largest, int session_to_place) -> std::vector<int> {
-    if (params_.placement_min_spread_m <= 0.0) return {largest.cluster};
+  auto placing_cluster = [&](const Joining& largest, int session_to_place) {
+    if (params_.placement_min_spread_m <= 0.0) return largest.cluster;
     std::vector<int> clusters;
     std::vector<JoiningLink> links;
     for (const Joining& j : joining) {
@@ -146,8 +140,8 @@ Rrr::SessionStart Rrr::placeSessions(const std::vector<core::Pose2>& initial,
       clusters.push_back(j.cluster);
       links.push_back(from_placed ? JoiningLink{k, c.from, c.to} : JoiningLink{k, c.to, c.from});
     }
-    PlacementGroup group = largestAgreeingGroup(graph_, good_map != nullptr ? *good_map : poses,
-                                                links, params_.alpha, good_map != nullptr);
+    const PlacementGroup group = largestAgreeingGroup(
+        graph_, good_map != nullptr ? *good_map : poses, links, params_.alpha, good_map != nullptr);
     std::vector<int> ends;  // every kept link's end in the session, as takePlacingClusters counts
     for (int k : group.members) {
       for (int link :
@@ -156,11 +150,10 @@ Rrr::SessionStart Rrr::placeSessions(const std::vector<core::Pose2>& initial,
         ends.push_back(of(c.from) == session_to_place ? c.from : c.to);
       }
     }
-    group.spread_m = spread(graph_, poses, ends);
-    if (!group.places(params_.placement_min_spread_m)) return {};
-    std::vector<int> members;  // `clusters` is by size, and so are the members
-    for (int k : group.members) members.push_back(clusters[static_cast<std::size_t>(k)]);
-    return members;
+    if (group.members.size() < 2 || spread(graph_, poses, ends) < params_.placement_min_spread_m) {
+      return -1;
+    }
+    return clusters[static_cast<std::size_t>(group.members.front())];  // `joining` is by size
   };
   for (bool moved = true; moved;) {
     moved = false;
@@ -171,13 +164,11 @@ Rrr::SessionStart Rrr::placeSessions(const std::vector<core::Pose2>& initial,
       if (first_from_placed == (placed[static_cast<std::size_t>(of(first.to))] != 0)) continue;
       const int session_to_place = of(first_from_placed ? first.to : first.from);
       if (no_group[static_cast<std::size_t>(session_to_place)] != 0) continue;
-      const std::vector<int> group = placing_group(largest, session_to_place);
-      if (group.empty()) {
+      const int cluster = placing_cluster(largest, session_to_place);
+      if (cluster < 0) {
         no_group[static_cast<std::size_t>(session_to_place)] = 1;
         continue;
       }
-      placing.insert(placing.end(), group.begin(), group.end());
-      const int cluster = group.front();
       const LoopCandidate& link =
           graph_.candidate(kept_links_[static_cast<std::size_t>(cluster)].front());
       const bool from_placed = placed[static_cast<std::size_t>(of(link.from))] != 0;
@@ -199,16 +190,8 @@ Rrr::SessionStart Rrr::placeSessions(const std::vector<core::Pose2>& initial,
       break;  // the largest cluster joining the grown placed part comes next
     }
   }
-  if (params_.placement_min_spread_m > 0.0) {
-    std::sort(placing.begin(), placing.end());
-    for (const Joining& j : joining) {
-      if (!std::binary_search(placing.begin(), placing.end(), j.cluster)) {
-        start.outvoted.push_back(j.cluster);
-      }
-    }
-    std::sort(start.outvoted.begin(), start.outvoted.end());
-  }
-  return start;
+  if (placed_sessions != nullptr) *placed_sessions = placed;
+  return poses;
 }
 
 void Rrr::unplaceLooseSessions() {

@@ -109,11 +109,6 @@ PlacementGroup largestAgreeingGroup(const VerificationGraph& graph,
   }
   PlacementGroup group;
   group.members = core::maximumClique(agree);
-  std::vector<int> others;
-  for (int p = 0; p < n; ++p) {
-    if (!std::binary_search(group.members.begin(), group.members.end(), p)) others.push_back(p);
-  }
-  if (!others.empty()) group.rival_size = core::maximumClique(agree, others).size();
   std::vector<int> ends;
   for (int p : group.members) ends.push_back(links[static_cast<std::size_t>(p)].session_node);
   group.spread_m = spread(graph, poses, ends);

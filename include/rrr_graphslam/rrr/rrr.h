@@ -125,11 +125,9 @@ class Rrr {
 
   // --- Additions (rrr_steps.cpp), each switched by its RrrParams field.
   /// robust_ordering: the hypotheses that agree with a robust map (robustOrderingMap), which
-  /// becomes `start`; the others are rejected and left to the recover step. The clusters in
-  /// `outvoted` do not make the map (they are ordered by it).
+  /// becomes `start`; the others are rejected and left to the recover step.
   std::vector<int> orderByRobustMap(const std::vector<int>& hypotheses,
-                                    std::vector<core::Pose2>& start,
-                                    const std::vector<int>& outvoted = {});
+                                    std::vector<core::Pose2>& start);
   /// The robust map that orders a batch decision. Two are built: one with every link at full
   /// weight, and one in which each time cluster has one vote (its links share weight 1), so that
   /// false groups cut into many consistent pieces (random-grouped outliers) cannot outvote the
@@ -137,33 +135,24 @@ class Rrr {
   /// (ringCity, CSAIL), where the one-vote map falls short. The map more pending links agree
   /// with wins: the larger consensus, as in RANSAC.
   std::vector<core::Pose2> robustOrderingMap(const std::vector<int>& pending,
-                                             const std::vector<core::Pose2>& initial,
-                                             const std::vector<int>& outvoted);
-  /// Where a batch decision starts when sessions are placed (placeSessions()).
-  struct SessionStart {
-    std::vector<core::Pose2> poses;  ///< `initial` with the placed sessions moved
-    std::vector<char> placed;        ///< per session (trusted component): placed or the first
-    /// Clusters joining two sessions that are not in a group that placed one: with
-    /// placement_min_spread_m they do not vote in the robust map (robustMapLinks()).
-    std::vector<int> outvoted;
-  };
+                                             const std::vector<core::Pose2>& initial);
   /// place_sessions: `initial` with each session after the first moved rigidly so that the first
   /// kept link of the largest cluster joining it to the sessions placed so far holds exactly
   /// (sessions no cluster reaches stay where they are). Only a start: every cluster is tested
   /// from it as from the odometry.
   /// With placement_min_spread_m, a session is placed only by a group of agreeing clusters
-  /// (session_placement.h). The agreement test measures the map side on `good_map` if given (a
-  /// decision's solution), otherwise on `initial` with the map's odometry covariance.
-  SessionStart placeSessions(const std::vector<core::Pose2>& initial,
-                             const std::vector<core::Pose2>* good_map = nullptr) const;
+  /// (session_placement.h); `placed_sessions` (if given) says per session whether it was.
+  /// The agreement test measures the map side on `good_map` if given (a decision's solution),
+  /// otherwise on `initial` with the map's odometry covariance.
+  std::vector<core::Pose2> placeSessions(const std::vector<core::Pose2>& initial,
+                                         std::vector<char>* placed_sessions = nullptr,
+                                         const std::vector<core::Pose2>* good_map = nullptr) const;
   /// After a decision that started from placeSessions(): the sessions no good cluster joins to
   /// the first one's go back to their own odometry frame in the map (a rejected cluster placed
   /// them only to be tested).
   void unplaceLooseSessions();
-  /// Links that make the robust map ordering a batch decision: those of the good and pending
-  /// clusters, but for the clusters in `outvoted`.
-  std::vector<int> robustMapLinks(const std::vector<int>& pending,
-                                  const std::vector<int>& outvoted) const;
+  /// Links that make the robust map ordering a batch decision.
+  std::vector<int> robustMapLinks(const std::vector<int>& pending) const;
   /// settle_good_map: the joint test that realizes a batch decision starts from the robust map,
   /// where a region the good set constrains loosely can stay in a local minimum. The good set is
   /// optimized again from LAGO's estimate, which wins if its chi2 is lower by more than

@@ -10,12 +10,6 @@
 // their map ends taken as the good set's map has it, the session's odometry between their session
 // ends with its covariance (pairwise_consistency.h does the same within one session). The group
 // is a maximum clique of agreeing clusters (core::maximumClique).
-//
-// The group must also be unique: larger than the largest group of the other clusters (each of
-// which disagrees with one of its members). Two places the session could equally well be (a
-// building that looks the same turned 180 degrees) are no placement, however far apart each
-// group was seen; Olson's local uniqueness test ("Recognizing places using spectrally clustered
-// local matches", RAS 2009) asks the same of the best hypothesis against the runner-up.
 
 #include <vector>
 
@@ -55,19 +49,10 @@ double spread(const VerificationGraph& graph, const std::vector<core::Pose2>& po
 struct PlacementGroup {
   std::vector<int> members;  ///< indices into the links given, sorted
   double spread_m = 0.0;     ///< spread() of the given links' session ends
-  /// Size of the largest group of agreeing links among the others: the runner-up placement.
-  std::size_t rival_size = 0;
-
-  /// Whether the group places its session: two or more members seen `min_spread_m` apart, and
-  /// more of them than the runner-up has.
-  bool places(double min_spread_m) const {
-    return members.size() >= 2 && spread_m >= min_spread_m && members.size() > rival_size;
-  }
 };
 
-/// The largest group of mutually agreeing links (cycle chi2 below chi2(alpha, 3)), how far
-/// apart the session saw them, and the size of the runner-up group; links[k] stands for the
-/// k-th cluster.
+/// The largest group of mutually agreeing links (cycle chi2 below chi2(alpha, 3)), and how far
+/// apart the session saw them; links[k] stands for the k-th cluster.
 PlacementGroup largestAgreeingGroup(const VerificationGraph& graph,
                                     const std::vector<core::Pose2>& poses,
                                     const std::vector<JoiningLink>& links, double alpha,
