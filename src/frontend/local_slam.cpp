@@ -1,6 +1,5 @@
 #include "rrr_graphslam/frontend/local_slam.h"
 
-#include <algorithm>
 #include <cstdio>
 #include <string>
 
@@ -56,14 +55,10 @@ LocalSlamResult LocalSlam::addScan(const RangeScan& scan, const core::Pose2& odo
   const auto submap = submaps_.matchingSubmap();
   if (submap && static_cast<int>(result.points.size()) >= params_.min_points) {
     const MatchGrid& grid = submap->matchGrid();
-    // The submap matched against holds half its scans or more once the next one has started: only
-    // a trajectory's first submap waits for the correlative search.
-    const bool search = params_.correlative.linear_window_m > 0.0 &&
-                        submap->numScans() >= std::min(params_.correlative_min_submap_scans,
-                                                       params_.submap.scans_per_submap / 2);
     const core::Pose2 initial =
-        search ? realTimeCorrelativeMatch(grid, prediction, result.points, params_.correlative)
-               : prediction;
+        params_.correlative.linear_window_m > 0.0
+            ? realTimeCorrelativeMatch(grid, prediction, result.points, params_.correlative)
+            : prediction;
     if (params_.refinement == LocalSlamParams::Refinement::kIcp && submap->grid() != nullptr) {
       const auto icp = refineIcp(*submap->grid(), initial, result.points, params_.icp);
       result.local_pose = icp.value_or(initial);

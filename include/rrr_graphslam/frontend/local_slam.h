@@ -24,12 +24,6 @@ struct LocalSlamParams {
   SubmapParams submap;
   /// Real-time correlative search before the refinement; a linear window of 0 switches it off.
   CorrelativeParams correlative;
-  /// The correlative search waits until the submap it matches against holds this many scans (or
-  /// half of submap.scans_per_submap, if fewer: only a trajectory's first submap holds fewer).
-  /// A submap of one or a few scans is peaked at their beam ends, and the search pulls each new
-  /// scan back onto them: along a corridor a trajectory's first metres came out at half their
-  /// length. Until then the odometry prediction is refined by least squares alone.
-  int correlative_min_submap_scans = 10;
   /// What refines the correlative pose: Gauss-Newton on the interpolated probabilities (default)
   /// or MRPT's ICP against the submap's occupied cells.
   enum class Refinement { kLeastSquares, kIcp };
