@@ -8,7 +8,6 @@
 
 #include "rrr_graphslam/core/chi2.h"
 #include "rrr_graphslam/core/lago.h"
-#include "rrr_graphslam/core/union_find.h"
 #include "rrr_graphslam/rrr/rrr.h"
 #include "rrr_graphslam/rrr/session_placement.h"
 
@@ -195,9 +194,6 @@ std::vector<core::Pose2> Rrr::placeSessions(const std::vector<core::Pose2>& init
 }
 
 void Rrr::unplaceLooseSessions() {
-  const std::vector<int> session = graph_.trustedComponents();
-  const int sessions = session.empty() ? 0 : *std::max_element(session.begin(), session.end()) + 1;
-  if (sessions < 2) return;
   const std::vector<std::size_t> joined = joinedSessions();
   const std::vector<core::Pose2>& initial = graph_.initialPoses();
   bool changed = false;
