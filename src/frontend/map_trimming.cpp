@@ -159,11 +159,12 @@ bool touches(const core::PoseConstraint& c, const std::vector<char>& removed) {
   return removed[c.from] != 0 || removed[c.to] != 0;
 }
 
-// The trusted graph over the nodes still alive, optimized: its minimum is where trims linearize
-// (and where the KL's Gaussians are centred). Returns the optimizer (factored there) and the
-// dense index of each node id (-1 for removed ones).
-core::Optimizer optimizeTrusted(const std::vector<Trusted>& trusted, const std::vector<char>& alive,
-                                std::vector<core::Pose2>& poses, std::vector<int>& index_of) {
+// The trusted graph over the nodes still alive, at `poses`, in an optimizer (not yet optimized
+// or factored), and the dense index of each node id (-1 for removed ones).
+core::Optimizer trustedOptimizer(const std::vector<Trusted>& trusted,
+                                 const std::vector<char>& alive,
+                                 const std::vector<core::Pose2>& poses,
+                                 std::vector<int>& index_of) {
   core::PoseGraph graph;
   index_of.assign(alive.size(), -1);
   int next = 0;
@@ -176,12 +177,42 @@ core::Optimizer optimizeTrusted(const std::vector<Trusted>& trusted, const std::
     graph.addEdge(t.constraint.from, t.constraint.to, t.constraint.measurement,
                   t.constraint.information, core::EdgeKind::kOdometry);
   }
-  core::Optimizer optimizer = core::makeOptimizer(graph);
+  return core::makeOptimizer(graph);
+}
+
+// The trusted graph at its minimum: `poses` of the nodes still alive move there.
+void optimizeTrusted(const std::vector<Trusted>& trusted, const std::vector<char>& alive,
+                     std::vector<core::Pose2>& poses) {
+  std::vector<int> index_of;
+  core::Optimizer optimizer = trustedOptimizer(trusted, alive, poses, index_of);
   optimizer.optimize();
   for (std::size_t k = 0; k < alive.size(); ++k) {
     if (index_of[k] >= 0) poses[k] = optimizer.poses()[static_cast<std::size_t>(index_of[k])];
   }
-  return optimizer;
+}
+
+// The measurement behind TrimRecord's KL figures: the trusted graph's covariance over the
+// blanket (one factorization of the whole graph at the current poses), against which the tree
+// and deletion are compared with the exact marginal.
+void measureKl(const std::vector<Trusted>& trusted, const std::vector<char>& alive,
+               const std::vector<core::Pose2>& poses, const core::Marginal& marginal,
+               Sparsification sparsification, TrimRecord& record) {
+  const core::Clock::time_point watch = core::Clock::now();
+  std::vector<int> index_of;
+  core::Optimizer optimizer = trustedOptimizer(trusted, alive, poses, index_of);
+  if (optimizer.factorAtCurrentPoses() && optimizer.covarianceAvailable()) {
+    std::vector<int> blanket;
+    for (NodeId b : marginal.blanket) blanket.push_back(index_of[b]);
+    const Eigen::MatrixXd covariance = optimizer.covariance(blanket);
+    record.kl_clt_nats = core::replacementKl(
+        covariance, marginal,
+        core::replacementModel(marginal, core::MarginalReplacement::kChowLiuTree));
+    record.kl_delete_nats = core::replacementKl(
+        covariance, marginal, core::replacementModel(marginal, core::MarginalReplacement::kDelete));
+    record.kl_nats =
+        sparsification == Sparsification::kClt ? record.kl_clt_nats : record.kl_delete_nats;
+  }
+  record.kl_seconds = core::secondsSince(watch);
 }
 
 }  // namespace
@@ -301,8 +332,13 @@ TrimResult trimMap(const MapSnapshot& map, const TrimParams& params,
     groups[static_cast<std::size_t>(g)].push_back(static_cast<NodeId>(k));
   }
 
-  // 3-4. Each group, oldest first.
-  bool any = false;
+  // 3-4. Each group, oldest first, linearized at the trusted graph's minimum (one optimization
+  // for every trim: marginalizing exactly leaves the other nodes' minimum where it was, and the
+  // tree keeps the marginal's gradient, so later trims find the graph still there).
+  const core::Clock::time_point optimize_watch = core::Clock::now();
+  if (!groups.empty()) optimizeTrusted(trusted, alive, poses);
+  report.optimize_seconds = core::secondsSince(optimize_watch);
+  std::vector<char> in_group(n, 0);
   for (const std::vector<NodeId>& group : groups) {
     const core::Clock::time_point watch = core::Clock::now();
     TrimRecord record;
@@ -314,63 +350,54 @@ TrimResult trimMap(const MapSnapshot& map, const TrimParams& params,
     record.submaps = static_cast<int>(owners.size());
     record.removed_nodes = static_cast<int>(group.size());
     const int s = record.submap;
-    std::vector<int> index_of;
-    core::Optimizer optimizer = optimizeTrusted(trusted, alive, poses, index_of);
-    std::map<NodeId, core::Pose2> pose_of;
-    for (std::size_t k = 0; k < n; ++k) {
-      if (alive[k]) pose_of.emplace(static_cast<NodeId>(k), poses[k]);
-    }
-    // A group that shares a constraint with the rest is marginalized; one held by nothing
-    // outside it (a session nothing else saw) just leaves.
-    std::vector<char> in_group(n, 0);
+    // The trusted constraints touching the group: all the Schur complement needs. A part of the
+    // group that shares none with the rest (a session nothing else saw) just leaves.
     for (NodeId k : group) in_group[k] = 1;
+    std::vector<core::PoseConstraint> local;
+    for (const Trusted& t : trusted) {
+      if (in_group[t.constraint.from] || in_group[t.constraint.to]) local.push_back(t.constraint);
+    }
     core::UnionFind pieces(n);
     std::vector<char> reaches_out(n, 0);
-    for (const Trusted& t : trusted) {
-      const auto a = static_cast<std::size_t>(t.constraint.from);
-      const auto b = static_cast<std::size_t>(t.constraint.to);
+    for (const core::PoseConstraint& c : local) {
+      const auto a = static_cast<std::size_t>(c.from);
+      const auto b = static_cast<std::size_t>(c.to);
       if (in_group[a] && in_group[b]) pieces.unite(a, b);
     }
-    for (const Trusted& t : trusted) {
-      const auto a = static_cast<std::size_t>(t.constraint.from);
-      const auto b = static_cast<std::size_t>(t.constraint.to);
+    for (const core::PoseConstraint& c : local) {
+      const auto a = static_cast<std::size_t>(c.from);
+      const auto b = static_cast<std::size_t>(c.to);
       if (in_group[a] != in_group[b]) reaches_out[pieces.find(in_group[a] ? a : b)] = 1;
     }
     std::vector<NodeId> marginalized;
     for (NodeId k : group) {
       if (reaches_out[pieces.find(k)]) marginalized.push_back(k);
     }
-    std::vector<core::PoseConstraint> constraints;
-    constraints.reserve(trusted.size());
-    for (const Trusted& t : trusted) constraints.push_back(t.constraint);
     std::vector<Trusted> replacement;
     if (!marginalized.empty()) {
-      const core::Marginal marginal = core::marginalizeNodes(constraints, pose_of, marginalized);
+      std::map<NodeId, core::Pose2> pose_of;
+      for (const core::PoseConstraint& c : local) {
+        pose_of.emplace(c.from, poses[c.from]);
+        pose_of.emplace(c.to, poses[c.to]);
+      }
+      const core::Marginal marginal = core::marginalizeNodes(local, pose_of, marginalized);
       record.blanket_nodes = static_cast<int>(marginal.blanket.size());
       if (params.sparsification == Sparsification::kClt) {
         for (const core::ChowLiuEdge& e : core::chowLiuTree(marginal)) {
           replacement.push_back({e.constraint, -1, s});
         }
       }
-      if (params.report_kl && optimizer.covarianceAvailable()) {
-        std::vector<int> blanket;
-        for (NodeId b : marginal.blanket) blanket.push_back(index_of[b]);
-        const Eigen::MatrixXd covariance = optimizer.covariance(blanket);
-        record.kl_clt_nats = core::replacementKl(
-            covariance, marginal,
-            core::replacementModel(marginal, core::MarginalReplacement::kChowLiuTree));
-        record.kl_delete_nats = core::replacementKl(
-            covariance, marginal,
-            core::replacementModel(marginal, core::MarginalReplacement::kDelete));
-        record.kl_nats = params.sparsification == Sparsification::kClt ? record.kl_clt_nats
-                                                                       : record.kl_delete_nats;
+      if (params.report_kl) {
+        measureKl(trusted, alive, poses, marginal, params.sparsification, record);
       }
     }
     for (NodeId k : group) {
+      in_group[k] = 0;
       alive[k] = 0;
       removed[k] = 1;
     }
     std::vector<Trusted> still;
+    still.reserve(trusted.size() + replacement.size());
     for (Trusted& t : trusted) {
       if (touches(t.constraint, removed)) {
         ++record.removed_constraints;
@@ -381,13 +408,13 @@ TrimResult trimMap(const MapSnapshot& map, const TrimParams& params,
     record.marginal_edges = static_cast<int>(replacement.size());
     still.insert(still.end(), replacement.begin(), replacement.end());
     trusted.swap(still);
-    record.seconds = core::secondsSince(watch);
+    record.seconds = core::secondsSince(watch) - record.kl_seconds;
     report.trims.push_back(record);
-    any = true;
   }
-  if (any) {
-    std::vector<int> index_of;
-    optimizeTrusted(trusted, alive, poses, index_of);  // the trimmed map at its own minimum
+  if (!groups.empty()) {
+    const core::Clock::time_point watch = core::Clock::now();
+    optimizeTrusted(trusted, alive, poses);  // the trimmed map at its own minimum
+    report.optimize_seconds += core::secondsSince(watch);
   }
 
   // The trimmed map, renumbered.

@@ -64,7 +64,8 @@ CONFIGS = {
 @dataclass
 class TrimRecord:
     """One marginalization: `trim_record submap S submaps K nodes N blanket B constraints C
-    edges E kl X kl_clt Y kl_delete Z ms T`."""
+    edges E kl X kl_clt Y kl_delete Z ms T [kl_ms U]`: T the trim's own work, U the KL figures'
+    measurement (runs of older builds printed no kl_ms, and their T held both)."""
     submap: int
     submaps: int
     nodes: int
@@ -75,6 +76,7 @@ class TrimRecord:
     kl_clt: float
     kl_delete: float
     ms: float
+    kl_ms: float = 0.0
 
 
 @dataclass
@@ -87,7 +89,7 @@ class Trim:
 
 
 RECORD = re.compile(r"^trim_record submap (\d+) submaps (\d+) nodes (\d+) blanket (\d+) constraints (\d+) "
-                    r"edges (\d+) kl (\S+) kl_clt (\S+) kl_delete (\S+) ms (\S+)\s*$")
+                    r"edges (\d+) kl (\S+) kl_clt (\S+) kl_delete (\S+) ms (\S+)(?: kl_ms (\S+))?\s*$")
 
 
 def parse_trim(text: str) -> Optional[Trim]:
@@ -101,7 +103,8 @@ def parse_trim(text: str) -> Optional[Trim]:
             if not m:
                 raise ValueError(f"unreadable line: {line!r}")
             g = m.groups()
-            trim.records.append(TrimRecord(*(int(v) for v in g[:6]), *(float(v) for v in g[6:])))
+            trim.records.append(TrimRecord(*(int(v) for v in g[:6]),
+                                           *(float(v) for v in g[6:] if v is not None)))
         elif line.startswith("trim_"):
             f = line.split()
             if len(f) == 2:

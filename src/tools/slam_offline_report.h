@@ -25,9 +25,10 @@ inline double nearestRank(const std::vector<double>& values, double q) {
 inline void printTrimReport(const frontend::TrimReport& report,
                             const frontend::TrimParams& params) {
   std::vector<double> ms;
-  double kl = 0.0, kl_clt = 0.0, kl_delete = 0.0, worst_ratio = 0.0;
+  double kl = 0.0, kl_clt = 0.0, kl_delete = 0.0, worst_ratio = 0.0, kl_seconds = 0.0;
   for (const frontend::TrimRecord& t : report.trims) {
     ms.push_back(1e3 * t.seconds);
+    kl_seconds += t.kl_seconds;
     kl += t.kl_nats;
     kl_clt += t.kl_clt_nats;
     kl_delete += t.kl_delete_nats;
@@ -49,16 +50,19 @@ inline void printTrimReport(const frontend::TrimReport& report,
       "trim_marginal_edges_kept %d\ntrim_dropped_rejected_loops %d\ntrim_seconds "
       "%.4f\ntrim_coverage_seconds %.4f\n"
       "trim_p50_ms %.2f\ntrim_p99_ms %.2f\ntrim_kl %.6g\ntrim_kl_clt %.6g\n"
-      "trim_kl_delete %.6g\ntrim_kl_ratio_max %.6g\n",
+      "trim_kl_delete %.6g\ntrim_kl_ratio_max %.6g\ntrim_optimize_seconds %.4f\n"
+      "trim_kl_seconds %.4f\n",
       report.trimmed_submaps, report.removedNodes(), report.marginalEdges(),
       report.marginal_edges_kept, report.dropped_rejected_loops, report.seconds,
-      report.coverage_seconds, quantile(0.5), quantile(0.99), kl, kl_clt, kl_delete, worst_ratio);
+      report.coverage_seconds, quantile(0.5), quantile(0.99), kl, kl_clt, kl_delete, worst_ratio,
+      report.optimize_seconds, kl_seconds);
   for (const frontend::TrimRecord& t : report.trims) {
     std::printf(
         "trim_record submap %d submaps %d nodes %d blanket %d constraints %d edges %d "
-        "kl %.6g kl_clt %.6g kl_delete %.6g ms %.3f\n",
+        "kl %.6g kl_clt %.6g kl_delete %.6g ms %.3f kl_ms %.3f\n",
         t.submap, t.submaps, t.removed_nodes, t.blanket_nodes, t.removed_constraints,
-        t.marginal_edges, t.kl_nats, t.kl_clt_nats, t.kl_delete_nats, 1e3 * t.seconds);
+        t.marginal_edges, t.kl_nats, t.kl_clt_nats, t.kl_delete_nats, 1e3 * t.seconds,
+        1e3 * t.kl_seconds);
   }
 }
 

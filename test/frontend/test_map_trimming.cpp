@@ -5,8 +5,10 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <map>
 #include <string>
 
+#include "rrr_graphslam/core/optimizer.h"
 #include "rrr_graphslam/frontend/laser_slam.h"
 #include "rrr_graphslam/frontend/map_file.h"
 #include "rrr_graphslam/frontend/map_trimming.h"
@@ -92,6 +94,58 @@ TEST(MapTrimming, CoveredSubmapsLeaveAndTheirNodesBecomeMarginalEdges) {
   // Trimming again with the same rule finds nothing more to trim among the kept submaps' cover.
   const TrimResult again = trimMap(trimmed.map, trimParams(), smallMaps().local.submap);
   EXPECT_LE(again.report.trimmed_submaps, report.trimmed_submaps);
+}
+
+// The trusted graph (odometry, accepted loops, marginal edges) at its minimum.
+std::vector<core::Pose2> trustedOptimum(const MapSnapshot& map) {
+  core::PoseGraph graph;
+  for (std::size_t k = 0; k < map.nodes.size(); ++k) {
+    graph.addNode(static_cast<core::PoseGraph::NodeId>(k), map.nodes[k].map_pose);
+  }
+  for (const MapSnapshot::Edge& e : map.edges) {
+    if (e.kind == MapSnapshot::EdgeKind::kLoopCandidate && e.verdict != rrr::Verdict::kAccepted) {
+      continue;
+    }
+    graph.addEdge(static_cast<core::PoseGraph::NodeId>(e.from),
+                  static_cast<core::PoseGraph::NodeId>(e.to), e.measurement, e.information,
+                  core::EdgeKind::kOdometry);
+  }
+  core::Optimizer optimizer = core::makeOptimizer(graph);
+  optimizer.optimize();
+  return optimizer.poses();
+}
+
+// Every trim of a save linearizes at the one minimum found before the first: exact
+// marginalization leaves the kept nodes' minimum where it was and the tree keeps the marginal's
+// gradient, so after all the trims the trimmed graph's own minimum is still there. Deletion drops
+// the removed constraints' pull on the blanket: its minimum moves.
+TEST(MapTrimming, TheTreeLeavesTheKeptNodesAtTheirMinimum) {
+  const MapSnapshot& map = threeLaps();
+  const std::vector<core::Pose2> before = trustedOptimum(map);
+  std::map<double, std::size_t> node_at;  // one session: timestamps are unique
+  for (std::size_t k = 0; k < map.nodes.size(); ++k) node_at.emplace(map.nodes[k].timestamp, k);
+  auto largestMove = [&](const MapSnapshot& trimmed) {
+    // Up to the gauge: both frames put the first kept node where it was.
+    const core::Pose2& first = before[node_at.at(trimmed.nodes[0].timestamp)];
+    const core::Pose2 motion = core::compose(first, core::inverse(trimmed.nodes[0].map_pose));
+    double largest = 0.0;
+    for (const MapSnapshot::Node& node : trimmed.nodes) {
+      const core::Pose2 moved = core::compose(motion, node.map_pose);
+      largest = std::max(largest,
+                         (moved.head<2>() - before[node_at.at(node.timestamp)].head<2>()).norm());
+    }
+    return largest;
+  };
+  TrimParams params = trimParams();
+  params.report_kl = false;
+  const TrimResult clt = trimMap(map, params, smallMaps().local.submap);
+  ASSERT_GT(clt.report.trims.size(), 3u);
+  EXPECT_EQ(clt.report.trims.front().kl_seconds, 0.0);
+  const double clt_move = largestMove(clt.map);
+  EXPECT_LT(clt_move, 1e-6);
+  params.sparsification = Sparsification::kDelete;
+  const double delete_move = largestMove(trimMap(map, params, smallMaps().local.submap).map);
+  EXPECT_GT(delete_move, 10.0 * clt_move);
 }
 
 TEST(MapTrimming, TrimmedMapSavesLoadsAndContinues) {

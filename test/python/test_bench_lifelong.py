@@ -28,6 +28,7 @@ trim_kl_delete 20.9846
 trim_kl_ratio_max 0.170931
 trim_record submap 0 submaps 1 nodes 240 blanket 16 constraints 255 edges 15 kl 1.50375 kl_clt 1.50375 kl_delete 8.79741 ms 52.907
 trim_record submap 10 submaps 2 nodes 240 blanket 20 constraints 263 edges 19 kl 0.752622 kl_clt 0.752622 kl_delete 12.1872 ms 32.210
+trim_record submap 12 submaps 1 nodes 60 blanket 9 constraints 70 edges 8 kl 0.1 kl_clt 0.1 kl_delete 0.4 ms 0.512 kl_ms 3.250
 saved map      /tmp/x.rrrmap in 0.09 s
 """
 
@@ -38,7 +39,8 @@ def test_trim_lines_are_read_with_every_record():
     assert t.get("kl_clt") == pytest.approx(2.25638) and t.get("kl_delete") == pytest.approx(20.9846)
     assert t.get("p99_ms") == pytest.approx(32.21) and math.isnan(t.get("no_such_key"))
     assert t.records == [TrimRecord(0, 1, 240, 16, 255, 15, 1.50375, 1.50375, 8.79741, 52.907),
-                         TrimRecord(10, 2, 240, 20, 263, 19, 0.752622, 0.752622, 12.1872, 32.210)]
+                         TrimRecord(10, 2, 240, 20, 263, 19, 0.752622, 0.752622, 12.1872, 32.210),
+                         TrimRecord(12, 1, 60, 9, 70, 8, 0.1, 0.1, 0.4, 0.512, 3.25)]
 
 
 def test_a_run_without_lifelong_has_no_trim_and_a_broken_record_is_an_error():

@@ -16,7 +16,8 @@
 //   3. Marginalization (core/marginalization.h) of each trimmed submap's leaving nodes, oldest
 //      first (or, with group_neighbours, of each group of leaving nodes that trusted constraints
 //      join), at the optimum of the trusted graph (odometry, accepted loops and earlier marginal
-//      constraints): the Schur complement over their Markov blanket.
+//      constraints), found once before the first trim: the Schur complement over their Markov
+//      blanket, from the constraints touching them only.
 //   4. Sparsification: the Chow-Liu tree of that marginal (core/chow_liu.h) replaces it as
 //      marginal constraints (kClt), or nothing does (kDelete, Cartographer's trimmer).
 //
@@ -124,7 +125,12 @@ struct TrimRecord {
   double kl_nats = 0.0;         ///< KL(exact marginal || the replacement used)
   double kl_clt_nats = 0.0;     ///< KL(exact marginal || Chow-Liu tree)
   double kl_delete_nats = 0.0;  ///< KL(exact marginal || deletion)
-  double seconds = 0.0;         ///< optimization, marginalization, sparsification and KL
+  /// The trim's own work: finding the constraints, marginalization, sparsification (the graph's
+  /// optimization, shared by every trim, is TrimReport::optimize_seconds).
+  double seconds = 0.0;
+  /// The KL figures' measurement (a factorization of the whole graph and the blanket's
+  /// covariance); 0 without TrimParams::report_kl.
+  double kl_seconds = 0.0;
 };
 
 struct TrimReport {
@@ -137,6 +143,9 @@ struct TrimReport {
   /// marginalize an earlier one's edges again: marginalEdges() counts every one made).
   int marginal_edges_kept = 0;
   double coverage_seconds = 0.0;
+  /// The trusted graph's optimization before the trims (where they all linearize) and after
+  /// (the trimmed map at its own minimum).
+  double optimize_seconds = 0.0;
   double seconds = 0.0;  ///< everything
   int removedNodes() const;
   int marginalEdges() const;
