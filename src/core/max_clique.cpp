@@ -111,4 +111,42 @@ std::vector<int> maximumClique(const AdjacencyMatrix& graph, const std::vector<i
   return MaxCliqueSearch(graph, max_branches).run(vertices);
 }
 
+std::vector<int> heuristicMaximumClique(const AdjacencyMatrix& graph) {
+  const int n = graph.size();
+  const std::size_t words = graph.words();
+  std::vector<int> degree(static_cast<std::size_t>(n), 0);
+  for (int v = 0; v < n; ++v) {
+    const std::uint64_t* row = graph.row(v);
+    for (std::size_t w = 0; w < words; ++w) {
+      degree[static_cast<std::size_t>(v)] += __builtin_popcountll(row[w]);
+    }
+  }
+  std::vector<int> order(static_cast<std::size_t>(n));
+  for (int v = 0; v < n; ++v) order[static_cast<std::size_t>(v)] = v;
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
+    return degree[static_cast<std::size_t>(a)] > degree[static_cast<std::size_t>(b)];
+  });
+  std::vector<int> best, clique;
+  std::vector<std::uint64_t> common(words);
+  auto in = [&](int v) {
+    return (common[static_cast<std::size_t>(v) / 64] >> (static_cast<unsigned>(v) % 64)) & 1U;
+  };
+  for (int start : order) {
+    // A clique larger than the best needs degree >= best.size() of each of its vertices.
+    if (degree[static_cast<std::size_t>(start)] < static_cast<int>(best.size())) break;
+    clique.assign(1, start);
+    const std::uint64_t* row = graph.row(start);
+    common.assign(row, row + words);
+    for (int v : order) {
+      if (!in(v) || degree[static_cast<std::size_t>(v)] < static_cast<int>(best.size())) continue;
+      clique.push_back(v);
+      const std::uint64_t* next = graph.row(v);
+      for (std::size_t w = 0; w < words; ++w) common[w] &= next[w];
+    }
+    if (clique.size() > best.size()) best = clique;
+  }
+  std::sort(best.begin(), best.end());
+  return best;
+}
+
 }  // namespace rrr_graphslam::core

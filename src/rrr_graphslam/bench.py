@@ -182,6 +182,14 @@ def main(argv=None):
     parser.add_argument("--aliasing-counts", nargs="+", type=int,
                         help="outlier counts, instead of --aliasing-fractions")
     parser.add_argument("--aliasing-seeds", nargs="+", type=int, default=list(ALIASING_SEEDS))
+    parser.add_argument("--verifiers", nargs="*", metavar="NAME:KIND:COUNT",
+                        help="adds a table of every verifier (rrr, pcm, scgp, gnc tls, gnc gm) on "
+                             "these inputs (default: bench_verifiers.VERIFIER_INPUTS), on KITTI "
+                             "at alpha 0.50 and on B25b at 0.500 (--verifier-synthetic-only: not "
+                             "those)")
+    parser.add_argument("--verifier-synthetic-only", action="store_true")
+    parser.add_argument("--verifier-seeds", nargs="+", type=int, default=[2],
+                        help="seeds of the verifiers table's synthetic inputs (default 2)")
     parser.add_argument("--aliasing-incremental", action="store_true",
                         help="the aliased inputs also in incremental mode (latency per candidate)")
     args = parser.parse_args(argv)
@@ -191,7 +199,7 @@ def main(argv=None):
     # A run of the ablation or the aliasing table alone (every other input deselected) prints
     # only that table.
     seeded = args.seeds != [1]
-    main_table = (ablation is None and args.aliasing is None) or bool(
+    main_table = (ablation is None and args.aliasing is None and args.verifiers is None) or bool(
         (args.datasets and args.kinds and args.counts) or args.incremental or args.baseline
         or not args.no_kitti or not args.no_b25b)
 
@@ -244,22 +252,8 @@ def main(argv=None):
                     write_graph(read_graph(graph), local)
                 report(f"KITTI {seq}", f"alpha {alpha}", "DLoopDetector", "batch", local, truth)
     if not args.no_b25b:
-        from .evaluation import label_by_ground_truth
-        from .graph_io import open_text
-
-        folder = os.path.join(args.data, "b25b")
-        with open_text(os.path.join(folder, "B25b_timestamps.txt.gz")) as f:
-            node_times = [float(x) for x in f.read().split()]
-        with open_text(os.path.join(folder, "Bicocca_2009-02-25b-GT-extended.csv.gz")) as f:
-            samples = sorted(tuple(float(v) for v in line.split(",")) for line in f if line.strip())
         for threshold in B25B:
-            local = os.path.join(args.cache, f"B25b_{threshold}.g2o")
-            truth = local + ".labels"
-            if not (os.path.exists(local) and os.path.exists(truth)):
-                graph = read_graph(os.path.join(folder, f"B25b_{threshold}.g2o.gz"))
-                write_graph(graph, local)
-                labels = label_by_ground_truth(graph, node_times, samples)
-                write_text_atomically(truth, "".join(f"{i} {j} {label}\n" for i, j, label in labels))
+            local, truth = b25b_input(args, threshold)
             report("B25b", f"BoW {threshold}", "real", "batch", local, truth)
     if main_table:
         if seeded:
@@ -278,7 +272,37 @@ def main(argv=None):
         if main_table or ablation is not None:
             print()
         run_aliasing(args, optimizer, args.aliasing or list(ALIASING_GRAPHS))
+    if args.verifiers is not None:
+        from .bench_verifiers import VERIFIER_INPUTS, kitti_inputs, run_verifiers
+
+        if main_table or ablation is not None or args.aliasing is not None:
+            print()
+        real = not args.verifier_synthetic_only
+        b25b = [("B25b BoW 0.500", *b25b_input(args, "0.500"))] if real else []
+        run_verifiers(args, optimizer, args.verifiers or list(VERIFIER_INPUTS),
+                      kitti_inputs(args, KITTI, ("0.50",)) if real else [], b25b)
     return 0
+
+
+def b25b_input(args, threshold):
+    """Bicocca B25b's candidates at a BoW threshold, unpacked into the cache and labelled by the
+    ground truth on first use: (graph path, truth path)."""
+    local = os.path.join(args.cache, f"B25b_{threshold}.g2o")
+    truth = local + ".labels"
+    if not (os.path.exists(local) and os.path.exists(truth)):
+        from .evaluation import label_by_ground_truth
+        from .graph_io import open_text
+
+        folder = os.path.join(args.data, "b25b")
+        with open_text(os.path.join(folder, "B25b_timestamps.txt.gz")) as f:
+            node_times = [float(x) for x in f.read().split()]
+        with open_text(os.path.join(folder, "Bicocca_2009-02-25b-GT-extended.csv.gz")) as f:
+            samples = sorted(tuple(float(v) for v in line.split(",")) for line in f if line.strip())
+        graph = read_graph(os.path.join(folder, f"B25b_{threshold}.g2o.gz"))
+        write_graph(graph, local)
+        labels = label_by_ground_truth(graph, node_times, samples)
+        write_text_atomically(truth, "".join(f"{i} {j} {label}\n" for i, j, label in labels))
+    return local, truth
 
 
 def tally(selection, bad, name):

@@ -1,7 +1,9 @@
 // rrr_offline INPUT [--decisions DECISIONS.tsv] [--output OPTIMIZED.g2o]
-//             [--mode batch|incremental] [--preset paper|default] [--alpha 0.95] ...
-// Decides which loop candidates of a pose graph are real (RRR) and writes the decisions and the
-// graph optimized with the accepted loops.
+//             [--mode batch|incremental] [--verifier rrr|pcm|scgp|gnc] [--preset paper|default]
+//             [--alpha 0.95] ...
+// Decides which loop candidates of a pose graph are real (RRR, or another verifier for
+// comparison: rrr/verifier.h) and writes the decisions and the graph optimized with the accepted
+// loops.
 
 #include <unistd.h>
 
@@ -15,8 +17,12 @@
 #include "command_line.h"
 #include "rrr_graphslam/core/graph_io.h"
 #include "rrr_graphslam/rrr/decisions_io.h"
+#include "rrr_graphslam/rrr/gnc.h"
 #include "rrr_graphslam/rrr/incremental_rrr.h"
+#include "rrr_graphslam/rrr/pcm.h"
 #include "rrr_graphslam/rrr/rrr.h"
+#include "rrr_graphslam/rrr/scgp.h"
+#include "rrr_graphslam/rrr/verifier.h"
 #include "rrr_params_cli.h"
 
 namespace {
@@ -28,13 +34,19 @@ namespace rrr = rrr_graphslam::rrr;
 const std::string& usage() {
   static const std::string text =
       "usage: rrr_offline INPUT [--decisions DECISIONS.tsv] [--output OPTIMIZED.g2o]\n"
-      "                   [--mode batch|incremental] [--preset paper|default] [--PARAMETER V ...]\n"
-      "                   [--quiet]\n"
+      "                   [--mode batch|incremental] [--verifier rrr|pcm|scgp|gnc]\n"
+      "                   [--preset paper|default] [--PARAMETER V ...] [--quiet]\n"
       "  INPUT            g2o or TORO pose graph (.gz allowed); edges with |from-to| != 1 are\n"
       "                   loop candidates, the others trusted odometry\n"
       "  --decisions      TSV with header 'from to cluster verdict reason', one row per candidate\n"
       "  --output         the graph with odometry and accepted loops, optimized\n"
       "  --mode           batch (default) or incremental (candidates fed in node order)\n"
+      "  --verifier       rrr (default); pcm (pairwise consistency maximization), scgp\n"
+      "                   (Olson's single-cluster graph partitioning per time cluster) or gnc\n"
+      "                   (graduated non-convexity) to compare: batch only; they use --alpha\n"
+      "                   for their chi-square bound, scgp --cluster-gap for its clusters\n"
+      "  --gnc-loss       tls (truncated least squares, default) or gm (Geman-McClure)\n"
+      "  --scgp-ratio     scgp's local uniqueness: l1/l2 at least this (default 2)\n"
       "  --quiet          no progress line\n"
       "RRR's parameters (the same names as the ROS parameters, with dashes):\n" +
       tools::rrrParamsUsage() +
@@ -51,6 +63,9 @@ struct Arguments {
   std::string output;
   bool incremental = false;
   bool quiet = false;
+  rrr::Verifier verifier = rrr::Verifier::kRrr;
+  rrr::GncParams::Loss gnc_loss = rrr::GncParams::Loss::kTruncatedLeastSquares;
+  double scgp_ratio = rrr::ScgpParams{}.ratio;
   rrr::RrrParams params;
 };
 
@@ -68,6 +83,20 @@ Arguments parseArguments(int argc, char** argv) {
       const std::string m = cli.value(i, a);
       if (m != "batch" && m != "incremental") cli.fail("--mode must be batch or incremental");
       args.incremental = m == "incremental";
+    } else if (a == "--verifier") {
+      try {
+        args.verifier = rrr::parseVerifier(cli.value(i, a));
+      } catch (const std::invalid_argument& e) {
+        cli.fail(e.what());
+      }
+    } else if (a == "--gnc-loss") {
+      try {
+        args.gnc_loss = rrr::parseGncLoss(cli.value(i, a));
+      } catch (const std::invalid_argument& e) {
+        cli.fail(e.what());
+      }
+    } else if (a == "--scgp-ratio") {
+      args.scgp_ratio = cli.number(a, cli.value(i, a), 1.0, 1e9);
     } else if (tools::readRrrParam(cli, i, argv, args.params)) {
       continue;
     } else if (a == "--full-intra") {
@@ -88,6 +117,10 @@ Arguments parseArguments(int argc, char** argv) {
     }
   }
   if (args.input.empty()) cli.fail("no input file given");
+  if (args.incremental && args.verifier != rrr::Verifier::kRrr) {
+    cli.fail("--mode incremental is RRR's: --verifier " + rrr::toString(args.verifier) +
+             " decides in batch");
+  }
   return args;
 }
 
@@ -114,7 +147,28 @@ int main(int argc, char** argv) {
     rrr::RrrSummary summary;
     std::vector<double> latencies;
     std::vector<std::string> reasons;
-    if (args.incremental) {
+    if (args.verifier != rrr::Verifier::kRrr) {
+      rrr::VerifierDecisions decided;
+      if (args.verifier == rrr::Verifier::kPcm) {
+        rrr::PcmParams pcm;
+        pcm.alpha = args.params.alpha;
+        decided = rrr::decidePcm(verification, pcm);
+      } else if (args.verifier == rrr::Verifier::kScgp) {
+        rrr::ScgpParams scgp;
+        scgp.ratio = args.scgp_ratio;
+        scgp.cluster_gap = args.params.cluster_gap;
+        decided = rrr::decideScgp(verification, scgp);
+      } else {
+        rrr::GncParams gnc;
+        gnc.alpha = args.params.alpha;
+        gnc.loss = args.gnc_loss;
+        decided = rrr::decideGnc(verification, gnc);
+      }
+      verdicts = std::move(decided.verdicts);
+      cluster_of = std::move(decided.cluster_of);
+      reasons = std::move(decided.reasons);
+      summary = decided.summary;
+    } else if (args.incremental) {
       summary = rrr::runIncrementalRrr(verification, args.params, verdicts, cluster_of,
                                        terminalProgress(args.quiet), &latencies, &reasons);
     } else {
@@ -125,6 +179,9 @@ int main(int argc, char** argv) {
     std::printf("input          %s: %zu nodes, %zu edges\n", args.input.c_str(), graph.numNodes(),
                 graph.numEdges());
     std::printf("mode           %s\n", args.incremental ? "incremental" : "batch");
+    if (args.verifier != rrr::Verifier::kRrr) {
+      std::printf("verifier       %s\n", rrr::toString(args.verifier).c_str());
+    }
     std::printf("candidates     %d\n", summary.candidates);
     std::printf("clusters       %d (gap %d nodes)\n", summary.clusters, summary.cluster_gap);
     std::printf("accepted       %d\n", summary.accepted);

@@ -54,6 +54,8 @@ if "--preset" in args and args[args.index("--preset") + 1] == "paper":
     accepted = set()
 if "--joint-link-check" in args:
     accepted.add(2)
+if "--verifier" in args and args[args.index("--verifier") + 1] == "scgp":
+    accepted.add(3)
 rows = ["from\\tto\\tcluster\\tverdict\\treason"]
 for k in range(4):
     verdict = "accepted" if k in accepted else "rejected"
@@ -132,6 +134,24 @@ def test_ablation_beside_the_bench_and_only_when_asked(tmp_path):
     assert both[:len(lines)] == lines
     assert both[len(lines):len(lines) + 3] == ["", HEADER, "|---|---|---|---|---|---|---|"]
     assert len(calls) == 3 + len(ABLATION_SWITCHES)
+
+
+def test_verifiers_table_runs_every_verifier_on_the_same_input(tmp_path):
+    (tmp_path / "cache").mkdir()
+    (tmp_path / "g.g2o.gz").write_text("")  # the map harm's source: its clean optimum is cached
+    (tmp_path / "cache" / "g_reference.g2o").write_text(LINE_GRAPH)
+    lines, calls, cache = fake_bench(tmp_path, "--baseline", "--verifiers", "g:random:4",
+                                     "--verifier-seeds", "1", "--verifier-synthetic-only")
+    assert lines[:2] == ["| input | seed | verifier | precision | recall | map harm | time s |",
+                         "|---|---|---|---|---|---|---|"]
+    rows = [line for line in lines if line.startswith("| g random 4 |")]
+    assert [r.split(" | ")[2] for r in rows] == ["rrr", "pcm", "scgp", "gnc tls", "gnc gm"]
+    assert "| g random 4 | 1 | scgp | 0.6667 | 1.0000 |" in rows[2]
+    assert "| scgp | 1 | 0.6667 | 1.0000 | 1 of 1 (g random 4 s1) | 0.2 |" in lines
+    assert "| rrr | 1 | 1.0000 | 1.0000 | 1 of 1 (g random 4 s1) | 0.2 |" in lines
+    assert [c.split("--quiet")[1].split("--output")[0].strip() for c in calls] == [
+        "", "--verifier pcm", "--verifier scgp", "--verifier gnc", "--verifier gnc --gnc-loss gm"]
+    assert (cache / "g_random4_s1_gated.g2o.verifier-gnc-gm.tsv").exists()
 
 
 def test_aliasing_pairs_each_aliased_input_with_random_outliers_of_its_count_and_seed(tmp_path):

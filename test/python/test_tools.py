@@ -97,6 +97,34 @@ def test_incremental_mode_reaches_the_batch_decisions(spoiled):
 
 
 @needs_binaries
+def test_other_verifiers_write_the_same_decision_table(spoiled):
+    folder, path = spoiled
+    loops = [(e.source, e.target) for e in read_graph(str(path)).loops()]
+    for verifier, extra in (("pcm", []), ("scgp", []), ("gnc", []), ("gnc", ["--gnc-loss", "gm"])):
+        decisions, optimized = folder / f"{verifier}.tsv", folder / f"{verifier}.g2o"
+        result = run(OFFLINE, path, "--verifier", verifier, *extra, "--decisions", decisions,
+                     "--output", optimized, "--quiet")
+        assert result.returncode == 0, result.stderr
+        assert f"verifier       {verifier}" in result.stdout
+        rows = read_decisions(str(decisions))
+        assert [(d.source, d.target) for d in rows] == loops
+        assert all(d.reason.startswith(verifier + " ") or d.reason.startswith(verifier + ":")
+                   for d in rows), {d.reason for d in rows}
+        accepted = sum(d.verdict == "accepted" for d in rows)
+        assert f"accepted       {accepted}" in result.stdout
+        assert len(read_graph(str(optimized)).loops()) == accepted
+        if verifier != "scgp":  # SCGP accepts a false loop that is alone in its time cluster
+            s = score(rows, read_truth(str(folder / "truth"), rows))
+            assert s.fp == 0 and s.recall > 0.95, (verifier, extra, s)
+    result = run(OFFLINE, path, "--verifier", "ransac")
+    assert result.returncode == 2 and "verifier 'ransac' is not rrr, pcm, scgp or gnc" in result.stderr
+    result = run(OFFLINE, path, "--verifier", "gnc", "--mode", "incremental")
+    assert result.returncode == 2 and "--mode incremental is RRR's" in result.stderr
+    result = run(OFFLINE, path, "--gnc-loss", "huber")
+    assert result.returncode == 2 and "gnc loss 'huber' is not tls or gm" in result.stderr
+
+
+@needs_binaries
 def test_a_false_group_that_bends_the_map_goes_before_the_true_clusters_it_pulls(tmp_path):
     # CSAIL + 300 aliased false loops in groups of 20, seed 4: a group accepted early bends the
     # map toward itself and fits it best, so when only the joint test fails the highest index is

@@ -20,6 +20,11 @@ class AdjacencyMatrix {
     const auto bit = static_cast<std::size_t>(b);
     return (bits_[static_cast<std::size_t>(a) * words_ + bit / 64] >> (bit % 64)) & 1U;
   }
+  /// Vertex a's neighbours as words() 64-bit words (bit b of word b / 64).
+  const std::uint64_t* row(int a) const {
+    return bits_.data() + static_cast<std::size_t>(a) * words_;
+  }
+  std::size_t words() const { return words_; }
 
  private:
   int n_;
@@ -32,5 +37,14 @@ class AdjacencyMatrix {
 /// then, which is still a clique (the first descent is greedy, so never a poor one).
 std::vector<int> maximumClique(const AdjacencyMatrix& graph, const std::vector<int>& among = {},
                                long max_branches = 200000);
+
+/// A large clique (sorted vertex ids) for graphs too large for the exact search: the greedy
+/// heuristic of Pattabiraman et al. ("Fast algorithms for the maximum clique problem on massive
+/// graphs with applications to overlapping community detection", Internet Mathematics 2015), as
+/// PCM's implementation offers it. From each vertex in decreasing order of degree, the clique
+/// grows by the vertex of highest degree among the common neighbours so far; vertices whose degree
+/// cannot reach the best clique found are skipped. O(n (n + c n / 64)) for a clique of c.
+/// Always a clique, at most as large as maximumClique's.
+std::vector<int> heuristicMaximumClique(const AdjacencyMatrix& graph);
 
 }  // namespace rrr_graphslam::core

@@ -1,0 +1,28 @@
+#include "rrr_graphslam/rrr/verifier.h"
+
+#include <stdexcept>
+
+namespace rrr_graphslam::rrr {
+
+std::string toString(Verifier verifier) {
+  switch (verifier) {
+    case Verifier::kRrr:
+      return "rrr";
+    case Verifier::kPcm:
+      return "pcm";
+    case Verifier::kScgp:
+      return "scgp";
+    case Verifier::kGnc:
+      return "gnc";
+  }
+  return "?";
+}
+
+Verifier parseVerifier(const std::string& text) {
+  for (Verifier v : {Verifier::kRrr, Verifier::kPcm, Verifier::kScgp, Verifier::kGnc}) {
+    if (text == toString(v)) return v;
+  }
+  throw std::invalid_argument("verifier '" + text + "' is not rrr, pcm, scgp or gnc");
+}
+
+}  // namespace rrr_graphslam::rrr
