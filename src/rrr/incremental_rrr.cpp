@@ -92,7 +92,7 @@ void IncrementalRrr::scheduleNextRebatch() {
 RrrSummary runIncrementalRrr(VerificationGraph& graph, const RrrParams& params,
                              std::vector<Verdict>& verdicts, std::vector<int>& cluster_of,
                              const ProgressFunction& progress, std::vector<double>* latencies_sec,
-                             std::vector<std::string>* reasons) {
+                             std::vector<std::string>* reasons, std::vector<ReplayEvent>* events) {
   const auto start = std::chrono::steady_clock::now();
   RrrSummary summary;
   summary.candidates = graph.numCandidates();
@@ -125,6 +125,23 @@ RrrSummary runIncrementalRrr(VerificationGraph& graph, const RrrParams& params,
   std::vector<int> arrival;  // robot's candidate index -> graph's
   arrival.reserve(static_cast<std::size_t>(graph.numCandidates()));
   if (latencies_sec) latencies_sec->clear();
+  // The verdicts a robot was last told, by robot index; record() adds what changed since.
+  std::vector<Verdict> told;
+  if (events) events->clear();
+  auto record = [&](int nodes_now, bool final) {
+    if (!events) return;
+    const Rrr& rrr = incremental.rrr();
+    const double seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    for (std::size_t i = 0; i < told.size(); ++i) {
+      const int k = static_cast<int>(i);
+      const Verdict now = rrr.verdict(k);
+      if (now == told[i]) continue;
+      events->push_back(
+          {arrival[i], nodes_now, seconds, final, rrr.clusterOf(k), told[i], now, rrr.reason(k)});
+      told[i] = now;
+    }
+  };
   for (std::size_t n = 0; n < nodes; ++n) {
     robot.addNode(graph.nodeIds()[n], graph.initialPoses()[n]);
     for (int c : arrivals[n].odometry) {
@@ -144,6 +161,13 @@ RrrSummary runIncrementalRrr(VerificationGraph& graph, const RrrParams& params,
             std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
       }
       arrival.push_back(k);
+      if (events) {
+        events->push_back({k, static_cast<int>(n) + 1,
+                           std::chrono::duration<double>(t0 - start).count(), false, -1,
+                           Verdict::kPending, Verdict::kPending, std::string()});
+        told.push_back(Verdict::kPending);
+        record(static_cast<int>(n) + 1, false);
+      }
       const auto done = static_cast<int>(arrival.size());
       if (progress && (done % 256 == 1 || done == graph.numCandidates())) {
         progress("incremental", done, graph.numCandidates());
@@ -152,6 +176,7 @@ RrrSummary runIncrementalRrr(VerificationGraph& graph, const RrrParams& params,
   }
   incremental.finish();
   incremental.rrr().rejectUnplaced();
+  record(static_cast<int>(nodes), true);
 
   std::vector<Verdict> robot_verdicts;
   std::vector<int> robot_clusters;

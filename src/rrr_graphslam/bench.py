@@ -19,6 +19,7 @@ import sys
 import time
 from typing import NamedTuple, Optional
 
+from .decision_stream import OnlineScore, percentile, read_decision_stream, score_stream
 from .evaluation import (MapHarm, Score, map_harm, read_decisions, read_ground_truth_poses,
                          read_truth, score)
 from .graph_io import read_graph, write_graph, write_text_atomically
@@ -68,6 +69,7 @@ class Row(NamedTuple):
     run: dict      # run_offline's result
     seed: int = 1  # of the generated outliers (synthetic inputs)
     harm: Optional[MapHarm] = None  # synthetic inputs: the map against the clean optimum
+    online: Optional[OnlineScore] = None  # incremental mode: the decisions as they were made
 
 
 def run_offline(binary, graph, decisions, extra=()):
@@ -217,13 +219,19 @@ def main(argv=None):
         decisions = graph + "." + label.replace(" --", "-") + ".tsv"  # batch-full-intra
         optimized = graph + "." + label.replace(" --", "-") + ".opt.g2o"
         output = ["--output", optimized] if harm_of else []
+        stream = graph + "." + label.replace(" --", "-") + ".stream.tsv"
+        streaming = ["--decision-stream", stream] if mode == "incremental" else []
         s, r = scored_run(args.rrr_offline, graph, truth, decisions,
-                          ["--mode", mode, *extra, *output])
+                          ["--mode", mode, *extra, *output, *streaming])
+        online = None
+        if streaming:
+            d = read_decisions(decisions)
+            online = score_stream(read_decision_stream(stream), read_truth(truth, d))
         worst["precision"] = min(worst["precision"], s.precision)
         worst["recall"] = min(worst["recall"], s.recall)
         harm = synthetic_map_harm(args.data, args.cache, optimizer, harm_of,
                                   optimized) if harm_of else None
-        rows.append(Row(dataset, kind, str(count), label, s, r, seed or 1, harm))
+        rows.append(Row(dataset, kind, str(count), label, s, r, seed or 1, harm, online))
         latency = f" ({r['latency']})" if r["latency"] else ""
         print(f"| {dataset} | {kind} | {count} | {label} | {s.precision:.4f} | {s.recall:.4f} | "
               f"{r['time']:.2f}{latency} | {r['optimizations']} | {harm_text(harm)} |"
@@ -260,6 +268,11 @@ def main(argv=None):
             print()
             for line in seed_summary(rows):
                 print(line)
+        online_rows = [r for r in rows if r.online is not None]
+        if online_rows:
+            print()
+            for line in online_lines(online_rows):
+                print(line)
         print()
         for line in target_lines(rows):
             print(line)
@@ -282,6 +295,38 @@ def main(argv=None):
         run_verifiers(args, optimizer, args.verifiers or list(VERIFIER_INPUTS),
                       kitti_inputs(args, KITTI, ("0.50",)) if real else [], b25b)
     return 0
+
+
+def online_lines(rows):
+    """The incremental runs' decisions as they were made (rrr_offline --decision-stream), then
+    the targets: no false link accepted for longer than 100 nodes, transient false accepts at
+    most 1% of the outliers."""
+    lines = ["online decisions (incremental; what the robot saw before the final verdicts):", "",
+             "| input | false links ever accepted (of outliers) | still accepted at the end | "
+             "longest accepted (nodes) | accepted > 100 nodes | true links reversed | first "
+             "verdict p50 / p99 / max (nodes) | first verdict p99 (s) | undecided until the end |",
+             "|---|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        o = r.online
+        lines.append(
+            f"| {r.dataset} {r.kind} {r.count} | {o.transient_false_accepts} ({o.outliers}) | "
+            f"{o.final_false_accepts} | {o.longest_false_accept()} | "
+            f"{o.false_accepts_longer_than(100)} | {o.true_reversals} | "
+            f"{percentile(o.first_verdict_nodes, 50):.0f} / "
+            f"{percentile(o.first_verdict_nodes, 99):.0f} / "
+            f"{max(o.first_verdict_nodes, default=0)} | "
+            f"{percentile(o.first_verdict_seconds, 99):.3f} | {o.undecided_online} |")
+    name = lambda r: f"{r.dataset} {r.kind} {r.count}"  # noqa: E731
+    lines += ["", "online targets:",
+              "  no false link accepted for longer than 100 nodes: " + tally(
+                  rows, lambda r: r.online.false_accepts_longer_than(100) > 0,
+                  lambda r: f"{name(r)} ({r.online.false_accepts_longer_than(100)}, longest "
+                            f"{r.online.longest_false_accept()})"),
+              "  transient false accepts at most 1% of the outliers: " + tally(
+                  rows, lambda r: r.online.transient_false_accepts > 0.01 * r.online.outliers,
+                  lambda r: f"{name(r)} ({r.online.transient_false_accepts} of "
+                            f"{r.online.outliers})")]
+    return lines
 
 
 def b25b_input(args, threshold):

@@ -11,10 +11,13 @@
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
+#include <iomanip>
 #include <iostream>
+#include <ostream>
 #include <string>
 
 #include "command_line.h"
+#include "rrr_graphslam/core/atomic_file.h"
 #include "rrr_graphslam/core/graph_io.h"
 #include "rrr_graphslam/rrr/decisions_io.h"
 #include "rrr_graphslam/rrr/gnc.h"
@@ -46,6 +49,9 @@ const std::string& usage() {
       "                   (graduated non-convexity) to compare: batch only; they use --alpha\n"
       "                   for their chi-square bound, scgp --cluster-gap for its clusters\n"
       "  --gnc-loss       tls (truncated least squares, default) or gm (Geman-McClure)\n"
+      "  --decision-stream  with --mode incremental: TSV of every arrival and verdict change as\n"
+      "                   the replay made them (rrr_slam_offline's format; scan = nodes arrived,\n"
+      "                   stamp = seconds since the replay started)\n"
       "  --scgp-ratio     scgp's local uniqueness: l1/l2 at least this (default 2)\n"
       "  --quiet          no progress line\n"
       "RRR's parameters (the same names as the ROS parameters, with dashes):\n" +
@@ -61,6 +67,7 @@ struct Arguments {
   std::string input;
   std::string decisions;
   std::string output;
+  std::string decision_stream;
   bool incremental = false;
   bool quiet = false;
   rrr::Verifier verifier = rrr::Verifier::kRrr;
@@ -83,6 +90,8 @@ Arguments parseArguments(int argc, char** argv) {
       const std::string m = cli.value(i, a);
       if (m != "batch" && m != "incremental") cli.fail("--mode must be batch or incremental");
       args.incremental = m == "incremental";
+    } else if (a == "--decision-stream") {
+      args.decision_stream = cli.value(i, a);
     } else if (a == "--verifier") {
       try {
         args.verifier = rrr::parseVerifier(cli.value(i, a));
@@ -117,11 +126,33 @@ Arguments parseArguments(int argc, char** argv) {
     }
   }
   if (args.input.empty()) cli.fail("no input file given");
+  if (!args.decision_stream.empty() && !args.incremental) {
+    cli.fail("--decision-stream needs --mode incremental (a batch decision has no stream)");
+  }
   if (args.incremental && args.verifier != rrr::Verifier::kRrr) {
     cli.fail("--mode incremental is RRR's: --verifier " + rrr::toString(args.verifier) +
              " decides in batch");
   }
   return args;
+}
+
+// rrr_slam_offline's --decision-stream format (decision_stream.h): the replay has no scans, so
+// `scan` is the number of nodes arrived, and `stamp` the seconds since the replay started.
+void writeDecisionStream(const std::string& path, const std::vector<rrr::ReplayEvent>& events,
+                         const rrr::VerificationGraph& graph) {
+  core::writeFileAtomically(path, [&](std::ostream& out) {
+    out << "when\tscan\tnodes\tstamp\tcandidate\tfrom\tto\tcluster\tprevious\tverdict\treason\n";
+    out << std::fixed << std::setprecision(6);
+    for (const rrr::ReplayEvent& e : events) {
+      const rrr::LoopCandidate& c = graph.candidate(e.candidate);
+      out << (e.final ? "final" : "online") << '\t' << e.nodes << '\t' << e.nodes << '\t'
+          << e.seconds << '\t' << e.candidate << '\t'
+          << graph.nodeIds()[static_cast<std::size_t>(c.from)] << '\t'
+          << graph.nodeIds()[static_cast<std::size_t>(c.to)] << '\t' << e.cluster << '\t'
+          << rrr::toString(e.previous) << '\t' << rrr::toString(e.verdict) << '\t' << e.reason
+          << '\n';
+    }
+  });
 }
 
 rrr::ProgressFunction terminalProgress(bool quiet) {
@@ -147,6 +178,7 @@ int main(int argc, char** argv) {
     rrr::RrrSummary summary;
     std::vector<double> latencies;
     std::vector<std::string> reasons;
+    std::vector<rrr::ReplayEvent> events;
     if (args.verifier != rrr::Verifier::kRrr) {
       rrr::VerifierDecisions decided;
       if (args.verifier == rrr::Verifier::kPcm) {
@@ -170,7 +202,8 @@ int main(int argc, char** argv) {
       summary = decided.summary;
     } else if (args.incremental) {
       summary = rrr::runIncrementalRrr(verification, args.params, verdicts, cluster_of,
-                                       terminalProgress(args.quiet), &latencies, &reasons);
+                                       terminalProgress(args.quiet), &latencies, &reasons,
+                                       args.decision_stream.empty() ? nullptr : &events);
     } else {
       summary = rrr::runBatchRrr(verification, args.params, verdicts, cluster_of,
                                  terminalProgress(args.quiet), &reasons);
@@ -212,6 +245,10 @@ int main(int argc, char** argv) {
       }
       rrr::writeDecisions(args.decisions, rows);
       std::printf("decisions      %s\n", args.decisions.c_str());
+    }
+    if (!args.decision_stream.empty()) {
+      writeDecisionStream(args.decision_stream, events, verification);
+      std::printf("decision stream %s (%zu rows)\n", args.decision_stream.c_str(), events.size());
     }
     if (!args.output.empty()) {
       core::PoseGraph optimized;

@@ -62,6 +62,17 @@ for k in range(4):
     rows.append(f"{{k}}\\t{{k + 5}}\\t{{k}}\\t{{verdict}}\\tfake")
 with open(args[args.index("--decisions") + 1], "w") as f:
     f.write("\\n".join(rows) + "\\n")
+if "--decision-stream" in args:  # candidate 2 (false) accepted from node 10 to node 200
+    with open(args[args.index("--decision-stream") + 1], "w") as f:
+        f.write("when\\tscan\\tnodes\\tstamp\\tcandidate\\tfrom\\tto\\tcluster\\tprevious\\tverdict\\treason\\n")
+        for k in range(4):
+            f.write(f"online\\t{{k + 5}}\\t{{k + 5}}\\t0.1\\t{{k}}\\t{{k}}\\t{{k + 5}}\\t-1\\tpending\\tpending\\t\\n")
+        for k, (nodes, previous, verdict) in enumerate(((10, "pending", "accepted"),
+                                                          (10, "pending", "accepted"),
+                                                          (10, "pending", "accepted"),
+                                                          (10, "pending", "rejected"))):
+            f.write(f"online\\t{{nodes}}\\t{{nodes}}\\t0.2\\t{{k}}\\t{{k}}\\t{{k + 5}}\\t{{k}}\\t{{previous}}\\t{{verdict}}\\tr\\n")
+        f.write("online\\t200\\t200\\t0.3\\t2\\t2\\t7\\t2\\taccepted\\trejected\\tr\\n")
 if "--output" in args:  # the map: the clean optimum of fake_bench's cache, one pose off
     with open(args[args.index("--output") + 1], "w") as f:
         f.write({graph!r}.replace("VERTEX_SE2 2 2 0 0", "VERTEX_SE2 2 2 0.5 0"))
@@ -152,6 +163,16 @@ def test_verifiers_table_runs_every_verifier_on_the_same_input(tmp_path):
     assert [c.split("--quiet")[1].split("--output")[0].strip() for c in calls] == [
         "", "--verifier pcm", "--verifier scgp", "--verifier gnc", "--verifier gnc --gnc-loss gm"]
     assert (cache / "g_random4_s1_gated.g2o.verifier-gnc-gm.tsv").exists()
+
+
+def test_incremental_runs_are_scored_as_their_decisions_were_made(tmp_path):
+    lines, calls, _ = fake_bench(tmp_path, "g:random:4", "--baseline")
+    assert "--decision-stream" in calls[0] and "--mode incremental" in calls[0]
+    assert "| g random 4 | 1 (2) | 0 | 190 | 1 | 0 | 3 / 5 / 5 | 0.100 | 0 |" in lines
+    assert "  no false link accepted for longer than 100 nodes: 0 of 1; not: g random 4 (1, " \
+           "longest 190)" in lines
+    assert "  transient false accepts at most 1% of the outliers: 0 of 1; not: g random 4 (1 of 2)" \
+           in lines
 
 
 def test_aliasing_pairs_each_aliased_input_with_random_outliers_of_its_count_and_seed(tmp_path):

@@ -10,6 +10,7 @@ import subprocess
 
 import pytest
 from conftest import DATA
+from rrr_graphslam.decision_stream import read_decision_stream
 from rrr_graphslam.evaluation import read_decisions, read_truth, score
 from rrr_graphslam.graph_io import read_graph, write_graph
 from rrr_graphslam.outliers import add_outliers
@@ -94,6 +95,16 @@ def test_incremental_mode_reaches_the_batch_decisions(spoiled):
     assert "latency" in result.stdout
     verdicts = lambda p: [d.verdict for d in read_decisions(str(p))]  # noqa: E731
     assert verdicts(incremental) == verdicts(batch)
+    # The stream of what the replay decided on the way ends in the same verdicts.
+    stream = folder / "stream.tsv"
+    result = run(OFFLINE, path, "--mode", "incremental", "--decision-stream", stream, "--quiet")
+    assert result.returncode == 0, result.stderr
+    last = {}
+    for r in read_decision_stream(str(stream)):
+        last[r.candidate] = r.verdict
+    assert [last[k] for k in range(len(last))] == verdicts(batch)
+    result = run(OFFLINE, path, "--decision-stream", stream)
+    assert result.returncode == 2 and "--decision-stream needs --mode incremental" in result.stderr
 
 
 @needs_binaries

@@ -163,6 +163,46 @@ TEST(Rrr, IncrementalReachesTheBatchDecisions) {
   }
 }
 
+// The replay's events are what a robot saw: every candidate arrives once, after its newest end,
+// each change starts from the verdict the last one left, and replaying the changes in order
+// ends in the final verdicts.
+TEST(Rrr, IncrementalEventsReplayToTheFinalVerdicts) {
+  const testing::LabelledGraph input = testing::withOutliers(kData + "/intel.g2o.gz", 100, 10, 9);
+  RrrParams params;
+  params.cluster_gap = 3;
+  VerificationGraph graph(input.graph, params.optimizer);
+  std::vector<Verdict> verdicts;
+  std::vector<int> clusters;
+  std::vector<ReplayEvent> events;
+  runIncrementalRrr(graph, params, verdicts, clusters, {}, nullptr, nullptr, &events);
+  const auto m = static_cast<std::size_t>(graph.numCandidates());
+  std::vector<int> arrivals(m, 0);
+  std::vector<Verdict> seen(m, Verdict::kPending);
+  int changes = 0, last_nodes = 0;
+  double last_seconds = 0.0;
+  for (const ReplayEvent& e : events) {
+    const auto k = static_cast<std::size_t>(e.candidate);
+    ASSERT_LT(k, m);
+    EXPECT_GE(e.nodes, last_nodes);
+    EXPECT_GE(e.seconds, last_seconds);
+    last_nodes = e.nodes;
+    last_seconds = e.seconds;
+    if (e.previous == e.verdict) {
+      EXPECT_EQ(e.verdict, Verdict::kPending);
+      EXPECT_EQ(arrivals[k]++, 0) << "candidate " << k << " arrived twice";
+      const LoopCandidate& c = graph.candidate(e.candidate);
+      EXPECT_EQ(e.nodes, std::max(c.from, c.to) + 1);
+      continue;
+    }
+    EXPECT_EQ(arrivals[k], 1) << "candidate " << k << " changed before it arrived";
+    EXPECT_EQ(e.previous, seen[k]);
+    seen[k] = e.verdict;
+    ++changes;
+  }
+  EXPECT_EQ(seen, verdicts);
+  EXPECT_GT(changes, graph.numCandidates());  // decided online, some changed again
+}
+
 // A robot's view: nodes arrive one by one with their odometry, candidates once both ends
 // exist. Decisions are made on the way, and the final ones equal batch RRR on the whole graph.
 // Passing a multiple of incremental_rebatch_every nodes, the clusters closed so far are decided

@@ -65,15 +65,31 @@ class IncrementalRrr {
   bool defer_ = false;
 };
 
+/// What a robot saw during a replay: a candidate's arrival (previous == verdict == kPending) or a
+/// change of its verdict, when the graph held `nodes` nodes, `seconds` after the replay started.
+/// `final`: the end of the run (finish()'s decision and the unplaced sessions' rejection).
+struct ReplayEvent {
+  int candidate;  ///< the graph's candidate index
+  int nodes;
+  double seconds;
+  bool final;
+  int cluster;  ///< -1 while the candidate's cluster is open
+  Verdict previous;
+  Verdict verdict;
+  std::string reason;
+};
+
 /// Replays `graph` as a robot builds it (replay_plan.h: nodes in order with their odometry, each
 /// candidate right after its newest end), and IncrementalRrr works on a
 /// graph holding only what has arrived, so each decision costs what it would on the robot at
-/// that point. Records the time each candidate's call takes; verdicts, cluster_of and the
-/// graph's optimizer afterwards as in runBatchRrr.
+/// that point. Records the time each candidate's call takes and, if `events` is given, every
+/// arrival and verdict change as it happened; verdicts, cluster_of and the graph's optimizer
+/// afterwards as in runBatchRrr.
 RrrSummary runIncrementalRrr(VerificationGraph& graph, const RrrParams& params,
                              std::vector<Verdict>& verdicts, std::vector<int>& cluster_of,
                              const ProgressFunction& progress = {},
                              std::vector<double>* latencies_sec = nullptr,
-                             std::vector<std::string>* reasons = nullptr);
+                             std::vector<std::string>* reasons = nullptr,
+                             std::vector<ReplayEvent>* events = nullptr);
 
 }  // namespace rrr_graphslam::rrr

@@ -1,0 +1,116 @@
+"""The decisions as a run made them (rrr_offline --mode incremental --decision-stream,
+rrr_slam_offline --decision-stream): read the stream and score what a robot saw on the way, not
+only the final verdicts. A false link accepted for a while bent the map the robot used for that
+while, even if the final decision from scratch rejects it."""
+
+import math
+from dataclasses import dataclass, field
+from typing import Dict, List, Optional, Sequence
+
+from .graph_io import GraphFileError, text_lines
+
+STREAM_HEADER = ["when", "scan", "nodes", "stamp", "candidate", "from", "to", "cluster",
+                 "previous", "verdict", "reason"]
+VERDICTS = ("accepted", "rejected", "pending")
+
+
+@dataclass
+class StreamRow:
+    final: bool  # the end of the run's decision, not an online one
+    nodes: int
+    stamp: float
+    candidate: int
+    previous: str
+    verdict: str
+
+
+def read_decision_stream(path: str) -> List[StreamRow]:
+    """Rows in file order; GraphFileError naming file and line for a malformed one."""
+    lines = text_lines(path)
+    header = next(lines, (1, ""))[1].split("\t")
+    if header != STREAM_HEADER:
+        raise GraphFileError(path, 1, f"header must be '{chr(9).join(STREAM_HEADER)}'")
+    rows = []
+    for number, line in lines:
+        f = line.split("\t")
+        if len(f) != len(STREAM_HEADER):
+            raise GraphFileError(path, number, f"expected {len(STREAM_HEADER)} tab-separated "
+                                               f"fields, found {len(f)}")
+        if f[0] not in ("online", "final") or f[8] not in VERDICTS or f[9] not in VERDICTS:
+            raise GraphFileError(path, number, "when must be online or final, verdicts one of "
+                                               + ", ".join(VERDICTS))
+        try:
+            rows.append(StreamRow(f[0] == "final", int(f[2]), float(f[3]), int(f[4]), f[8], f[9]))
+        except ValueError:
+            raise GraphFileError(path, number, "nodes and candidate must be integers, stamp a "
+                                               "number") from None
+    return rows
+
+
+def percentile(values: Sequence[float], q: float) -> float:
+    """Nearest-rank percentile; nan for no values."""
+    if not values:
+        return math.nan
+    v = sorted(values)
+    return v[min(len(v) - 1, max(0, math.ceil(q / 100.0 * len(v)) - 1))]
+
+
+@dataclass
+class OnlineScore:
+    outliers: int = 0               # candidates known false
+    transient_false_accepts: int = 0  # false candidates accepted at any moment of the run
+    final_false_accepts: int = 0    # ... still accepted at its end
+    false_accept_nodes: Dict[int, int] = field(default_factory=dict)  # candidate -> nodes accepted
+    true_reversals: int = 0         # online changes accepted -> rejected of true candidates
+    first_verdict_nodes: List[int] = field(default_factory=list)  # arrival -> first verdict
+    first_verdict_seconds: List[float] = field(default_factory=list)
+    undecided_online: int = 0       # candidates whose first verdict came only at the end
+
+    def longest_false_accept(self) -> int:
+        return max(self.false_accept_nodes.values(), default=0)
+
+    def false_accepts_longer_than(self, nodes: int) -> int:
+        return sum(n > nodes for n in self.false_accept_nodes.values())
+
+
+def score_stream(rows: Sequence[StreamRow], truth: Sequence[Optional[bool]]) -> OnlineScore:
+    """What the stream's decisions were worth as they were made, against `truth` (per candidate
+    index, None where unknown). A false candidate's accepted time is counted in nodes, from the
+    change that accepted it to the change that rejected it (or the last node of the run)."""
+    s = OnlineScore(outliers=sum(t is False for t in truth))
+    last_nodes = max((r.nodes for r in rows), default=0)
+    arrived: Dict[int, StreamRow] = {}
+    accepted_since: Dict[int, int] = {}
+    ever_false: set = set()
+    for r in rows:
+        if r.candidate >= len(truth):
+            raise ValueError(f"stream candidate {r.candidate} but {len(truth)} truth labels")
+        t = truth[r.candidate]
+        if r.previous == r.verdict:  # an arrival
+            arrived.setdefault(r.candidate, r)
+            continue
+        if r.previous == "pending" and r.candidate in arrived:
+            a = arrived.pop(r.candidate)
+            if r.final:
+                s.undecided_online += 1
+            else:
+                s.first_verdict_nodes.append(r.nodes - a.nodes)
+                s.first_verdict_seconds.append(r.stamp - a.stamp)
+        if t is False:
+            if r.verdict == "accepted":
+                ever_false.add(r.candidate)
+                accepted_since[r.candidate] = r.nodes
+            elif r.previous == "accepted" and r.candidate in accepted_since:
+                start = accepted_since.pop(r.candidate)
+                s.false_accept_nodes[r.candidate] = (s.false_accept_nodes.get(r.candidate, 0)
+                                                     + r.nodes - start)
+        elif t is True and not r.final and r.previous == "accepted" and r.verdict == "rejected":
+            s.true_reversals += 1
+    for candidate, start in accepted_since.items():  # still accepted at the end
+        s.final_false_accepts += 1
+        s.false_accept_nodes[candidate] = s.false_accept_nodes.get(candidate, 0) + last_nodes - start
+    for candidate in ever_false:
+        s.false_accept_nodes.setdefault(candidate, 0)
+    s.transient_false_accepts = len(ever_false)
+    s.undecided_online += len(arrived)
+    return s

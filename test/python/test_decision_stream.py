@@ -1,0 +1,49 @@
+"""Scoring the decisions as a run made them: false links accepted for a while, true links
+reversed, time to a first verdict; a malformed stream is refused with its file and line."""
+import pytest
+
+from rrr_graphslam.decision_stream import percentile, read_decision_stream, score_stream
+from rrr_graphslam.graph_io import GraphFileError
+
+HEADER = "when\tscan\tnodes\tstamp\tcandidate\tfrom\tto\tcluster\tprevious\tverdict\treason\n"
+
+
+def row(when, nodes, stamp, candidate, previous, verdict):
+    return f"{when}\t{nodes}\t{nodes}\t{stamp}\t{candidate}\t1\t{nodes}\t-1\t{previous}\t{verdict}\tr\n"
+
+
+def test_a_false_link_accepted_for_a_while_counts_though_the_end_rejects_it(tmp_path):
+    path = tmp_path / "stream.tsv"
+    path.write_text(HEADER
+                    + row("online", 10, 0.5, 0, "pending", "pending")    # true
+                    + row("online", 11, 0.6, 1, "pending", "pending")    # false
+                    + row("online", 12, 0.7, 0, "pending", "accepted")
+                    + row("online", 15, 0.9, 1, "pending", "accepted")
+                    + row("online", 16, 1.0, 2, "pending", "pending")    # false, decided at the end
+                    + row("online", 20, 1.2, 0, "accepted", "rejected")  # a true link reversed
+                    + row("online", 130, 5.0, 1, "accepted", "rejected")
+                    + row("online", 140, 5.5, 0, "rejected", "accepted")
+                    + row("final", 150, 6.0, 2, "pending", "accepted"))
+    s = score_stream(read_decision_stream(str(path)), [True, False, False])
+    assert s.outliers == 2
+    assert s.transient_false_accepts == 2 and s.final_false_accepts == 1
+    assert s.false_accept_nodes == {1: 115, 2: 0}
+    assert s.longest_false_accept() == 115 and s.false_accepts_longer_than(100) == 1
+    assert s.true_reversals == 1
+    assert s.first_verdict_nodes == [2, 4] and s.first_verdict_seconds == pytest.approx([0.2, 0.3])
+    assert s.undecided_online == 1
+    assert percentile(s.first_verdict_nodes, 99) == 4 and percentile([], 50) != percentile([], 50)
+
+
+def test_a_malformed_stream_names_its_file_and_line(tmp_path):
+    path = tmp_path / "bad.tsv"
+    path.write_text(HEADER + row("online", 10, 0.5, 0, "pending", "pending")
+                    + row("online", 12, 0.7, 0, "pending", "maybe"))
+    with pytest.raises(GraphFileError, match=r"bad\.tsv:3"):
+        read_decision_stream(str(path))
+    path.write_text("when\tnodes\n")
+    with pytest.raises(GraphFileError, match=r"bad\.tsv:1"):
+        read_decision_stream(str(path))
+    path.write_text(HEADER + row("online", 10, 0.5, 7, "pending", "pending"))
+    with pytest.raises(ValueError, match="candidate 7 but 1 truth labels"):
+        score_stream(read_decision_stream(str(path)), [True])
