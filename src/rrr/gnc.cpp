@@ -117,13 +117,7 @@ VerifierDecisions decideGnc(VerificationGraph& graph, const GncParams& params) {
       accepted.push_back(k);
     }
   }
-  graph.optimize(accepted);
-  ++summary.optimizations;
-  summary.candidates = m;
-  summary.accepted = static_cast<int>(accepted.size());
-  summary.rejected = m - summary.accepted;
-  summary.time_sec =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  finishDecisions(graph, accepted, start, out);
   return out;
 }
 

@@ -65,14 +65,8 @@ VerifierDecisions decidePcm(VerificationGraph& graph, const PcmParams& params) {
                        std::to_string(with) + " of its " + size + ")";
     }
   }
-  graph.optimize(clique);
-  out.summary.candidates = m;
   out.summary.clusters = clique.empty() ? 0 : 1;
-  out.summary.accepted = static_cast<int>(clique.size());
-  out.summary.rejected = m - out.summary.accepted;
-  out.summary.optimizations = 1;
-  out.summary.time_sec =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  finishDecisions(graph, clique, start, out);
   return out;
 }
 

@@ -121,15 +121,9 @@ VerifierDecisions decideScgp(VerificationGraph& graph, const ScgpParams& params)
     }
   }
   std::sort(accepted.begin(), accepted.end());
-  graph.optimize(accepted);
-  out.summary.candidates = m;
   out.summary.clusters = static_cast<int>(clusters.size());
   out.summary.cluster_gap = gap;
-  out.summary.accepted = static_cast<int>(accepted.size());
-  out.summary.rejected = m - out.summary.accepted;
-  out.summary.optimizations = 1;
-  out.summary.time_sec =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  finishDecisions(graph, accepted, start, out);
   return out;
 }
 

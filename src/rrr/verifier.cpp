@@ -25,4 +25,16 @@ Verifier parseVerifier(const std::string& text) {
   throw std::invalid_argument("verifier '" + text + "' is not rrr, pcm, scgp or gnc");
 }
 
+void finishDecisions(VerificationGraph& graph, const std::vector<int>& accepted,
+                     std::chrono::steady_clock::time_point start, VerifierDecisions& out) {
+  graph.optimize(accepted);
+  RrrSummary& summary = out.summary;
+  summary.candidates = graph.numCandidates();
+  summary.accepted = static_cast<int>(accepted.size());
+  summary.rejected = summary.candidates - summary.accepted;
+  ++summary.optimizations;
+  summary.time_sec =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
 }  // namespace rrr_graphslam::rrr

@@ -253,11 +253,7 @@ def main(argv=None):
     if not args.no_kitti:
         for seq in KITTI:
             for alpha in ALPHAS:
-                graph = os.path.join(args.data, "kitti", f"kitti_{seq}_alpha_{alpha}.g2o.gz")
-                truth = os.path.join(args.data, "kitti", f"kitti_{seq}_alpha_{alpha}_GT_LC.txt")
-                local = os.path.join(args.cache, os.path.basename(graph)[:-3])
-                if not os.path.exists(local):
-                    write_graph(read_graph(graph), local)
+                local, truth = kitti_input(args, seq, alpha)
                 report(f"KITTI {seq}", f"alpha {alpha}", "DLoopDetector", "batch", local, truth)
     if not args.no_b25b:
         for threshold in B25B:
@@ -286,14 +282,15 @@ def main(argv=None):
             print()
         run_aliasing(args, optimizer, args.aliasing or list(ALIASING_GRAPHS))
     if args.verifiers is not None:
-        from .bench_verifiers import VERIFIER_INPUTS, kitti_inputs, run_verifiers
+        from .bench_verifiers import VERIFIER_INPUTS, run_verifiers
 
         if main_table or ablation is not None or args.aliasing is not None:
             print()
         real = not args.verifier_synthetic_only
         b25b = [("B25b BoW 0.500", *b25b_input(args, "0.500"))] if real else []
         run_verifiers(args, optimizer, args.verifiers or list(VERIFIER_INPUTS),
-                      kitti_inputs(args, KITTI, ("0.50",)) if real else [], b25b)
+                      [(f"KITTI {seq} alpha 0.50", *kitti_input(args, seq, "0.50"))
+                       for seq in KITTI] if real else [], b25b)
     return 0
 
 
@@ -327,6 +324,17 @@ def online_lines(rows):
                   lambda r: f"{name(r)} ({r.online.transient_false_accepts} of "
                             f"{r.online.outliers})")]
     return lines
+
+
+def kitti_input(args, seq, alpha):
+    """A KITTI sequence's DLoopDetector candidates at `alpha`, unpacked into the cache on first
+    use: (graph path, truth path)."""
+    graph = os.path.join(args.data, "kitti", f"kitti_{seq}_alpha_{alpha}.g2o.gz")
+    truth = os.path.join(args.data, "kitti", f"kitti_{seq}_alpha_{alpha}_GT_LC.txt")
+    local = os.path.join(args.cache, os.path.basename(graph)[:-3])
+    if not os.path.exists(local):
+        write_graph(read_graph(graph), local)
+    return local, truth
 
 
 def b25b_input(args, threshold):

@@ -4,11 +4,9 @@ gnc with either loss), on synthetic inputs over seeds, on the KITTI candidate se
 Bicocca B25b: precision, recall, map harm (synthetic inputs) and time, then the worst per
 verifier."""
 
-import os
 from typing import NamedTuple, Optional
 
 from .evaluation import MapHarm, Score
-from .graph_io import read_graph, write_graph
 
 VERIFIERS = (
     ("rrr", []),
@@ -94,18 +92,3 @@ def verifier_summary(rows):
                      + (f" ({', '.join(harmed)})" if harmed else "")
                      + f" | {sum(r.run['time'] for r in rs):.1f} |")
     return lines
-
-
-def kitti_inputs(args, kitti, alphas):
-    """(label, local graph, truth) of each KITTI sequence and alpha, the graphs unpacked into the
-    cache as the main table does."""
-    out = []
-    for seq in kitti:
-        for alpha in alphas:
-            graph = os.path.join(args.data, "kitti", f"kitti_{seq}_alpha_{alpha}.g2o.gz")
-            truth = os.path.join(args.data, "kitti", f"kitti_{seq}_alpha_{alpha}_GT_LC.txt")
-            local = os.path.join(args.cache, os.path.basename(graph)[:-3])
-            if not os.path.exists(local):
-                write_graph(read_graph(graph), local)
-            out.append((f"KITTI {seq} alpha {alpha}", local, truth))
-    return out

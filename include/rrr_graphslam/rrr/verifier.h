@@ -7,10 +7,12 @@
 //   scgp  Olson's single-cluster graph partitioning, per time cluster: scgp.h.
 //   gnc   graduated non-convexity (Yang, Antonante, Tzoumas, Carlone, RA-L 2020): gnc.h.
 
+#include <chrono>
 #include <string>
 #include <vector>
 
 #include "rrr_graphslam/rrr/rrr.h"
+#include "rrr_graphslam/rrr/verification_graph.h"
 
 namespace rrr_graphslam::rrr {
 
@@ -30,5 +32,11 @@ struct VerifierDecisions {
   std::vector<std::string> reasons;
   RrrSummary summary;
 };
+
+/// The end every verifier shares: the `accepted` candidates switched on (all others off) and
+/// optimized, and `out.summary`'s candidates, accepted, rejected, one more optimization and the
+/// time since `start`.
+void finishDecisions(VerificationGraph& graph, const std::vector<int>& accepted,
+                     std::chrono::steady_clock::time_point start, VerifierDecisions& out);
 
 }  // namespace rrr_graphslam::rrr
