@@ -331,10 +331,19 @@ std::vector<core::Pose2> LaserSlam::scanMapPoses() const {
 
 MapInputs LaserSlam::mapInputs() const {
   MapInputs inputs{rrr_->mapPoses(), node_scans_, params_.local.submap};
+  inputs.sessions.reserve(node_scans_.size());
+  for (std::size_t s = 0; s < sessions_.size(); ++s) {
+    const auto end = s + 1 < sessions_.size()
+                         ? static_cast<std::size_t>(sessions_[s + 1].first_node)
+                         : node_scans_.size();
+    inputs.sessions.resize(std::max(inputs.sessions.size(), std::min(end, node_scans_.size())),
+                           static_cast<int>(s));
+  }
   if (mode_ == SessionMode::kLocalization) {  // the loaded map alone
     const auto loaded = static_cast<std::size_t>(sessions_.back().first_node);
     inputs.poses.resize(loaded);
     inputs.scans.resize(loaded);
+    inputs.sessions.resize(loaded);
   }
   return inputs;
 }

@@ -1,8 +1,17 @@
 #include "rrr_graphslam/frontend/map_render.h"
 
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
 #include <mrpt/poses/CPose3D.h>
 
+#include "rrr_graphslam/frontend/map_io.h"
+
 namespace rrr_graphslam::frontend {
+namespace {
+constexpr unsigned char kUnknownPixel = 205;  // map_io.h's mapServerPixel
+}  // namespace
 
 mrpt::maps::COccupancyGridMap2D renderOccupancyMap(const MapInputs& inputs, double resolution_m) {
   const std::vector<core::Pose2>& map = inputs.poses;
@@ -22,11 +31,55 @@ mrpt::maps::COccupancyGridMap2D renderOccupancyMap(const MapInputs& inputs, doub
       static_cast<float>(low.y() - 1.0), static_cast<float>(high.y() + 1.0),
       static_cast<float>(resolution_m));
   configureInsertion(grid, inputs.insertion);
-  for (std::size_t k = 0; k < inputs.scans.size() && k < map.size(); ++k) {
+  const std::size_t nodes = std::min(inputs.scans.size(), map.size());
+  auto insert = [&](mrpt::maps::COccupancyGridMap2D& into, std::size_t k) {
     const core::Pose2& x = map[k];
-    grid.insertObservation(*inputs.scans[k], mrpt::poses::CPose3D(x.x(), x.y(), 0.0, x.z(), 0, 0));
+    into.insertObservation(*inputs.scans[k], mrpt::poses::CPose3D(x.x(), x.y(), 0.0, x.z(), 0, 0));
+  };
+  for (std::size_t k = 0; k < nodes; ++k) insert(grid, k);
+  if (inputs.layering == MapLayering::kAllScans || inputs.sessions.size() < nodes) return grid;
+  const int first = *std::min_element(inputs.sessions.begin(), inputs.sessions.begin() + nodes);
+  const int last = *std::max_element(inputs.sessions.begin(), inputs.sessions.begin() + nodes);
+  if (first == last) return grid;
+
+  // Newest session first; a cell keeps the first (newest) session's state that observed it. Every
+  // session's grid has the whole map's bounds (the rays already fit in them).
+  mrpt::maps::COccupancyGridMap2D layered = grid;
+  std::vector<char> taken(static_cast<std::size_t>(grid.getSizeX()) * grid.getSizeY(), 0);
+  for (int session = last; session >= first; --session) {
+    mrpt::maps::COccupancyGridMap2D own(grid.getXMin(), grid.getXMax(), grid.getYMin(),
+                                        grid.getYMax(), grid.getResolution());
+    configureInsertion(own, inputs.insertion);
+    bool any = false;
+    for (std::size_t k = 0; k < nodes; ++k) {
+      if (inputs.sessions[k] != session) continue;
+      insert(own, k);
+      any = true;
+    }
+    if (!any || own.getSizeX() != grid.getSizeX() || own.getSizeY() != grid.getSizeY()) continue;
+    for (unsigned cy = 0; cy < own.getSizeY(); ++cy) {
+      for (unsigned cx = 0; cx < own.getSizeX(); ++cx) {
+        char& t = taken[static_cast<std::size_t>(cy) * grid.getSizeX() + cx];
+        const float p = own.getCell(cx, cy);
+        // Taken by a newer session, or not decided by this one (a map_server reader would see
+        // it unknown: a glimpse does not overrule an older session's clear view).
+        if (t || mapServerPixel(1.0F - p) == kUnknownPixel) continue;
+        layered.setCell(cx, cy, p);
+        t = 1;
+      }
+    }
   }
-  return grid;
+  return layered;
+}
+
+std::string toString(MapLayering layering) {
+  return layering == MapLayering::kNewestSession ? "newest-session" : "all";
+}
+
+MapLayering parseMapLayering(const std::string& text) {
+  if (text == "all") return MapLayering::kAllScans;
+  if (text == "newest-session") return MapLayering::kNewestSession;
+  throw std::invalid_argument("map layering '" + text + "' is not all or newest-session");
 }
 
 }  // namespace rrr_graphslam::frontend

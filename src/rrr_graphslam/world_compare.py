@@ -11,6 +11,11 @@ trajectory in the map frame and the true poses at the same timestamps (least-squ
   occupied cells next to a free one (the faces of a new box; its inside is never observed). The
   map *agrees* in a changed cell when it has the last world's state there within
   `tolerance_cells` (the face of a box, one cell off, agrees); an unknown map cell does not.
+- Changed cells the last session observed (`--observed-by` its log, with `--truth` its true
+  poses): among the changed cells, those its laser swept at its true poses (the free cells along
+  each beam and the cell a beam ends in). A change no robot looked at cannot be in any map; the
+  agreement over these is what a map can reach. *Stale*: changed cells where the map has the
+  earlier state (not unknown, not the last world's).
 - Static cells: the known cells of the last world that never changed, where the map observed
   something within `tolerance_cells` (the map cannot be asked about rooms no session entered).
   Occupancy F1 over them with the same tolerance: an occupied map cell is a true positive when
@@ -153,16 +158,48 @@ class WorldComparison:
     static_recall: float
     static_f1: float
     static_cells: int
+    changed_stale: int = 0    # the map has an earlier world's state there
+    changed_observed: int = -1        # changed cells the last session observed (-1: not asked)
+    changed_observed_agree: int = -1  # ... where the map agrees
 
     @property
     def changed_agreement(self) -> float:
         return self.changed_agree / self.changed_cells if self.changed_cells else math.nan
 
+    @property
+    def changed_observed_agreement(self) -> float:
+        return (self.changed_observed_agree / self.changed_observed if self.changed_observed > 0
+                else math.nan)
+
+
+def observed_cells(world: GridMap, scans, poses, laser_offset: Pose = (0.0, 0.0, 0.0),
+                   step_m: float = 0.02) -> np.ndarray:
+    """The cells of `world`'s grid that scans swept at the given robot poses (world frame): the
+    cells along each beam up to its reading (a miss: up to its maximum range) and the cell it ends
+    in. `scans`: (angle_min, angle_increment, max_range, ranges) per pose."""
+    seen = np.zeros(world.cells.shape, dtype=bool)
+    rows, cols = world.cells.shape
+    ox, oy = world.origin
+    for (angle_min, increment, max_range, ranges), (x, y, th) in zip(scans, poses):
+        c, s = math.cos(th), math.sin(th)
+        lx, ly = x + c * laser_offset[0] - s * laser_offset[1], y + s * laser_offset[0] + c * laser_offset[1]
+        r = np.minimum(np.asarray(ranges, dtype=float), max_range)
+        a = th + laser_offset[2] + angle_min + increment * np.arange(r.size)
+        steps = np.arange(0.0, 1.0 + 1e-9, step_m / max(float(r.max(initial=0.0)), step_m))
+        px = lx + np.outer(r * np.cos(a), steps)
+        py = ly + np.outer(r * np.sin(a), steps)
+        col = np.floor((px - ox) / world.resolution).astype(int)
+        row = rows - 1 - np.floor((py - oy) / world.resolution).astype(int)
+        ok = (col >= 0) & (col < cols) & (row >= 0) & (row < rows)
+        seen[row[ok], col[ok]] = True
+    return seen
+
 
 def compare(slam_map: GridMap, worlds: Sequence[GridMap], world_from_map: Pose,
-            tolerance_cells: int = 1) -> WorldComparison:
+            tolerance_cells: int = 1, observed: np.ndarray = None) -> WorldComparison:
     """The map (in its frame) against the worlds of the sessions (all the same grid), the last
-    being the world now; `world_from_map` from align()."""
+    being the world now; `world_from_map` from align(); `observed`, the cells the last session
+    observed (observed_cells), if known."""
     last = worlds[-1]
     for w in worlds:
         if w.cells.shape != last.cells.shape or w.resolution != last.resolution or w.origin != last.origin:
@@ -187,6 +224,11 @@ def compare(slam_map: GridMap, worlds: Sequence[GridMap], world_from_map: Pose,
     n_changed = int(changed.sum())
     agree = int((agrees & changed).sum())
     unknown = int(((seen == UNKNOWN) & changed).sum())
+    stale = int((changed & ~agrees & (seen != UNKNOWN)).sum())
+    n_observed = observed_agree = -1
+    if observed is not None:
+        in_sight = changed & _dilate(observed, tolerance_cells)
+        n_observed, observed_agree = int(in_sight.sum()), int((agrees & in_sight).sum())
 
     observed = near_seen_occ | near_seen_free
     static = (~changed) & (last.cells != UNKNOWN) & observed
@@ -198,7 +240,8 @@ def compare(slam_map: GridMap, worlds: Sequence[GridMap], world_from_map: Pose,
     precision = tp_precision / int(seen_occ.sum()) if seen_occ.any() else math.nan
     recall = tp_recall / int(truth_occ.sum()) if truth_occ.any() else math.nan
     f1 = 2 * precision * recall / (precision + recall) if precision + recall > 0 else 0.0
-    return WorldComparison(n_changed, agree, unknown, precision, recall, f1, int(static.sum()))
+    return WorldComparison(n_changed, agree, unknown, precision, recall, f1, int(static.sum()),
+                           stale, n_observed, observed_agree)
 
 
 def main(argv=None) -> int:
@@ -211,6 +254,9 @@ def main(argv=None) -> int:
     parser.add_argument("--trajectory", required=True, help="a trajectory in the map frame (TUM)")
     parser.add_argument("--truth", required=True, help="the true poses at its timestamps (TUM, world frame)")
     parser.add_argument("--tolerance-cells", type=int, default=1)
+    parser.add_argument("--observed-by", metavar="LOG",
+                        help="the last session's CARMEN log (its scans placed at --truth's poses): "
+                             "also score the changed cells it observed")
     args = parser.parse_args(argv)
     stamps, poses = read_tum(args.trajectory)
     truth = dict(zip(*read_tum(args.truth)))
@@ -218,12 +264,27 @@ def main(argv=None) -> int:
     if len(pairs) < 2:
         parser.error("fewer than two timestamps of --trajectory are in --truth")
     transform = align([a for a, _ in pairs], [b for _, b in pairs])
-    result = compare(read_map_server(args.map), [read_map_server(w) for w in args.worlds], transform,
-                     args.tolerance_cells)
+    worlds = [read_map_server(w) for w in args.worlds]
+    observed = None
+    if args.observed_by:
+        from .carmen import read_carmen
+        log = read_carmen(args.observed_by)
+        placed = [(r, truth[r.timestamp]) for r in log.lasers if r.timestamp in truth]
+        if not placed:
+            parser.error(f"no scan of {args.observed_by} has a pose in --truth")
+        observed = observed_cells(
+            worlds[-1], [(r.angle_min, r.angle_increment, r.max_range, r.ranges) for r, _ in placed],
+            [p for _, p in placed], log.laser_offset())
+    result = compare(read_map_server(args.map), worlds, transform, args.tolerance_cells, observed)
     print(f"changed_cells {result.changed_cells}")
     print(f"changed_agree {result.changed_agree}")
     print(f"changed_unknown {result.changed_unknown}")
     print(f"changed_agreement {result.changed_agreement:.4f}")
+    print(f"changed_stale {result.changed_stale}")
+    if observed is not None:
+        print(f"changed_observed {result.changed_observed}")
+        print(f"changed_observed_agree {result.changed_observed_agree}")
+        print(f"changed_observed_agreement {result.changed_observed_agreement:.4f}")
     print(f"static_cells {result.static_cells}")
     print(f"static_precision {result.static_precision:.4f}")
     print(f"static_recall {result.static_recall:.4f}")

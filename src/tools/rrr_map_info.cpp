@@ -26,7 +26,7 @@ namespace rrr = rrr_graphslam::rrr;
 
 const char* const kUsage =
     "usage: rrr_map_info MAP.rrrmap [--graph OUT.g2o] [--trajectory OUT.txt] [--map OUT]\n"
-    "                    [--map-resolution M]\n"
+    "                    [--map-resolution M] [--map-layering all|newest-session]\n"
     "  MAP             a map saved by rrr_slam_offline --save-map (or the node's ~save_map)\n"
     "  --graph         writes the graph: nodes at their map poses, odometry and every loop\n"
     "                  candidate (g2o, or TORO for .graph/.toro)\n"
@@ -34,6 +34,9 @@ const char* const kUsage =
     "                  rrr_slam_offline --trajectory)\n"
     "  --map           writes OUT.pgm + OUT.yaml (map_server) from every node's scan\n"
     "  --map-resolution  m per cell of --map (default 0.05)\n"
+    "  --map-layering  all (default): every scan weighs alike; newest-session: each cell as the\n"
+    "                  newest session that observed it saw it (a world that changed between\n"
+    "                  sessions shown as it is now)\n"
     "Prints 'key value' lines: format_version, sessions, nodes, edges, odometry_edges,\n"
     "loop_edges, loop_edges_accepted, loop_edges_rejected, loop_edges_pending, marginal_edges,\n"
     "submaps, scans, trimmed_submaps, marginalized_nodes, bytes, then 'session K nodes N "
@@ -53,6 +56,7 @@ int main(int argc, char** argv) {
   const tools::CommandLine cli(argc, argv, "rrr_map_info", kUsage);
   std::string path, graph_out, trajectory_out, map_out;
   double resolution = 0.05;
+  frontend::MapLayering layering = frontend::MapLayering::kAllScans;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--graph") {
@@ -63,6 +67,12 @@ int main(int argc, char** argv) {
       map_out = cli.value(i, a);
     } else if (a == "--map-resolution") {
       resolution = cli.number(a, cli.value(i, a), 0.005, 10.0);
+    } else if (a == "--map-layering") {
+      try {
+        layering = frontend::parseMapLayering(cli.value(i, a));
+      } catch (const std::invalid_argument& e) {
+        cli.fail(e.what());
+      }
     } else {
       cli.positional(a, path);
     }
@@ -129,7 +139,9 @@ int main(int argc, char** argv) {
       for (const auto& node : map.nodes) {
         inputs.poses.push_back(node.map_pose);
         inputs.scans.push_back(node.scan);
+        inputs.sessions.push_back(node.session);
       }
+      inputs.layering = layering;
       const std::string range = paramOf(map, "scan_max_range");
       if (!range.empty()) {
         char* end = nullptr;

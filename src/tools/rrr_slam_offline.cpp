@@ -84,6 +84,7 @@ const std::string& usage() {
   static const std::string text =
       "usage: rrr_slam_offline LOG.clf[.gz] [--output GRAPH.g2o] [--decisions DECISIONS.tsv]\n"
       "                        [--trajectory TRAJ.txt] [--map MAP] [--map-resolution M]\n"
+      "                        [--map-layering all|newest-session]\n"
       "                        [--refine-resolution M] [--max-scans N] [--quiet]\n"
       "                        [--decision-stream STREAM.tsv]\n"
       "                        [--load-map IN.rrrmap] [--save-map OUT.rrrmap]\n"
@@ -108,6 +109,8 @@ const std::string& usage() {
       "  --map             writes MAP.pgm + MAP.yaml (map_server) and MAP.png (accepted loops\n"
       "                    green, rejected red)\n"
       "  --map-resolution  m per cell of the written map (default 0.05)\n"
+      "  --map-layering all|newest-session  the written map from every scan alike (default), or\n"
+      "                    each cell as the newest session that observed it saw it\n"
       "  --refine-resolution M  before --trajectory is written, every scan is matched once more\n"
       "                    against the final map rendered at M m per cell (default 0.04; 0 = off:\n"
       "                    scans follow their nodes rigidly)\n"
@@ -152,6 +155,7 @@ struct Arguments {
   std::string trajectory;
   std::string map;
   double map_resolution = 0.05;
+  frontend::MapLayering map_layering = frontend::MapLayering::kAllScans;
   bool quiet = false;
   frontend::TrajectoryRefinementParams refinement;
   std::size_t max_scans = 0;  ///< 0: all
@@ -225,6 +229,12 @@ Arguments parseArguments(int argc, char** argv) {
       args.map = cli.value(i, a);
     } else if (a == "--map-resolution") {
       args.map_resolution = cli.number(a, cli.value(i, a), 0.005, 10.0);
+    } else if (a == "--map-layering") {
+      try {
+        args.map_layering = frontend::parseMapLayering(cli.value(i, a));
+      } catch (const std::invalid_argument& e) {
+        cli.fail(e.what());
+      }
     } else if (a == "--refine-resolution") {
       args.refinement.resolution_m = cli.number(a, cli.value(i, a), 0.0, 10.0);
     } else if (a == "--max-scans") {
@@ -502,7 +512,7 @@ int main(int argc, char** argv) {
                   core::secondsSince(save_start));
     }
     if (!args.map.empty()) {
-      const auto grid = slam.renderMap(args.map_resolution);
+      const auto grid = slam.renderMap(args.map_resolution, args.map_layering);
       frontend::writeMapServerFiles(grid, args.map);
       frontend::writeMapPng(grid, args.map + ".png", slam.rrr().mapPoses(), loopLines(slam));
       std::printf("map            %s.pgm, %s.yaml, %s.png\n", args.map.c_str(), args.map.c_str(),

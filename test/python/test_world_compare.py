@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from rrr_graphslam.world_compare import (FREE, OCCUPIED, UNKNOWN, GridMap, align, compare,
-                                         read_map_server)
+                                         observed_cells, read_map_server)
 
 
 def room(box: bool) -> GridMap:
@@ -70,3 +70,19 @@ def test_map_server_files_are_read_as_map_server_reads_them(tmp_path):
     assert m.cells.tolist() == [[OCCUPIED, FREE, UNKNOWN], [FREE, OCCUPIED, FREE]]
     # The top image row is the far side: (1.25, 2.75) is the top-left pixel.
     assert m.state_at(np.array([1.25, 1.25]), np.array([2.75, 2.25])).tolist() == [OCCUPIED, FREE]
+
+
+def test_only_the_changes_the_last_session_observed_are_scored_apart():
+    before, now = room(box=True), room(box=False)  # the box (x, y in 0.8-1.2 m) left
+    # One beam from (0.35, 1.05) along +x, ending on the far wall: it sweeps the box's row y = 1.0-1.1.
+    observed = observed_cells(now, [(0.0, 0.1, 5.0, [1.6])], [(0.35, 1.05, 0.0)])
+    x, y = now.centres()
+    assert observed[(np.abs(y - 1.05) < 1e-9) & (x > 0.3) & (x < 2.0)].all()
+    assert observed.sum() == int(((np.abs(y - 1.05) < 1e-9) & (x > 0.3) & (x < 2.0)).sum())
+    stale = compare(before, [before, now], (0.0, 0.0, 0.0), observed=observed)
+    assert stale.changed_cells == 16 and stale.changed_stale == 16
+    # With the one-cell tolerance, the box's rows 0.9-1.2 next to the swept row count as seen.
+    assert stale.changed_observed == 12 and stale.changed_observed_agree == 0
+    up_to_date = compare(now, [before, now], (0.0, 0.0, 0.0), observed=observed)
+    assert up_to_date.changed_observed_agreement == 1.0 and up_to_date.changed_stale == 0
+    assert compare(now, [before, now], (0.0, 0.0, 0.0)).changed_observed == -1

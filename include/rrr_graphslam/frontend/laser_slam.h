@@ -148,9 +148,12 @@ class LaserSlam {
   /// What the occupancy map is made of now (the scans shared, not copied); in localization, the
   /// loaded map's nodes only.
   MapInputs mapInputs() const;
-  /// The occupancy map: every node's scan inserted at its map pose.
-  mrpt::maps::COccupancyGridMap2D renderMap(double resolution_m) const {
-    return renderOccupancyMap(mapInputs(), resolution_m);
+  /// The occupancy map: every node's scan inserted at its map pose (layered as map_render.h says).
+  mrpt::maps::COccupancyGridMap2D renderMap(double resolution_m,
+                                            MapLayering layering = MapLayering::kAllScans) const {
+    MapInputs inputs = mapInputs();
+    inputs.layering = layering;
+    return renderOccupancyMap(inputs, resolution_m);
   }
 
  private:
