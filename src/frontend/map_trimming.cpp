@@ -247,6 +247,7 @@ TrimResult trimMap(const MapSnapshot& map, const TrimParams& params,
       observedCells(map, submap_params, params.coverage_resolution_m, params.threads);
   std::vector<char> trimmed(map.submaps.size(), 0);
   std::unordered_set<std::uint64_t> kept_cells;
+  const int newest_session = n > 0 ? map.nodes.back().session : 0;
   for (int s = submaps - 1; s >= 0; --s) {
     const Cells& own = cells[static_cast<std::size_t>(s)];
     SubmapCoverage c;
@@ -255,9 +256,12 @@ TrimResult trimMap(const MapSnapshot& map, const TrimParams& params,
     c.cell_area_m2 = params.coverage_resolution_m * params.coverage_resolution_m;
     for (std::uint64_t key : own) c.covered_cells += kept_cells.count(key);
     report.coverage.push_back(c);
-    bool trim = s < submaps - params.keep_recent_submaps && strategy.trim(c);
+    const MapSnapshot::Submap& span = map.submaps[static_cast<std::size_t>(s)];
+    const bool current =
+        params.keep_current_session &&
+        map.nodes[static_cast<std::size_t>(span.first_node)].session == newest_session;
+    bool trim = s < submaps - params.keep_recent_submaps && !current && strategy.trim(c);
     if (trim) {
-      const MapSnapshot::Submap& span = map.submaps[static_cast<std::size_t>(s)];
       for (int k = span.first_node; k <= span.last_node && trim; ++k) {
         if (pending_node[static_cast<std::size_t>(k)]) trim = false;
       }

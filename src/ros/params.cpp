@@ -154,6 +154,9 @@ NodeParams loadParams(const ros::NodeHandle& private_nh) {
   r.read<int>(
       "keep_recent_submaps", p.trim.keep_recent_submaps, [](const int& v) { return v >= 1; },
       "at least 1");
+  r.read<bool>(
+      "keep_current_session", p.trim.keep_current_session, [](const bool&) { return true; },
+      "a boolean");
   std::string sparsification = frontend::toString(p.trim.sparsification);
   r.read<std::string>(
       "sparsification", sparsification,

@@ -91,6 +91,7 @@ const std::string& usage() {
       "                        [--session-name NAME] [--session-trajectory TRAJ.txt]\n"
       "                        [--initial-pose X,Y,THETA] [--localization-only]\n"
       "                        [--lifelong [--trim-overlap R] [--keep-recent-submaps N]\n"
+      "                                    [--keep-current-session true|false]\n"
       "                                    [--sparsification clt|dense|delete]\n"
       "                                    [--trim-group-neighbours]]\n"
       "                        [--preset paper|default] [--PARAMETER V ...]\n"
@@ -130,6 +131,8 @@ const std::string& usage() {
       "  --trim-overlap R  a submap is trimmed when newer kept submaps cover this fraction of its\n"
       "                    observed cells (default 0.9)\n"
       "  --keep-recent-submaps N  the newest N submaps are never trimmed (default 4)\n"
+      "  --keep-current-session true|false  this run's session's submaps are never trimmed\n"
+      "                    (default true: the map keeps the newest view of all it saw)\n"
       "  --sparsification  what replaces a trimmed submap's constraints: clt (Chow-Liu tree,\n"
       "                    default) or delete (nothing; dense is not storable yet and refused)\n"
       "  --trim-group-neighbours  marginalize the leaving nodes of neighbouring trimmed submaps\n"
@@ -256,6 +259,11 @@ Arguments parseArguments(int argc, char** argv) {
       const double v = cli.number(a, cli.value(i, a), 1, 1e9);
       if (v != std::floor(v)) cli.fail(a + " must be an integer");
       args.trim.keep_recent_submaps = static_cast<int>(v);
+      trim_flags.push_back(a);
+    } else if (a == "--keep-current-session") {
+      const std::string v = cli.value(i, a);
+      if (v != "true" && v != "false") cli.fail(a + " must be true or false");
+      args.trim.keep_current_session = v == "true";
       trim_flags.push_back(a);
     } else if (a == "--trim-group-neighbours") {
       args.trim.group_neighbours = true;

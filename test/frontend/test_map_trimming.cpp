@@ -43,10 +43,12 @@ const MapSnapshot& threeLaps() {
   return map;
 }
 
+// threeLaps() is one session: its own submaps are judged (keep_current_session would keep them).
 TrimParams trimParams() {
   TrimParams p;
   p.trim_overlap_ratio = 0.8;
   p.keep_recent_submaps = 3;
+  p.keep_current_session = false;
   p.threads = 1;
   return p;
 }
@@ -146,6 +148,40 @@ TEST(MapTrimming, TheTreeLeavesTheKeptNodesAtTheirMinimum) {
   params.sparsification = Sparsification::kDelete;
   const double delete_move = largestMove(trimMap(map, params, smallMaps().local.submap).map);
   EXPECT_GT(delete_move, 10.0 * clt_move);
+}
+
+// A second session over the same room: by default its submaps all stay (the newest view of
+// every cell it saw), the first session's that it covers go; judged all alike, the second
+// session's own earlier submaps go too.
+TEST(MapTrimming, TheCurrentSessionsSubmapsStay) {
+  LaserSlam first(smallMaps(), "first");
+  testing::drive(first, core::Pose2::Zero(), 210, 0.0);
+  first.finish();
+  auto second = LaserSlam::fromMap(first.snapshot(), smallMaps(), "second");
+  testing::drive(*second, core::Pose2(1.0, -2.0, 0.3), 210, 1000.0);
+  second->finish();
+  const MapSnapshot map = second->snapshot();
+  ASSERT_EQ(map.sessions.size(), 2u);
+  // Sessions are renumbered when one leaves whole: told apart by name.
+  auto ofSecond = [&](const MapSnapshot& m, const MapSnapshot::Submap& s) {
+    const int session = m.nodes[static_cast<std::size_t>(s.first_node)].session;
+    return m.sessions[static_cast<std::size_t>(session)].name == "second" ? 1 : 0;
+  };
+  int second_submaps = 0;
+  for (const auto& s : map.submaps) second_submaps += ofSecond(map, s);
+  TrimParams params = trimParams();
+  params.keep_current_session = true;
+  const TrimResult kept = trimMap(map, params, smallMaps().local.submap);
+  EXPECT_GT(kept.report.trimmed_submaps, 0);
+  int kept_second = 0;
+  for (const auto& s : kept.map.submaps) kept_second += ofSecond(kept.map, s);
+  EXPECT_EQ(kept_second, second_submaps);
+  params.keep_current_session = false;
+  const TrimResult judged = trimMap(map, params, smallMaps().local.submap);
+  int judged_second = 0;
+  for (const auto& s : judged.map.submaps) judged_second += ofSecond(judged.map, s);
+  EXPECT_LT(judged_second, second_submaps);
+  EXPECT_TRUE(TrimParams{}.keep_current_session);
 }
 
 TEST(MapTrimming, TrimmedMapSavesLoadsAndContinues) {

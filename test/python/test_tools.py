@@ -478,6 +478,10 @@ def test_lifelong_flags_are_checked(tmp_path):
             (("--lifelong",), "--lifelong trims the map when it is saved: it needs --save-map"),
             (("--lifelong", "--save-map", out, "--sparsification", "tree"), "is not clt, dense or delete"),
             (("--lifelong", "--save-map", out, "--sparsification", "dense"), "use clt or delete"),
-            (("--lifelong", "--save-map", out, "--keep-recent-submaps", 0), "--keep-recent-submaps")):
+            (("--lifelong", "--save-map", out, "--keep-recent-submaps", 0), "--keep-recent-submaps"),
+            (("--lifelong", "--save-map", out, "--keep-current-session", "yes"),
+             "--keep-current-session must be true or false"),
+            (("--keep-current-session", "false", "--save-map", out),
+             "--keep-current-session needs --lifelong")):
         result = run(SLAM_OFFLINE, ACES_HEAD, *args)
         assert result.returncode != 0 and message in result.stderr, (args, result.stderr)

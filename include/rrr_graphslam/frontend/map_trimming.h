@@ -10,7 +10,8 @@
 //      map poses, at coverage_resolution_m). From the newest submap back, a submap is judged
 //      against the union of the cells of the newer submaps that are kept: the overlap ratio
 //      (Zhao et al.) or the fresh area (Cartographer's OverlappingSubmapsTrimmer2D), a
-//      TrimmingStrategy. The newest keep_recent_submaps are never trimmed.
+//      TrimmingStrategy. The newest keep_recent_submaps are never trimmed, nor (with
+//      keep_current_session) the newest session's.
 //   2. Owned nodes: a node leaves when every submap it was inserted into is trimmed (consecutive
 //      submaps share half their scans: the nodes of a kept neighbour stay).
 //   3. Marginalization (core/marginalization.h) of each trimmed submap's leaving nodes, oldest
@@ -57,6 +58,11 @@ struct TrimParams {
   double trim_overlap_ratio = 0.9;
   /// The newest submaps are never trimmed; at least 1 (the submap being built).
   int keep_recent_submaps = 4;
+  /// The submaps of the map's newest session (the one saving it) are never trimmed: they hold the
+  /// newest view of every cell that session saw, so where the world changed the map shows it as
+  /// it is now (trimming within the session would lose the cells its later submaps did not see
+  /// again). Earlier sessions' submaps are judged against them. false: every submap is judged.
+  bool keep_current_session = true;
   Sparsification sparsification = Sparsification::kClt;
   /// Cell size of the coverage grids (m).
   double coverage_resolution_m = 0.1;
