@@ -3,8 +3,8 @@
 // trims shared one). Prints a Markdown table; scripts/bench_trim makes the maps and runs it.
 //
 // usage: rrr_bench_trim [--sparsification clt|delete] [--trim-overlap R]
-//                       [--keep-recent-submaps N] [--group-neighbours] [--no-kl] [--repeat N]
-//                       MAP.rrrmap...
+//                       [--keep-recent-submaps N] [--keep-current-session true|false]
+//                       [--group-neighbours] [--no-kl] [--repeat N] MAP.rrrmap...
 // The maps must have been made with the default front-end parameters (the coverage grids are
 // built with them).
 
@@ -38,7 +38,8 @@ struct Options {
 [[noreturn]] void usage(const std::string& problem) {
   std::cerr << "rrr_bench_trim: " << problem
             << "\nusage: rrr_bench_trim [--sparsification clt|delete] [--trim-overlap R] "
-               "[--keep-recent-submaps N] [--group-neighbours] [--no-kl] [--repeat N] "
+               "[--keep-recent-submaps N] [--keep-current-session true|false] "
+               "[--group-neighbours] [--no-kl] [--repeat N] "
                "MAP.rrrmap...\n";
   std::exit(2);
 }
@@ -53,19 +54,7 @@ double quantile(std::vector<double> v, double q) {
 // The baseline: one optimization of the map's trusted graph (odometry, accepted loops, marginal
 // edges) from its stored poses, as each trim did before the trims shared one.
 double optimizeOnce(const frontend::MapSnapshot& map) {
-  core::PoseGraph graph;
-  for (std::size_t k = 0; k < map.nodes.size(); ++k) {
-    graph.addNode(static_cast<core::PoseGraph::NodeId>(k), map.nodes[k].map_pose);
-  }
-  for (const frontend::MapSnapshot::Edge& e : map.edges) {
-    if (e.kind == frontend::MapSnapshot::EdgeKind::kLoopCandidate &&
-        e.verdict != rrr_graphslam::rrr::Verdict::kAccepted) {
-      continue;
-    }
-    graph.addEdge(static_cast<core::PoseGraph::NodeId>(e.from),
-                  static_cast<core::PoseGraph::NodeId>(e.to), e.measurement, e.information,
-                  core::EdgeKind::kOdometry);
-  }
+  const core::PoseGraph graph = frontend::trustedPoseGraph(map);
   const core::Clock::time_point watch = core::Clock::now();
   core::Optimizer optimizer = core::makeOptimizer(graph);
   optimizer.optimize();
@@ -89,6 +78,10 @@ int main(int argc, char** argv) {
         options.trim.trim_overlap_ratio = std::stod(value());
       } else if (a == "--keep-recent-submaps") {
         options.trim.keep_recent_submaps = std::stoi(value());
+      } else if (a == "--keep-current-session") {
+        const std::string v = value();
+        if (v != "true" && v != "false") usage(a + " must be true or false");
+        options.trim.keep_current_session = v == "true";
       } else if (a == "--group-neighbours") {
         options.trim.group_neighbours = true;
       } else if (a == "--no-kl") {

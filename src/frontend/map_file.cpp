@@ -479,17 +479,29 @@ core::EdgeKind toCoreKind(MapSnapshot::EdgeKind kind) {
   return core::EdgeKind::kLoopCandidate;
 }
 
-core::PoseGraph mapPoseGraph(const MapSnapshot& map) {
+namespace {
+
+core::PoseGraph poseGraphOf(const MapSnapshot& map, bool trusted_only) {
   core::PoseGraph graph;
   for (std::size_t k = 0; k < map.nodes.size(); ++k) {
     graph.addNode(static_cast<core::PoseGraph::NodeId>(k), map.nodes[k].map_pose);
   }
   for (const auto& e : map.edges) {
+    if (trusted_only && e.kind == MapSnapshot::EdgeKind::kLoopCandidate &&
+        e.verdict != rrr::Verdict::kAccepted) {
+      continue;
+    }
     graph.addEdge(static_cast<core::PoseGraph::NodeId>(e.from),
                   static_cast<core::PoseGraph::NodeId>(e.to), e.measurement, e.information,
                   toCoreKind(e.kind));
   }
   return graph;
 }
+
+}  // namespace
+
+core::PoseGraph mapPoseGraph(const MapSnapshot& map) { return poseGraphOf(map, false); }
+
+core::PoseGraph trustedPoseGraph(const MapSnapshot& map) { return poseGraphOf(map, true); }
 
 }  // namespace rrr_graphslam::frontend

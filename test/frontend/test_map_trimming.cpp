@@ -100,19 +100,7 @@ TEST(MapTrimming, CoveredSubmapsLeaveAndTheirNodesBecomeMarginalEdges) {
 
 // The trusted graph (odometry, accepted loops, marginal edges) at its minimum.
 std::vector<core::Pose2> trustedOptimum(const MapSnapshot& map) {
-  core::PoseGraph graph;
-  for (std::size_t k = 0; k < map.nodes.size(); ++k) {
-    graph.addNode(static_cast<core::PoseGraph::NodeId>(k), map.nodes[k].map_pose);
-  }
-  for (const MapSnapshot::Edge& e : map.edges) {
-    if (e.kind == MapSnapshot::EdgeKind::kLoopCandidate && e.verdict != rrr::Verdict::kAccepted) {
-      continue;
-    }
-    graph.addEdge(static_cast<core::PoseGraph::NodeId>(e.from),
-                  static_cast<core::PoseGraph::NodeId>(e.to), e.measurement, e.information,
-                  core::EdgeKind::kOdometry);
-  }
-  core::Optimizer optimizer = core::makeOptimizer(graph);
+  core::Optimizer optimizer = core::makeOptimizer(trustedPoseGraph(map));
   optimizer.optimize();
   return optimizer.poses();
 }

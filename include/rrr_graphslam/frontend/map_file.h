@@ -98,4 +98,8 @@ core::EdgeKind toCoreKind(MapSnapshot::EdgeKind kind);
 /// loop candidates) in file order.
 core::PoseGraph mapPoseGraph(const MapSnapshot& map);
 
+/// The same without the loop candidates RRR did not accept: the constraints the map's poses are
+/// the optimum of (odometry, marginal constraints, accepted loops).
+core::PoseGraph trustedPoseGraph(const MapSnapshot& map);
+
 }  // namespace rrr_graphslam::frontend
