@@ -130,12 +130,14 @@ class Sessions(unittest.TestCase):
             node.wait(timeout=30)
 
     def test_c_lifelong_trims_the_map_it_saves(self):
-        # A third node continues the two-session map with lifelong on: ~save_map trims the
-        # submaps that the second session covers; loading the file back shows what it removed.
+        # A third node loads the first session's map with lifelong on: ~save_map trims the
+        # submaps that later ones cover (keep_current_session false: the map's newest session,
+        # here its only one, is judged too); loading the file back shows what it removed.
         name = "lifelong"
         for key, value in {"input_mode": "scan", "map_file": self.map_path, "publish_tf": False,
                            "scans_per_submap": 10, "min_node_separation": 15, "lifelong": True,
-                           "trim_overlap_ratio": 0.5, "keep_recent_submaps": 2}.items():
+                           "trim_overlap_ratio": 0.5, "keep_recent_submaps": 2,
+                           "keep_current_session": False}.items():
             rospy.set_param(f"/{name}/{key}", value)
         status, markers = {}, {}
         rospy.Subscriber(f"/{name}/status", RrrStatus, lambda m: status.update(last=m), queue_size=10)
