@@ -338,7 +338,8 @@ TrimResult trimMap(const MapSnapshot& map, const TrimParams& params,
 
   // 3-4. Each group, oldest first, linearized at the trusted graph's minimum (one optimization
   // for every trim: marginalizing exactly leaves the other nodes' minimum where it was, and the
-  // tree keeps the marginal's gradient, so later trims find the graph still there).
+  // tree keeps the marginal's gradient, so later trims find the graph still there; deletion
+  // moves it, and with report_kl the graph is optimized again after each deletion).
   const core::Clock::time_point optimize_watch = core::Clock::now();
   if (!groups.empty()) optimizeTrusted(trusted, alive, poses);
   report.optimize_seconds = core::secondsSince(optimize_watch);
@@ -414,6 +415,14 @@ TrimResult trimMap(const MapSnapshot& map, const TrimParams& params,
     trusted.swap(still);
     record.seconds = core::secondsSince(watch) - record.kl_seconds;
     report.trims.push_back(record);
+    if (params.report_kl && params.sparsification == Sparsification::kDelete &&
+        record.removed_constraints > 0) {
+      // Deletion drops the removed constraints' pull on the blanket: the minimum moves, and the
+      // next trim's KL is measured at the new one (the trims themselves need no linearization).
+      const core::Clock::time_point again = core::Clock::now();
+      optimizeTrusted(trusted, alive, poses);
+      report.optimize_seconds += core::secondsSince(again);
+    }
   }
   if (!groups.empty()) {
     const core::Clock::time_point watch = core::Clock::now();

@@ -99,7 +99,9 @@ VerifierDecisions decideGnc(VerificationGraph& graph, const GncParams& params) {
     }
   }
 
-  // 4. Verdicts: weight above one half; the accepted set optimized with weight 1.
+  // 4. Verdicts: TLS ends with weights 0 or 1 (above one half: an inlier); Geman-McClure's
+  // weights stay graded (at mu = 1 a residual at the bound weighs 1/4): an inlier is a candidate
+  // whose chi2 is within the bound. The accepted set optimized with weight 1.
   out.verdicts.assign(static_cast<std::size_t>(m), Verdict::kRejected);
   out.cluster_of.assign(static_cast<std::size_t>(m), -1);
   out.reasons.resize(static_cast<std::size_t>(m));
@@ -112,7 +114,7 @@ VerifierDecisions decideGnc(VerificationGraph& graph, const GncParams& params) {
                   "gnc (%s): weight %.3f after %d iterations (chi2 %.2f, inlier bound %.2f)",
                   toString(params.loss).c_str(), w[i], iterations, r2[i], cbar2);
     out.reasons[i] = reason;
-    if (w[i] > 0.5) {
+    if (gm ? r2[i] < cbar2 : w[i] > 0.5) {
       out.verdicts[i] = Verdict::kAccepted;
       accepted.push_back(k);
     }

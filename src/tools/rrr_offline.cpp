@@ -46,8 +46,8 @@ const std::string& usage() {
       "  --mode           batch (default) or incremental (candidates fed in node order)\n"
       "  --verifier       rrr (default); pcm (pairwise consistency maximization), scgp\n"
       "                   (Olson's single-cluster graph partitioning per time cluster) or gnc\n"
-      "                   (graduated non-convexity) to compare: batch only; they use --alpha\n"
-      "                   for their chi-square bound, scgp --cluster-gap for its clusters\n"
+      "                   (graduated non-convexity) to compare: batch only; pcm and gnc use\n"
+      "                   --alpha for their chi-square bound, scgp --cluster-gap for its clusters\n"
       "  --gnc-loss       tls (truncated least squares, default) or gm (Geman-McClure)\n"
       "  --decision-stream  with --mode incremental: TSV of every arrival and verdict change as\n"
       "                   the replay made them (rrr_slam_offline's format; scan = nodes arrived,\n"
@@ -79,6 +79,7 @@ struct Arguments {
 Arguments parseArguments(int argc, char** argv) {
   const tools::CommandLine cli(argc, argv, "rrr_offline", usage().c_str());
   Arguments args;
+  bool gnc_loss_given = false, scgp_ratio_given = false;
   tools::applyPresetArgument(cli, argc, argv, args.params);
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
@@ -99,12 +100,14 @@ Arguments parseArguments(int argc, char** argv) {
         cli.fail(e.what());
       }
     } else if (a == "--gnc-loss") {
+      gnc_loss_given = true;
       try {
         args.gnc_loss = rrr::parseGncLoss(cli.value(i, a));
       } catch (const std::invalid_argument& e) {
         cli.fail(e.what());
       }
     } else if (a == "--scgp-ratio") {
+      scgp_ratio_given = true;
       args.scgp_ratio = cli.number(a, cli.value(i, a), 1.0, 1e9);
     } else if (tools::readRrrParam(cli, i, argv, args.params)) {
       continue;
@@ -126,6 +129,11 @@ Arguments parseArguments(int argc, char** argv) {
     }
   }
   if (args.input.empty()) cli.fail("no input file given");
+  if (gnc_loss_given && args.verifier != rrr::Verifier::kGnc)
+    cli.fail("--gnc-loss needs --verifier gnc");
+  if (scgp_ratio_given && args.verifier != rrr::Verifier::kScgp) {
+    cli.fail("--scgp-ratio needs --verifier scgp");
+  }
   if (!args.decision_stream.empty() && !args.incremental) {
     cli.fail("--decision-stream needs --mode incremental (a batch decision has no stream)");
   }

@@ -133,6 +133,10 @@ def test_other_verifiers_write_the_same_decision_table(spoiled):
     assert result.returncode == 2 and "--mode incremental is RRR's" in result.stderr
     result = run(OFFLINE, path, "--gnc-loss", "huber")
     assert result.returncode == 2 and "gnc loss 'huber' is not tls or gm" in result.stderr
+    result = run(OFFLINE, path, "--verifier", "pcm", "--gnc-loss", "gm")
+    assert result.returncode == 2 and "--gnc-loss needs --verifier gnc" in result.stderr
+    result = run(OFFLINE, path, "--scgp-ratio", "3")
+    assert result.returncode == 2 and "--scgp-ratio needs --verifier scgp" in result.stderr
 
 
 @needs_binaries

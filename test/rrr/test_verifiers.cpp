@@ -120,6 +120,22 @@ TEST(Verifiers, ScgpDecidesWithinTimeClustersOnly) {
   }
   EXPECT_GT(alone, 100);
   EXPECT_GT(among_true, 0);
+  // Small true clusters pass the uniqueness test: Intel's true loops agree closely (a pair passes
+  // only with a cycle chi2 up to 2.2: l1/l2 = (1 + a)/(1 - a) with a = exp(-chi2/2)).
+  int small_true = 0, small_true_accepted = 0;
+  for (const auto& [cluster, ks] : members) {
+    if (ks.size() < 2 || ks.size() > 3) continue;
+    bool all_true = true, all_accepted = true;
+    for (int k : ks) {
+      all_true = all_true && input.candidate_is_true[static_cast<std::size_t>(k)];
+      all_accepted = all_accepted && d.verdicts[static_cast<std::size_t>(k)] == Verdict::kAccepted;
+    }
+    if (!all_true) continue;
+    ++small_true;
+    small_true_accepted += all_accepted;
+  }
+  EXPECT_GT(small_true, 10);
+  EXPECT_GE(small_true_accepted, 0.9 * small_true) << small_true_accepted << " of " << small_true;
 }
 
 TEST(Verifiers, ParametersOutOfRangeAreRefused) {

@@ -58,7 +58,8 @@ struct TrimParams {
   double trim_overlap_ratio = 0.9;
   /// The newest submaps are never trimmed; at least 1 (the submap being built).
   int keep_recent_submaps = 4;
-  /// The submaps of the map's newest session (the one saving it) are never trimmed: they hold the
+  /// The submaps of the map's newest session with nodes (the one saving it, unless it added none)
+  /// are never trimmed: they hold the
   /// newest view of every cell that session saw, so where the world changed the map shows it as
   /// it is now (trimming within the session would lose the cells its later submaps did not see
   /// again). Earlier sessions' submaps are judged against them. false: every submap is judged.
@@ -150,7 +151,7 @@ struct TrimReport {
   int marginal_edges_kept = 0;
   double coverage_seconds = 0.0;
   /// The trusted graph's optimization before the trims (where they all linearize) and after
-  /// (the trimmed map at its own minimum).
+  /// (the trimmed map at its own minimum); with kDelete and report_kl, after each deletion too.
   double optimize_seconds = 0.0;
   double seconds = 0.0;  ///< everything
   int removedNodes() const;

@@ -13,7 +13,9 @@
 //      shrinks by `mu_step` to 1; w = (mu cbar^2 / (r^2 + mu cbar^2))^2.
 //   3. Stop when the weights no longer change (sum of changes below 1e-5), at the loss's end
 //      point of mu, or after max_iterations.
-//   4. Accepted: weight above one half. The accepted set is then optimized with weight 1.
+//   4. Accepted: TLS, a weight above one half (its weights end at 0 or 1); Geman-McClure, whose
+//      weights stay graded, a final chi2 within cbar^2 (weight at least 1/4 at mu = 1). The
+//      accepted set is then optimized with weight 1.
 
 #include "rrr_graphslam/rrr/verification_graph.h"
 #include "rrr_graphslam/rrr/verifier.h"

@@ -5,7 +5,10 @@
 // runs per time cluster (RRR's clusters, clustering.h), as MRPT's CLoopCloserERD runs it per
 // partition:
 //   1. Consistency matrix A of the cluster's candidates: A_ij = exp(-chi2_ij / 2), chi2_ij the
-//      cycle test of the pair (pairwiseCycleChi2), 1 when no odometry joins their ends; A_ii = 1.
+//      cycle test of the pair (pairwiseCycleChi2), 1 when no odometry joins their ends; A_ii = 1
+//      (each candidate agrees with itself). So a pair passes step 4 only when it agrees well
+//      (l1/l2 = (1 + a)/(1 - a) >= 2: a >= 1/3, cycle chi2 <= 2.2), and two candidates that
+//      disagree are ambiguous (l1/l2 near 1): neither is accepted.
 //   2. Dominant eigenvector v of A (eigenvalues l1 >= l2 >= ...).
 //   3. Discretization: the candidates in decreasing order of v; the prefix u maximizing the
 //      consistency density u^T A u / u^T u.
