@@ -330,7 +330,10 @@ std::vector<core::Pose2> LaserSlam::scanMapPoses() const {
 }
 
 MapInputs LaserSlam::mapInputs() const {
-  MapInputs inputs{rrr_->mapPoses(), node_scans_, params_.local.submap};
+  MapInputs inputs;
+  inputs.poses = rrr_->mapPoses();
+  inputs.scans = node_scans_;
+  inputs.insertion = params_.local.submap;
   inputs.sessions.reserve(node_scans_.size());
   for (std::size_t s = 0; s < sessions_.size(); ++s) {
     const auto end = s + 1 < sessions_.size()
