@@ -19,6 +19,7 @@
 
 #include "rrr_graphslam/core/optimizer.h"
 #include "rrr_graphslam/core/pose_graph.h"
+#include "rrr_graphslam/core/quantile.h"
 #include "rrr_graphslam/core/stopwatch.h"
 #include "rrr_graphslam/frontend/laser_slam_params.h"
 #include "rrr_graphslam/frontend/map_file.h"
@@ -44,11 +45,11 @@ struct Options {
   std::exit(2);
 }
 
+// Nearest rank over every trim (0 for none).
 double quantile(std::vector<double> v, double q) {
   if (v.empty()) return 0.0;
   std::sort(v.begin(), v.end());
-  const auto rank = static_cast<std::size_t>(std::ceil(q * static_cast<double>(v.size())));
-  return v[std::min(v.size() - 1, rank > 0 ? rank - 1 : 0)];
+  return core::nearestRank(v, q);
 }
 
 // The baseline: one optimization of the map's trusted graph (odometry, accepted loops, marginal

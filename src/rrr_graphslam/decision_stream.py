@@ -7,6 +7,8 @@ import math
 from dataclasses import dataclass, field
 from typing import Dict, List, Optional, Sequence
 
+import numpy as np
+
 from .graph_io import GraphFileError, text_lines
 
 STREAM_HEADER = ["when", "scan", "nodes", "stamp", "candidate", "from", "to", "cluster",
@@ -48,11 +50,10 @@ def read_decision_stream(path: str) -> List[StreamRow]:
 
 
 def percentile(values: Sequence[float], q: float) -> float:
-    """Nearest-rank percentile; nan for no values."""
-    if not values:
+    """Nearest-rank percentile (NumPy's inverted CDF); nan for no values."""
+    if not len(values):
         return math.nan
-    v = sorted(values)
-    return v[min(len(v) - 1, max(0, math.ceil(q / 100.0 * len(v)) - 1))]
+    return float(np.percentile(values, q, method="inverted_cdf"))
 
 
 @dataclass

@@ -1,7 +1,7 @@
 #pragma once
-// The decisions as a run makes them (rrr_slam_offline --decision-stream): one row per loop
-// candidate's arrival and per verdict change, with the scan and node at which it happened. The
-// decisions table (--decisions) holds only the final verdicts; this is what a robot saw on the
+// The decisions as a run makes them (rrr_slam_offline and rrr_offline --decision-stream): one row
+// per loop candidate's arrival and per verdict change, with the scan and node at which it happened.
+// The decisions table (--decisions) holds only the final verdicts; this is what a robot saw on the
 // way, for scoring online decisions and for finding when a session was tied to a map.
 
 #include <cstddef>
@@ -23,8 +23,12 @@ class DecisionStream {
   /// arrival row, only their changes.
   void record(rrr::OnlineRrr& rrr, std::size_t scan, int nodes, double stamp, bool final) {
     for (rrr::DecisionChange& change : rrr.takeChanges()) {
-      rows_.push_back({scan, nodes, stamp, final, std::move(change)});
+      add(scan, nodes, stamp, final, std::move(change));
     }
+  }
+  /// One row: `change` happened at `scan` with `nodes` nodes, at `stamp`.
+  void add(std::size_t scan, int nodes, double stamp, bool final, rrr::DecisionChange change) {
+    rows_.push_back({scan, nodes, stamp, final, std::move(change)});
   }
 
   /// Header 'when scan nodes stamp candidate from to cluster previous verdict reason'; `when` is

@@ -11,13 +11,11 @@
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
-#include <iomanip>
 #include <iostream>
-#include <ostream>
 #include <string>
 
 #include "command_line.h"
-#include "rrr_graphslam/core/atomic_file.h"
+#include "decision_stream.h"
 #include "rrr_graphslam/core/graph_io.h"
 #include "rrr_graphslam/rrr/decisions_io.h"
 #include "rrr_graphslam/rrr/gnc.h"
@@ -148,19 +146,15 @@ Arguments parseArguments(int argc, char** argv) {
 // `scan` is the number of nodes arrived, and `stamp` the seconds since the replay started.
 void writeDecisionStream(const std::string& path, const std::vector<rrr::ReplayEvent>& events,
                          const rrr::VerificationGraph& graph) {
-  core::writeFileAtomically(path, [&](std::ostream& out) {
-    out << "when\tscan\tnodes\tstamp\tcandidate\tfrom\tto\tcluster\tprevious\tverdict\treason\n";
-    out << std::fixed << std::setprecision(6);
-    for (const rrr::ReplayEvent& e : events) {
-      const rrr::LoopCandidate& c = graph.candidate(e.candidate);
-      out << (e.final ? "final" : "online") << '\t' << e.nodes << '\t' << e.nodes << '\t'
-          << e.seconds << '\t' << e.candidate << '\t'
-          << graph.nodeIds()[static_cast<std::size_t>(c.from)] << '\t'
-          << graph.nodeIds()[static_cast<std::size_t>(c.to)] << '\t' << e.cluster << '\t'
-          << rrr::toString(e.previous) << '\t' << rrr::toString(e.verdict) << '\t' << e.reason
-          << '\n';
-    }
-  });
+  tools::DecisionStream stream;
+  for (const rrr::ReplayEvent& e : events) {
+    const rrr::LoopCandidate& c = graph.candidate(e.candidate);
+    stream.add(static_cast<std::size_t>(e.nodes), e.nodes, e.seconds, e.final,
+               {e.candidate, graph.nodeIds()[static_cast<std::size_t>(c.from)],
+                graph.nodeIds()[static_cast<std::size_t>(c.to)], e.cluster, e.verdict, e.previous,
+                e.reason});
+  }
+  stream.write(path);
 }
 
 rrr::ProgressFunction terminalProgress(bool quiet) {

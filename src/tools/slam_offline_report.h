@@ -8,17 +8,13 @@
 #include <cstdio>
 #include <vector>
 
+#include "rrr_graphslam/core/quantile.h"
 #include "rrr_graphslam/frontend/laser_slam.h"
 #include "rrr_graphslam/frontend/map_trimming.h"
 
 namespace rrr_graphslam::tools {
 
-// The q-quantile of sorted, non-empty `values` by the nearest-rank method: the smallest value
-// with at least a fraction q of them at or below it (p99 of fewer than 100 values is the largest).
-inline double nearestRank(const std::vector<double>& values, double q) {
-  const auto rank = static_cast<std::size_t>(std::ceil(q * static_cast<double>(values.size())));
-  return values[std::min(values.size() - 1, rank > 0 ? rank - 1 : 0)];
-}
+using core::nearestRank;
 
 // The trim's summary line, one 'key value' line per figure, then a 'trim_record' line per
 // marginalization (bench_lifelong reads them).
