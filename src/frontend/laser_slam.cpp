@@ -308,7 +308,8 @@ double LaserSlam::acceptedCrossingSpread() const {
 }
 
 bool LaserSlam::tied() const {
-  return acceptedCrossingSpread() >= params_.loops.relocalization_confirm_distance_m;
+  return tied_by_marginals_ ||
+         acceptedCrossingSpread() >= params_.loops.relocalization_confirm_distance_m;
 }
 
 bool LaserSlam::placed() const { return acceptedCrossingSpread() >= 0.0; }

@@ -1,5 +1,6 @@
 // LaserSlam across runs: the snapshot a map file holds, and a new session continuing one.
 
+#include <algorithm>
 #include <exception>
 #include <stdexcept>
 #include <string>
@@ -177,49 +178,58 @@ std::unique_ptr<LaserSlam> LaserSlam::fromMap(const MapSnapshot& map, const Lase
   checkContinuable(map, params);
   auto slam = std::make_unique<LaserSlam>(params, session_name);
   slam->mode_ = mode;
+  slam->load(map, map.submaps.size());
   const int n = static_cast<int>(map.nodes.size());
-  const bool localizing = mode == SessionMode::kLocalization;
+  slam->sessions_.push_back({session_name, 0.0, n});
+  slam->session_first_submap_ = static_cast<int>(map.submaps.size());
+  slam->session_first_scan_ = static_cast<std::size_t>(n);
+  slam->local_ = LocalSlam(params.local, n, static_cast<int>(map.submaps.size()));
+  return slam;
+}
+
+void LaserSlam::load(const MapSnapshot& map, std::size_t finished_submaps) {
+  const int n = static_cast<int>(map.nodes.size());
+  const bool localizing = mode_ == SessionMode::kLocalization;
   if (n > 0) {
-    slam->rrr_ = rrr::OnlineRrr::fromPoseGraph(
-        localizing ? graphToLocalizeIn(map) : graphToContinue(map), slam->params_.rrr);
-    if (localizing) slam->rrr_->fixNodes();
+    rrr_ = rrr::OnlineRrr::fromPoseGraph(localizing ? graphToLocalizeIn(map) : graphToContinue(map),
+                                         params_.rrr);
+    if (localizing) rrr_->fixNodes();
   }
-  slam->rrr_->takeChanges();  // the loaded decisions are the starting point, not news
+  rrr_->takeChanges();  // the loaded decisions are the starting point, not news
 
   for (const MapSnapshot::Node& node : map.nodes) {
-    const bool session_start =
-        slam->node_local_poses_.empty() ||
-        node.session != map.nodes[slam->node_local_poses_.size() - 1].session;
-    slam->node_travel_.push_back(
+    const bool session_start = node_local_poses_.empty() ||
+                               node.session != map.nodes[node_local_poses_.size() - 1].session;
+    node_travel_.push_back(
         session_start
             ? 0.0
-            : slam->node_travel_.back() +
-                  (node.local_pose.head<2>() - slam->node_local_poses_.back().head<2>()).norm());
-    slam->node_local_poses_.push_back(node.local_pose);
-    slam->node_scans_.push_back(node.scan);
-    slam->node_timestamps_.push_back(node.timestamp);
-    slam->scan_node_.push_back(static_cast<int>(slam->scan_node_.size()));
-    slam->scan_offset_.push_back(core::Pose2::Zero());
-    slam->scan_timestamps_.push_back(node.timestamp);
+            : node_travel_.back() +
+                  (node.local_pose.head<2>() - node_local_poses_.back().head<2>()).norm());
+    node_local_poses_.push_back(node.local_pose);
+    node_scans_.push_back(node.scan);
+    node_timestamps_.push_back(node.timestamp);
+    scan_node_.push_back(static_cast<int>(scan_node_.size()));
+    scan_offset_.push_back(core::Pose2::Zero());
+    scan_timestamps_.push_back(node.timestamp);
   }
   // The submaps, rebuilt from the scans that made them, in the order and at the poses they were
   // inserted; each on its own (the scans are only read), on the loop search's threads.
-  const int submaps = static_cast<int>(map.submaps.size());
-  slam->finished_.resize(map.submaps.size());
-  std::vector<std::exception_ptr> failed(map.submaps.size());  // none leaves a parallel loop
-#pragma omp parallel for schedule(dynamic) num_threads(params.loops.threads) if (submaps > 1)
+  const int submaps = static_cast<int>(finished_submaps);
+  finished_.resize(finished_submaps);
+  std::vector<std::exception_ptr> failed(finished_submaps);  // none leaves a parallel loop
+#pragma omp parallel for schedule(dynamic) num_threads(params_.loops.threads) if (submaps > 1)
   for (int i = 0; i < submaps; ++i) {
     try {
       const MapSnapshot::Submap& span = map.submaps[static_cast<std::size_t>(i)];
       auto submap = std::make_shared<Submap>(
           i, span.first_node, map.nodes[static_cast<std::size_t>(span.first_node)].local_pose,
-          params.local.submap);
+          params_.local.submap);
       for (int k = span.first_node; k <= span.last_node; ++k) {
         const auto& node = map.nodes[static_cast<std::size_t>(k)];
         submap->insert(*node.scan, node.local_pose, k);
       }
       submap->finish();
-      slam->finished_[static_cast<std::size_t>(i)] = std::move(submap);
+      finished_[static_cast<std::size_t>(i)] = std::move(submap);
     } catch (...) {
       failed[static_cast<std::size_t>(i)] = std::current_exception();
     }
@@ -227,18 +237,123 @@ std::unique_ptr<LaserSlam> LaserSlam::fromMap(const MapSnapshot& map, const Lase
   for (const std::exception_ptr& e : failed) {
     if (e) std::rethrow_exception(e);
   }
-  if (n > 0) slam->map_sensor_ = SensorSetup::of(*map.nodes.back().scan);  // check(): all have one
-  slam->finished_spans_ = map.submaps;
-  slam->lifelong_ = map.lifelong;
-  slam->sessions_ = map.sessions;
-  slam->sessions_.push_back({session_name, 0.0, n});
-  slam->session_first_submap_ = static_cast<int>(map.submaps.size());
-  slam->session_first_scan_ = static_cast<std::size_t>(n);
-  slam->search_state_.resize(map.submaps.size());
-  slam->local_ = LocalSlam(params.local, n, static_cast<int>(map.submaps.size()));
-  slam->stats_.nodes = n;
-  slam->stats_.submaps = slam->stats_.finished_submaps = static_cast<int>(map.submaps.size());
-  return slam;
+  if (n > 0) map_sensor_ = SensorSetup::of(*map.nodes.back().scan);  // check(): all have one
+  finished_spans_.assign(map.submaps.begin(),
+                         map.submaps.begin() + static_cast<std::ptrdiff_t>(finished_submaps));
+  lifelong_ = map.lifelong;
+  sessions_ = map.sessions;
+  search_state_.resize(finished_submaps);
+  stats_.nodes = n;
+  stats_.submaps = stats_.finished_submaps = submaps;
+}
+
+LaserSlam::Checkpoint LaserSlam::checkpoint() const {
+  if (mode_ == SessionMode::kLocalization) {
+    throw std::logic_error("localization leaves the loaded map as it is: nothing to trim");
+  }
+  if (static_cast<int>(node_local_poses_.size()) <= sessions_.back().first_node) {
+    throw std::logic_error("the current session has no node yet");
+  }
+  const auto first_scan = static_cast<std::ptrdiff_t>(session_first_scan_);
+  return Checkpoint{snapshot(),
+                    params_,
+                    local_.checkpoint(),
+                    sessions_,
+                    session_first_submap_,
+                    crossing_.size(),
+                    tied(),
+                    {scan_node_.begin() + first_scan, scan_node_.end()},
+                    {scan_offset_.begin() + first_scan, scan_offset_.end()},
+                    {scan_timestamps_.begin() + first_scan, scan_timestamps_.end()},
+                    search_state_,
+                    stats_,
+                    tied_at_,
+                    hint_,
+                    map_sensor_,
+                    relocalization_matches_,
+                    relocalization_paused_until_,
+                    session_points_};
+}
+
+LaserSlam::Trimmed LaserSlam::trimmed(const Checkpoint& c, const TrimParams& params,
+                                      const TrimmingStrategy& strategy) {
+  if (!c.tied) return {};  // where the session covers the map is not known yet
+  TrimResult trim =
+      trimMap(c.map, params, strategy, c.params.local.submap, NewestSession::kRunning);
+  Trimmed out{nullptr, trim.report};
+  if (trim.map.nodes.size() == c.map.nodes.size() &&
+      trim.map.submaps.size() == c.map.submaps.size()) {
+    return out;  // nothing left: the running map stays
+  }
+  // The current session is kept whole, after the earlier sessions' kept nodes and submaps.
+  const int old_first = c.sessions.back().first_node;
+  const int old_nodes = static_cast<int>(c.map.nodes.size());
+  const int node_shift = old_first - trim.node_index[static_cast<std::size_t>(old_first)];
+  const int submap_shift =
+      c.session_first_submap - trim.submap_index[static_cast<std::size_t>(c.session_first_submap)];
+  for (int k = old_first; k < old_nodes; ++k) {
+    if (trim.node_index[static_cast<std::size_t>(k)] != k - node_shift) {
+      throw std::logic_error("online trimming removed a node of the running session");
+    }
+  }
+  for (std::size_t i = static_cast<std::size_t>(c.session_first_submap); i < c.map.submaps.size();
+       ++i) {
+    if (trim.submap_index[i] != static_cast<int>(i) - submap_shift) {
+      throw std::logic_error("online trimming removed a submap of the running session");
+    }
+  }
+  auto shifted = [&](int node) { return node >= old_first ? node - node_shift : node; };
+
+  auto slam = std::make_unique<LaserSlam>(c.params, c.sessions.back().name);
+  const std::size_t finished = trim.map.submaps.size() - c.local.active.size();
+  slam->load(trim.map, finished);
+  const int first = old_first - node_shift;
+  slam->session_first_submap_ = c.session_first_submap - submap_shift;
+  slam->session_first_scan_ = static_cast<std::size_t>(first);
+  // The current session's scans as they were, not one per node as load() has them.
+  slam->scan_node_.resize(slam->session_first_scan_);
+  slam->scan_offset_.resize(slam->session_first_scan_);
+  slam->scan_timestamps_.resize(slam->session_first_scan_);
+  for (int node : c.scan_node) slam->scan_node_.push_back(shifted(node));
+  slam->scan_offset_.insert(slam->scan_offset_.end(), c.scan_offset.begin(), c.scan_offset.end());
+  slam->scan_timestamps_.insert(slam->scan_timestamps_.end(), c.scan_timestamps.begin(),
+                                c.scan_timestamps.end());
+  const MapSnapshot& map = trim.map;
+  slam->local_ = LocalSlam::resume(c.local, node_shift, submap_shift,
+                                   [&map](int k) -> const mrpt::obs::CObservation2DRangeScan& {
+                                     return *map.nodes.at(static_cast<std::size_t>(k)).scan;
+                                   });
+  for (std::size_t i = 0; i < c.search_state.size() && i < trim.submap_index.size(); ++i) {
+    const int to = trim.submap_index[i];
+    if (to < 0) continue;
+    slam->search_state_.at(static_cast<std::size_t>(to)) = {
+        shifted(c.search_state[i].last_searched), shifted(c.search_state[i].last_matched)};
+  }
+  // The loops between the current session and the earlier ones, in arrival order: those of open
+  // clusters all kept (they hold their submaps back); accepted ones of closed clusters may now be
+  // part of marginal constraints, which tie the session for good.
+  for (int i = 0; i < slam->rrr_->numCandidates(); ++i) {
+    const rrr::LoopCandidate& loop = slam->rrr_->candidate(i);
+    const int a = loop.from;  // dense indices: node k is the k-th node
+    const int b = loop.to;
+    if (std::min(a, b) < first && std::max(a, b) >= first)
+      slam->crossing_.push_back({i, std::max(a, b)});
+  }
+  slam->tied_by_marginals_ = c.tied && slam->crossing_.size() < c.crossings;
+  slam->stats_ = c.stats;
+  slam->stats_.nodes = static_cast<int>(map.nodes.size());
+  slam->stats_.submaps = slam->local_.submaps().numSubmaps();
+  slam->stats_.finished_submaps = static_cast<int>(finished);
+  if (c.tied_at) slam->tied_at_ = shifted(*c.tied_at);
+  slam->hint_ = c.hint;
+  if (slam->hint_ && slam->hint_->node >= 0) slam->hint_->node = shifted(slam->hint_->node);
+  slam->map_sensor_ = c.map_sensor;
+  slam->relocalization_matches_ = c.relocalization_matches;
+  slam->relocalization_paused_until_ = shifted(c.relocalization_paused_until);
+  slam->session_points_ = c.session_points;
+  for (KeptPoints& kept : slam->session_points_) kept.node = shifted(kept.node);
+  out.slam = std::move(slam);
+  return out;
 }
 
 }  // namespace rrr_graphslam::frontend

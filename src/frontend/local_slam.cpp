@@ -83,4 +83,18 @@ LocalSlamResult LocalSlam::addScan(const RangeScan& scan, const core::Pose2& odo
   return result;
 }
 
+LocalSlam::Checkpoint LocalSlam::checkpoint() const {
+  Checkpoint checkpoint{*this, submaps_.contents()};
+  checkpoint.state.submaps_.rebuild({}, 0, 0, nullptr);  // shares no submap with this one
+  return checkpoint;
+}
+
+LocalSlam LocalSlam::resume(const Checkpoint& checkpoint, int node_shift, int submap_shift,
+                            const ActiveSubmaps::ScanOf& scan_of) {
+  LocalSlam slam = checkpoint.state;
+  slam.submaps_.rebuild(checkpoint.active, node_shift, submap_shift, scan_of);
+  slam.next_node_ -= node_shift;
+  return slam;
+}
+
 }  // namespace rrr_graphslam::frontend

@@ -218,12 +218,14 @@ void measureKl(const std::vector<Trusted>& trusted, const std::vector<char>& ali
 }  // namespace
 
 TrimResult trimMap(const MapSnapshot& map, const TrimParams& params,
-                   const SubmapParams& submap_params) {
-  return trimMap(map, params, OverlapRatioTrimming(params.trim_overlap_ratio), submap_params);
+                   const SubmapParams& submap_params, NewestSession newest) {
+  return trimMap(map, params, OverlapRatioTrimming(params.trim_overlap_ratio), submap_params,
+                 newest);
 }
 
 TrimResult trimMap(const MapSnapshot& map, const TrimParams& params,
-                   const TrimmingStrategy& strategy, const SubmapParams& submap_params) {
+                   const TrimmingStrategy& strategy, const SubmapParams& submap_params,
+                   NewestSession newest) {
   validate(params);
   map.check();
   const core::Clock::time_point total = core::Clock::now();
@@ -232,10 +234,18 @@ TrimResult trimMap(const MapSnapshot& map, const TrimParams& params,
   const std::size_t n = map.nodes.size();
   const int submaps = static_cast<int>(map.submaps.size());
 
-  // Nodes a pending loop touches: their submaps wait.
+  // Nodes a pending loop touches: their submaps wait; in a running session, so do those its loops
+  // to the earlier sessions in open clusters touch (their verdicts are not final).
+  const int newest_session = n > 0 ? map.nodes.back().session : 0;
+  const bool running = newest == NewestSession::kRunning;
+  auto inNewest = [&](int node) {
+    return map.nodes[static_cast<std::size_t>(node)].session == newest_session;
+  };
   std::vector<char> pending_node(n, 0);
   for (const MapSnapshot::Edge& e : map.edges) {
-    if (e.kind == MapSnapshot::EdgeKind::kLoopCandidate && e.verdict == rrr::Verdict::kPending) {
+    if (e.kind != MapSnapshot::EdgeKind::kLoopCandidate) continue;
+    const bool open_crossing = running && e.cluster < 0 && inNewest(e.from) != inNewest(e.to);
+    if (e.verdict == rrr::Verdict::kPending || open_crossing) {
       pending_node[static_cast<std::size_t>(e.from)] =
           pending_node[static_cast<std::size_t>(e.to)] = 1;
     }
@@ -247,7 +257,6 @@ TrimResult trimMap(const MapSnapshot& map, const TrimParams& params,
       observedCells(map, submap_params, params.coverage_resolution_m, params.threads);
   std::vector<char> trimmed(map.submaps.size(), 0);
   std::unordered_set<std::uint64_t> kept_cells;
-  const int newest_session = n > 0 ? map.nodes.back().session : 0;
   for (int s = submaps - 1; s >= 0; --s) {
     const Cells& own = cells[static_cast<std::size_t>(s)];
     SubmapCoverage c;
@@ -257,9 +266,7 @@ TrimResult trimMap(const MapSnapshot& map, const TrimParams& params,
     for (std::uint64_t key : own) c.covered_cells += kept_cells.count(key);
     report.coverage.push_back(c);
     const MapSnapshot::Submap& span = map.submaps[static_cast<std::size_t>(s)];
-    const bool current =
-        params.keep_current_session &&
-        map.nodes[static_cast<std::size_t>(span.first_node)].session == newest_session;
+    const bool current = (params.keep_current_session || running) && inNewest(span.first_node);
     bool trim = s < submaps - params.keep_recent_submaps && !current && strategy.trim(c);
     if (trim) {
       for (int k = span.first_node; k <= span.last_node && trim; ++k) {
@@ -434,7 +441,8 @@ TrimResult trimMap(const MapSnapshot& map, const TrimParams& params,
   MapSnapshot& out = result.map;
   out.format_version = kMapFormatVersion;
   out.params = map.params;
-  std::vector<int> new_index(n, -1);
+  std::vector<int>& new_index = result.node_index;
+  new_index.assign(n, -1);
   std::vector<int> new_session(map.sessions.size(), -1);
   for (std::size_t k = 0; k < n; ++k) {
     if (!alive[k]) continue;
@@ -484,8 +492,10 @@ TrimResult trimMap(const MapSnapshot& map, const TrimParams& params,
     edge.reason = "Chow-Liu tree of trimmed submap " + std::to_string(t.submap);
     out.edges.push_back(std::move(edge));
   }
+  result.submap_index.assign(map.submaps.size(), -1);
   for (int s = 0; s < submaps; ++s) {
     if (trimmed[static_cast<std::size_t>(s)]) continue;
+    result.submap_index[static_cast<std::size_t>(s)] = static_cast<int>(out.submaps.size());
     const MapSnapshot::Submap& span = map.submaps[static_cast<std::size_t>(s)];
     out.submaps.push_back({new_index[static_cast<std::size_t>(span.first_node)],
                            new_index[static_cast<std::size_t>(span.last_node)]});

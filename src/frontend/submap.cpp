@@ -83,4 +83,29 @@ std::shared_ptr<Submap> ActiveSubmaps::insert(const mrpt::obs::CObservation2DRan
   return finished;
 }
 
+std::vector<ActiveSubmaps::Contents> ActiveSubmaps::contents() const {
+  std::vector<Contents> out;
+  for (const auto& submap : active_) {
+    out.push_back({submap->index(), submap->anchorPose(), submap->members()});
+  }
+  return out;
+}
+
+void ActiveSubmaps::rebuild(const std::vector<Contents>& contents, int node_shift, int submap_shift,
+                            const ScanOf& scan_of) {
+  std::vector<std::shared_ptr<Submap>> rebuilt;
+  for (const Contents& c : contents) {
+    if (c.members.empty()) throw std::invalid_argument("an active submap without insertions");
+    auto submap = std::make_shared<Submap>(
+        c.index - submap_shift, c.members.front().node - node_shift, c.anchor_pose, params_);
+    for (const Submap::Member& m : c.members) {
+      const int node = m.node - node_shift;
+      submap->insert(scan_of(node), m.local_pose, node);
+    }
+    rebuilt.push_back(std::move(submap));
+  }
+  active_ = std::move(rebuilt);
+  next_index_ -= submap_shift;
+}
+
 }  // namespace rrr_graphslam::frontend

@@ -226,6 +226,86 @@ TEST(MapTrimming, TrimmedMapSavesLoadsAndContinues) {
   }
 }
 
+// Online trimming: a running session trims the earlier ones and goes on exactly as it would have.
+TEST(MapTrimming, ARunningSessionTrimsTheEarlierOnesAndGoesOnAsBefore) {
+  // Each submap searched once in a while: the clusters of loops close behind the robot (in
+  // this small room every submap is always in reach, and frequent searches keep them open).
+  LaserSlamParams sparse = smallMaps();
+  sparse.loops.search_every_n_nodes = 150;
+  auto running = LaserSlam::fromMap(threeLaps(), sparse, "running");
+  EXPECT_THROW(running->checkpoint(), std::logic_error);  // no node of its own yet
+  const core::Pose2 odom_frame(3.0, -2.0, 0.7);
+  drive(*running, odom_frame, 200, 1000.0, 320);
+  ASSERT_TRUE(running->tied());
+  const LaserSlam::Checkpoint checkpoint = running->checkpoint();
+  TrimParams params = trimParams();
+  params.keep_current_session = false;  // the running session stays whatever this says
+  const LaserSlam::Trimmed trimmed =
+      LaserSlam::trimmed(checkpoint, params, OverlapRatioTrimming(params.trim_overlap_ratio));
+  ASSERT_NE(trimmed.slam, nullptr);
+  LaserSlam& next = *trimmed.slam;
+  EXPECT_GT(trimmed.report.trimmed_submaps, 0);
+  EXPECT_GT(trimmed.report.marginalEdges(), 0);
+
+  // Loops to the map in clusters still open hold their submaps back.
+  MapSnapshot open = checkpoint.map;
+  const int open_first = open.sessions.back().first_node;
+  for (auto& e : open.edges) {
+    if ((e.from < open_first) != (e.to < open_first)) e.cluster = -1;
+  }
+  const TrimResult held = trimMap(open, params, smallMaps().local.submap, NewestSession::kRunning);
+  EXPECT_GT(held.report.waiting_submaps, 0);
+  EXPECT_LT(held.report.trimmed_submaps, trimmed.report.trimmed_submaps);
+  EXPECT_EQ(held.map.nodes.size() - static_cast<std::size_t>(held.map.sessions.back().first_node),
+            open.nodes.size() - static_cast<std::size_t>(open_first));  // the running one stays
+
+  const MapSnapshot before = running->snapshot();
+  const MapSnapshot after = next.snapshot();
+  const int shift = static_cast<int>(before.nodes.size() - after.nodes.size());
+  ASSERT_GT(shift, 0);
+  ASSERT_EQ(after.sessions.back().name, "running");
+  ASSERT_EQ(after.sessions.back().first_node, before.sessions.back().first_node - shift);
+  EXPECT_EQ(after.lifelong.trimmed_submaps, trimmed.report.trimmed_submaps);
+  EXPECT_TRUE(next.tied());
+  EXPECT_EQ(next.sessions().back().name, "running");
+  EXPECT_EQ(next.scanTimestamps().size(),
+            running->scanTimestamps().size() - static_cast<std::size_t>(shift));
+  EXPECT_EQ(next.sessionFirstScan(), running->sessionFirstScan() - static_cast<std::size_t>(shift));
+
+  // Both go on with the same scans: local SLAM continues exactly where it was.
+  drive(*running, odom_frame, 80, 1000.0, 520);
+  drive(next, odom_frame, 80, 1000.0, 520);
+  running->finish();
+  next.finish();
+  const MapSnapshot a = running->snapshot();
+  const MapSnapshot b = next.snapshot();
+  ASSERT_EQ(a.nodes.size() - b.nodes.size(), static_cast<std::size_t>(shift));
+  ASSERT_EQ(a.submaps.size() - b.submaps.size(),
+            static_cast<std::size_t>(trimmed.report.trimmed_submaps));
+  for (std::size_t k = static_cast<std::size_t>(a.sessions.back().first_node); k < a.nodes.size();
+       ++k) {
+    const MapSnapshot::Node& mine = b.nodes[k - static_cast<std::size_t>(shift)];
+    EXPECT_EQ(mine.local_pose, a.nodes[k].local_pose) << k;
+    EXPECT_EQ(mine.timestamp, a.nodes[k].timestamp) << k;
+  }
+  EXPECT_EQ(next.stats().scans, running->stats().scans);
+  EXPECT_TRUE(next.tied());
+  // The running session lies where the untrimmed map has it (up to the gauge).
+  const core::Pose2 motion =
+      core::compose(a.nodes.back().map_pose, core::inverse(b.nodes.back().map_pose));
+  for (std::size_t k = static_cast<std::size_t>(b.sessions.back().first_node); k < b.nodes.size();
+       k += 5) {
+    const core::Pose2 expected = core::compose(motion, b.nodes[k].map_pose);
+    EXPECT_LT((a.nodes[k + static_cast<std::size_t>(shift)].map_pose.head<2>() - expected.head<2>())
+                  .norm(),
+              0.1)
+        << k;
+  }
+  const std::string path = ::testing::TempDir() + "online_trimmed.rrrmap";
+  writeMapFile(b, path);
+  EXPECT_EQ(readMapFile(path).nodes.size(), b.nodes.size());
+}
+
 TEST(MapTrimming, SubmapsWithPendingLoopsWaitAndRejectedLoopsGoWithTheirNodes) {
   MapSnapshot map = threeLaps();
   const TrimResult plain = trimMap(map, trimParams(), smallMaps().local.submap);

@@ -36,6 +36,7 @@
 #include "rrr_graphslam/frontend/loop_search.h"
 #include "rrr_graphslam/frontend/map_file.h"
 #include "rrr_graphslam/frontend/map_render.h"
+#include "rrr_graphslam/frontend/map_trimming.h"
 #include "rrr_graphslam/rrr/online_rrr.h"
 
 namespace rrr_graphslam::frontend {
@@ -98,6 +99,29 @@ class LaserSlam {
   /// Every parameter of both tables it runs with, as a map file records them (name, value).
   std::vector<std::pair<std::string, std::string>> snapshotParams() const;
 
+  /// Online trimming (map_trimming.h) of the earlier sessions while this one maps, in three
+  /// steps so that the slow one runs off the thread that adds scans:
+  ///   1. checkpoint(), on that thread: a copy of the map and of the session's state (the scans
+  ///      shared, never written);
+  ///   2. trimmed(checkpoint, ...), on any thread: trims the checkpoint's map with the current
+  ///      session running (NewestSession::kRunning: its submaps stay, those its undecided loops
+  ///      to the earlier sessions touch wait) and builds the LaserSlam that continues the same
+  ///      session from the trimmed map: the earlier sessions' submaps rebuilt, RRR deciding the
+  ///      kept candidates again, local SLAM exactly where the checkpoint left it (its nodes and
+  ///      submaps renumbered after the removed ones). Nothing is trimmed until the session is
+  ///      tied to the map (before, where it covers the map is not known); once its accepted loops
+  ///      to the map are folded into marginal constraints it stays tied;
+  ///   3. the scans added here since the checkpoint are added to the new one, which replaces this.
+  /// Throws std::logic_error in localization or before the current session has a node.
+  struct Checkpoint;
+  Checkpoint checkpoint() const;
+  struct Trimmed {
+    std::unique_ptr<LaserSlam> slam;  ///< nullptr when nothing was trimmed
+    TrimReport report;
+  };
+  static Trimmed trimmed(const Checkpoint& checkpoint, const TrimParams& params,
+                         const TrimmingStrategy& strategy);
+
   /// One scan with the robot's odometry pose at its time. Returns the node it became, if any.
   /// Throws ScanRefused (local_slam.h) for a scan it cannot place; the run goes on. Throws
   /// SensorMismatch when the session's first scan comes from another sensor setup than the
@@ -157,6 +181,9 @@ class LaserSlam {
   }
 
  private:
+  /// fromMap()'s loading: nodes, edges (RRR deciding the candidates again, or the map held fixed
+  /// in localization), lifelong record and the first `finished_submaps` submaps rebuilt finished.
+  void load(const MapSnapshot& map, std::size_t finished_submaps);
   void searchLoops(int node, const PointCloud& points);
   void addLoop(const LoopMatch& loop);
   /// Keeps a thinned copy of the node's scan while its session is not tied, over the last
@@ -192,6 +219,7 @@ class LaserSlam {
   int session_first_submap_ = 0;  // submaps of earlier sessions have smaller indices
   std::size_t session_first_scan_ = 0;
   std::optional<int> tied_at_;
+  bool tied_by_marginals_ = false;  // online trimming folded loops that tied the session
   struct Hint {
     int node;  // the node the hint places (-1: the session's first node, not there yet)
     core::Pose2 map_pose;
@@ -211,6 +239,30 @@ class LaserSlam {
     PointCloud points;  // thinned, in the node's frame
   };
   std::deque<KeptPoints> session_points_;  // while the session is not tied
+
+ public:
+  /// LaserSlam's own state (see checkpoint()): what trimmed() continues from.
+  struct Checkpoint {
+    MapSnapshot map;  ///< snapshot()
+    LaserSlamParams params;
+    LocalSlam::Checkpoint local;
+    std::vector<MapSnapshot::Session> sessions;
+    int session_first_submap = 0;
+    std::size_t crossings = 0;
+    bool tied = false;
+    // The current session's scans (scan_node in the map's numbering).
+    std::vector<int> scan_node;
+    std::vector<core::Pose2> scan_offset;
+    std::vector<double> scan_timestamps;
+    std::vector<SubmapSearchState> search_state;
+    LaserSlamStats stats;
+    std::optional<int> tied_at;
+    std::optional<Hint> hint;
+    std::optional<SensorSetup> map_sensor;
+    int relocalization_matches = 0;
+    int relocalization_paused_until = 0;
+    std::deque<KeptPoints> session_points;
+  };
 };
 
 }  // namespace rrr_graphslam::frontend

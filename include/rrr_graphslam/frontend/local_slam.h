@@ -73,6 +73,16 @@ class LocalSlam {
   int numNodes() const { return next_node_; }
   const LocalSlamParams& params() const { return params_; }
 
+  /// Where local SLAM stands, to be continued elsewhere (online trimming renumbers what is
+  /// before it): a copy, taken on the thread that adds scans, that shares nothing with it.
+  struct Checkpoint;
+  Checkpoint checkpoint() const;
+  /// The local SLAM `checkpoint` was taken from, with its nodes numbered k - node_shift and its
+  /// submaps i - submap_shift; `scan_of(k)` is the scan node k (new numbering) inserted. The next
+  /// scan is matched, filtered and inserted exactly as it would have been there.
+  static LocalSlam resume(const Checkpoint& checkpoint, int node_shift, int submap_shift,
+                          const ActiveSubmaps::ScanOf& scan_of);
+
  private:
   void checkPlausible(const RangeScan& scan, const core::Pose2& odom_pose);
 
@@ -83,6 +93,11 @@ class LocalSlam {
   core::Pose2 last_odom_ = core::Pose2::Zero();
   core::Pose2 last_local_ = core::Pose2::Zero();
   int next_node_ = 0;
+};
+
+struct LocalSlam::Checkpoint {
+  LocalSlam state;  ///< without active submaps: they are rebuilt from `active`
+  std::vector<ActiveSubmaps::Contents> active;
 };
 
 }  // namespace rrr_graphslam::frontend

@@ -161,6 +161,22 @@ struct TrimReport {
 struct TrimResult {
   MapSnapshot map;  ///< the trimmed map; its nodes renumbered in order
   TrimReport report;
+  /// Per node of the input map: its index in the trimmed map, -1 if it left.
+  std::vector<int> node_index;
+  /// Per submap of the input map: its index in the trimmed map, -1 if it was trimmed.
+  std::vector<int> submap_index;
+};
+
+/// Whether the map's newest session is over.
+enum class NewestSession {
+  /// Its decisions are final (a map being saved, between sessions): keep_current_session applies.
+  kFinished,
+  /// It is still mapping (online trimming): its submaps are kept whatever keep_current_session
+  /// says, and a submap whose nodes its loop candidates to the earlier sessions in open clusters
+  /// touch waits, as for a pending loop (RRR still decides them as the cluster grows). The loops
+  /// of closed clusters are taken as decided: an accepted one folded into a marginal constraint
+  /// can no longer be reversed.
+  kRunning,
 };
 
 /// Trims `map` (see above). `submap_params` are those the map's submaps were made with (their
@@ -168,9 +184,11 @@ struct TrimResult {
 /// range, kDense (the map file and RRR hold pairwise constraints only), or a map that fails
 /// MapSnapshot::check().
 TrimResult trimMap(const MapSnapshot& map, const TrimParams& params,
-                   const TrimmingStrategy& strategy, const SubmapParams& submap_params);
+                   const TrimmingStrategy& strategy, const SubmapParams& submap_params,
+                   NewestSession newest = NewestSession::kFinished);
 /// The same with OverlapRatioTrimming(params.trim_overlap_ratio).
 TrimResult trimMap(const MapSnapshot& map, const TrimParams& params,
-                   const SubmapParams& submap_params);
+                   const SubmapParams& submap_params,
+                   NewestSession newest = NewestSession::kFinished);
 
 }  // namespace rrr_graphslam::frontend

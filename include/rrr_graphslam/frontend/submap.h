@@ -6,6 +6,7 @@
 // Once finished it is frozen into a MatchGrid and the branch-and-bound max-grids, and the MRPT grid
 // is released.
 
+#include <functional>
 #include <memory>
 #include <optional>
 #include <vector>
@@ -108,6 +109,23 @@ class ActiveSubmaps {
   const std::vector<std::shared_ptr<Submap>>& active() const { return active_; }
   /// Index the next submap will take (the number started so far, plus the first index).
   int numSubmaps() const { return next_index_; }
+
+  /// What an active submap is made of: the insertions that rebuild it exactly.
+  struct Contents {
+    int index;
+    core::Pose2 anchor_pose;
+    std::vector<Submap::Member> members;
+  };
+  /// The active submaps' contents, oldest first (a copy: they go on changing here).
+  std::vector<Contents> contents() const;
+  /// The node (numbered as the insertions were) whose scan is asked for.
+  using ScanOf = std::function<const mrpt::obs::CObservation2DRangeScan&(int node)>;
+  /// Replaces the active submaps by `contents` rebuilt (the same insertions in the same order
+  /// give the same grids), with node k numbered k - node_shift and submap i numbered
+  /// i - submap_shift, as are the submaps started from now on; `scan_of(k)` is the scan node k
+  /// (new numbering) inserted.
+  void rebuild(const std::vector<Contents>& contents, int node_shift, int submap_shift,
+               const ScanOf& scan_of);
 
  private:
   SubmapParams params_;
