@@ -99,6 +99,20 @@ std::vector<int> VerificationGraph::trustedComponents() const {
   return component;
 }
 
+double VerificationGraph::trustedChi2At(const std::vector<core::Pose2>& poses) const {
+  std::vector<char> candidate(static_cast<std::size_t>(optimizer_.numConstraints()), 0);
+  for (const LoopCandidate& c : candidates_) candidate[static_cast<std::size_t>(c.constraint)] = 1;
+  double sum = 0.0;
+  for (int c = 0; c < optimizer_.numConstraints(); ++c) {
+    if (candidate[static_cast<std::size_t>(c)]) continue;
+    const Eigen::Vector3d e = core::edgeError(
+        poses.at(static_cast<std::size_t>(optimizer_.from(c))),
+        poses.at(static_cast<std::size_t>(optimizer_.to(c))), optimizer_.measurement(c));
+    sum += e.dot(optimizer_.information(c) * e);
+  }
+  return sum;
+}
+
 double VerificationGraph::trustedChi2() const {
   if (marginal_.empty()) return 0.0;  // odometry alone is a forest: it holds exactly
   if (trusted_chi2_marginals_ == marginal_.size()) return trusted_chi2_;

@@ -93,7 +93,8 @@ const std::string& usage() {
       "                        [--lifelong [--trim-overlap R] [--keep-recent-submaps N]\n"
       "                                    [--keep-current-session true|false]\n"
       "                                    [--sparsification clt|dense|delete]\n"
-      "                                    [--trim-group-neighbours]]\n"
+      "                                    [--trim-group-neighbours]\n"
+      "                                    [--trim-every-n-nodes N]]\n"
       "                        [--preset paper|default] [--PARAMETER V ...]\n"
       "  LOG               CARMEN log (FLASER or ROBOTLASER1 lines; the scans carry the odometry)\n"
       "  --output          the pose graph: nodes at their optimized poses, odometry and every "
@@ -139,6 +140,11 @@ const std::string& usage() {
       "  --trim-group-neighbours  marginalize the leaving nodes of neighbouring trimmed submaps\n"
       "                    together (one tree for all; larger blankets) instead of submap by\n"
       "                    submap\n"
+      "  --trim-every-n-nodes N  also trim while mapping: every N nodes of this run's session,\n"
+      "                    the earlier sessions' submaps that it covers (none of its own; not\n"
+      "                    before it is tied to the map; the submaps its undecided loops to the\n"
+      "                    map touch wait); an 'online_trim' line per trim (default 0: only\n"
+      "                    before the map is saved)\n"
       "  --quiet           no progress line\n"
       "The front end's parameters (the same names and units as the ROS parameters, with "
       "dashes):\n" +
@@ -171,6 +177,7 @@ struct Arguments {
   std::optional<core::Pose2> initial_pose;
   bool lifelong = false;
   frontend::TrimParams trim;
+  int trim_every_n_nodes = 0;  ///< online trimming; 0: only at --save-map
   frontend::LaserSlamParams params;
 };
 
@@ -266,6 +273,11 @@ Arguments parseArguments(int argc, char** argv) {
       if (v != "true" && v != "false") cli.fail(a + " must be true or false");
       args.trim.keep_current_session = v == "true";
       trim_flags.push_back(a);
+    } else if (a == "--trim-every-n-nodes") {
+      const double v = cli.number(a, cli.value(i, a), 1, 1e9);
+      if (v != std::floor(v)) cli.fail(a + " must be an integer");
+      args.trim_every_n_nodes = static_cast<int>(v);
+      trim_flags.push_back(a);
     } else if (a == "--trim-group-neighbours") {
       args.trim.group_neighbours = true;
       trim_flags.push_back(a);
@@ -304,6 +316,11 @@ Arguments parseArguments(int argc, char** argv) {
   if (args.lifelong && args.save_map.empty()) {
     cli.fail("--lifelong trims the map when it is saved: it needs --save-map");
   }
+  if (args.trim_every_n_nodes > 0 && !args.decision_stream.empty()) {
+    cli.fail(
+        "--trim-every-n-nodes renumbers the loop candidates as it trims: it cannot be "
+        "combined with --decision-stream");
+  }
   if (args.lifelong) {
     args.trim.threads = p.loops.threads;
     try {
@@ -330,6 +347,65 @@ void writeTrajectory(const std::string& path, const std::vector<double>& stamps,
 // The optimized pose of every scan in the map (nodes of loaded sessions one each); this run's
 // placed scans (`placed`: their indices in the log) are refined against the final map (see
 // trajectory_refinement.h) unless refinement is off.
+// --trim-every-n-nodes: the map's earlier sessions trimmed while this one maps, as the nodelet
+// does it (LaserSlam::checkpoint, LaserSlam::trimmed), here in line: no scan arrives meanwhile.
+class OnlineTrims {
+ public:
+  OnlineTrims(frontend::TrimParams params, int every_n_nodes)
+      : params_(std::move(params)), every_(every_n_nodes) {
+    params_.report_kl = false;  // an instrument of the benchmark, not of a trim
+  }
+
+  void afterNode(std::unique_ptr<frontend::LaserSlam>& slam, std::size_t scan) {
+    if (every_ <= 0) return;
+    const int session_nodes = slam->stats().nodes - slam->sessions().back().first_node;
+    if (session_nodes <= 0 || session_nodes % every_ != 0 || !slam->tied()) return;
+    const auto start = std::chrono::steady_clock::now();
+    const frontend::LaserSlam::Checkpoint checkpoint = slam->checkpoint();
+    const double checkpoint_ms = 1e3 * core::secondsSince(start);
+    frontend::LaserSlam::Trimmed trimmed = frontend::LaserSlam::trimmed(
+        checkpoint, params_, frontend::OverlapRatioTrimming(params_.trim_overlap_ratio));
+    const double trim_ms = 1e3 * core::secondsSince(start) - checkpoint_ms;
+    const int before = slam->stats().nodes;
+    if (trimmed.slam) slam = std::move(trimmed.slam);
+    const frontend::TrimReport& r = trimmed.report;
+    std::printf(
+        "online_trim scan %zu nodes %d -> %d submaps_trimmed %d marginal_edges %d waiting %d "
+        "checkpoint_ms %.2f trim_ms %.2f\n",
+        scan, before, slam->stats().nodes, r.trimmed_submaps, r.marginalEdges(), r.waiting_submaps,
+        checkpoint_ms, trim_ms);
+    ++runs_;
+    submaps_ += r.trimmed_submaps;
+    nodes_ += r.removedNodes();
+    ms_.push_back(trim_ms);
+    checkpoint_ms_.push_back(checkpoint_ms);
+  }
+
+  void printSummary() {
+    if (every_ <= 0) return;
+    std::sort(ms_.begin(), ms_.end());
+    std::sort(checkpoint_ms_.begin(), checkpoint_ms_.end());
+    auto q = [](const std::vector<double>& v, double p) {
+      return v.empty() ? 0.0 : core::nearestRank(v, p);
+    };
+    std::printf(
+        "online trims   %d (every %d nodes once tied): %d submaps trimmed, %d nodes "
+        "marginalized; trim %.1f ms p50, %.1f max (off the mapping thread in the nodelet); "
+        "checkpoint %.1f ms p50, %.1f max\n",
+        runs_, every_, submaps_, nodes_, q(ms_, 0.5), q(ms_, 1.0), q(checkpoint_ms_, 0.5),
+        q(checkpoint_ms_, 1.0));
+  }
+
+ private:
+  frontend::TrimParams params_;
+  int every_;
+  int runs_ = 0;
+  int submaps_ = 0;
+  int nodes_ = 0;
+  std::vector<double> ms_;
+  std::vector<double> checkpoint_ms_;
+};
+
 std::vector<core::Pose2> refinedTrajectory(const frontend::LaserSlam& slam,
                                            const frontend::CarmenLog& log,
                                            const std::vector<std::size_t>& placed,
@@ -398,7 +474,7 @@ int main(int argc, char** argv) {
         }
       }
     }
-    frontend::LaserSlam& slam = *slam_owner;
+    OnlineTrims online(args.trim, args.trim_every_n_nodes);
     const bool progress = !args.quiet && isatty(STDERR_FILENO);
     const std::size_t n =
         args.max_scans > 0 ? std::min(args.max_scans, log.scans.size()) : log.scans.size();
@@ -411,8 +487,11 @@ int main(int argc, char** argv) {
     for (std::size_t k = 0; k < n; ++k) {
       const auto& record = log.scans[k];
       const auto scan_start = std::chrono::steady_clock::now();
+      frontend::LaserSlam& slam = *slam_owner;
+      bool new_node = false;
       try {
-        slam.addScan(frontend::RangeScan::fromCarmen(record), record.odom_pose);
+        new_node =
+            slam.addScan(frontend::RangeScan::fromCarmen(record), record.odom_pose).has_value();
         placed.push_back(k);
         latency.push_back(core::secondsSince(scan_start));
       } catch (const frontend::SensorMismatch& e) {
@@ -439,8 +518,10 @@ int main(int argc, char** argv) {
             stderr, "\r[slam] scan %zu/%zu  nodes %d  submaps %d  candidates %d  accepted %d   ",
             k + 1, n, status.nodes, slam.stats().submaps, status.candidates, status.accepted);
       }
+      if (new_node) online.afterNode(slam_owner, k + 1);  // may replace `slam`: the last use
     }
     if (progress) std::fprintf(stderr, "\n");
+    frontend::LaserSlam& slam = *slam_owner;
     slam.finish();
     if (!args.decision_stream.empty()) {
       stream.record(slam.rrr(), n, slam.rrr().numNodes(), log.scans[n - 1].timestamp, true);
@@ -474,6 +555,7 @@ int main(int argc, char** argv) {
     std::printf("rejected       %d\n", status.rejected);
     tools::printSessions(slam);
     tools::printLatency(latency);
+    online.printSummary();
     std::printf(
         "time           %.2f s (local SLAM %.2f, loop search %.2f, RRR %.2f), %.1fx real time\n",
         seconds, stats.local_slam_seconds, stats.loop_search_seconds, stats.rrr_seconds,

@@ -306,6 +306,30 @@ TEST(MapTrimming, ARunningSessionTrimsTheEarlierOnesAndGoesOnAsBefore) {
   EXPECT_EQ(readMapFile(path).nodes.size(), b.nodes.size());
 }
 
+// A trimmed map decided again at load keeps the loops it had: a robust ordering map that its
+// rejected loops' large outliers bent (trusted chi2 1e5 where the map has 186) once made RRR
+// test everything from there and reject all of them (test/data/README.md).
+TEST(MapTrimming, ALoadedTrimmedMapKeepsItsLoops) {
+  const MapSnapshot map = readMapFile("data/lifelong/aces_online_trimmed.rrrmap");
+  ASSERT_GT(countKind(map, MapSnapshot::EdgeKind::kMarginal), 0);
+  int accepted = 0;
+  for (const auto& e : map.edges) {
+    accepted +=
+        e.kind == MapSnapshot::EdgeKind::kLoopCandidate && e.verdict == rrr::Verdict::kAccepted;
+  }
+  ASSERT_GT(accepted, 10);
+  LaserSlamParams params;
+  params.loops.threads = 1;
+  const auto slam = LaserSlam::fromMap(map, params, "next");
+  EXPECT_GE(slam->rrr().status().accepted, accepted);
+  const std::vector<core::Pose2> poses = slam->rrr().mapPoses();
+  const core::Pose2 motion = core::compose(poses[0], core::inverse(map.nodes[0].map_pose));
+  for (std::size_t k = 0; k < map.nodes.size(); k += 10) {
+    const core::Pose2 expected = core::compose(motion, map.nodes[k].map_pose);
+    EXPECT_LT((poses[k].head<2>() - expected.head<2>()).norm(), 0.05) << k;
+  }
+}
+
 TEST(MapTrimming, SubmapsWithPendingLoopsWaitAndRejectedLoopsGoWithTheirNodes) {
   MapSnapshot map = threeLaps();
   const TrimResult plain = trimMap(map, trimParams(), smallMaps().local.submap);

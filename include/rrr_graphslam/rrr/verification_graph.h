@@ -74,6 +74,8 @@ class VerificationGraph {
   /// candidates add to it. Optimized in a copy of the trusted graph (this optimizer keeps its
   /// state) once per change of the marginal constraints.
   double trustedChi2() const;
+  /// chi2 of the trusted constraints at `poses` (one per node).
+  double trustedChi2At(const std::vector<core::Pose2>& poses) const;
   const std::vector<core::Pose2>& initialPoses() const { return initial_poses_; }
 
   core::Optimizer& optimizer() { return optimizer_; }
