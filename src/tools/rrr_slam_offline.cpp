@@ -29,6 +29,7 @@
 #include "rrr_graphslam/frontend/map_file.h"
 #include "rrr_graphslam/frontend/map_io.h"
 #include "rrr_graphslam/frontend/map_trimming.h"
+#include "rrr_graphslam/frontend/online_trimmer.h"
 #include "rrr_graphslam/frontend/trajectory_refinement.h"
 #include "rrr_graphslam/rrr/decisions_io.h"
 #include "rrr_params_cli.h"
@@ -347,65 +348,6 @@ void writeTrajectory(const std::string& path, const std::vector<double>& stamps,
 // The optimized pose of every scan in the map (nodes of loaded sessions one each); this run's
 // placed scans (`placed`: their indices in the log) are refined against the final map (see
 // trajectory_refinement.h) unless refinement is off.
-// --trim-every-n-nodes: the map's earlier sessions trimmed while this one maps, as the nodelet
-// does it (LaserSlam::checkpoint, LaserSlam::trimmed), here in line: no scan arrives meanwhile.
-class OnlineTrims {
- public:
-  OnlineTrims(frontend::TrimParams params, int every_n_nodes)
-      : params_(std::move(params)), every_(every_n_nodes) {
-    params_.report_kl = false;  // an instrument of the benchmark, not of a trim
-  }
-
-  void afterNode(std::unique_ptr<frontend::LaserSlam>& slam, std::size_t scan) {
-    if (every_ <= 0) return;
-    const int session_nodes = slam->stats().nodes - slam->sessions().back().first_node;
-    if (session_nodes <= 0 || session_nodes % every_ != 0 || !slam->tied()) return;
-    const auto start = std::chrono::steady_clock::now();
-    const frontend::LaserSlam::Checkpoint checkpoint = slam->checkpoint();
-    const double checkpoint_ms = 1e3 * core::secondsSince(start);
-    frontend::LaserSlam::Trimmed trimmed = frontend::LaserSlam::trimmed(
-        checkpoint, params_, frontend::OverlapRatioTrimming(params_.trim_overlap_ratio));
-    const double trim_ms = 1e3 * core::secondsSince(start) - checkpoint_ms;
-    const int before = slam->stats().nodes;
-    if (trimmed.slam) slam = std::move(trimmed.slam);
-    const frontend::TrimReport& r = trimmed.report;
-    std::printf(
-        "online_trim scan %zu nodes %d -> %d submaps_trimmed %d marginal_edges %d waiting %d "
-        "checkpoint_ms %.2f trim_ms %.2f\n",
-        scan, before, slam->stats().nodes, r.trimmed_submaps, r.marginalEdges(), r.waiting_submaps,
-        checkpoint_ms, trim_ms);
-    ++runs_;
-    submaps_ += r.trimmed_submaps;
-    nodes_ += r.removedNodes();
-    ms_.push_back(trim_ms);
-    checkpoint_ms_.push_back(checkpoint_ms);
-  }
-
-  void printSummary() {
-    if (every_ <= 0) return;
-    std::sort(ms_.begin(), ms_.end());
-    std::sort(checkpoint_ms_.begin(), checkpoint_ms_.end());
-    auto q = [](const std::vector<double>& v, double p) {
-      return v.empty() ? 0.0 : core::nearestRank(v, p);
-    };
-    std::printf(
-        "online trims   %d (every %d nodes once tied): %d submaps trimmed, %d nodes "
-        "marginalized; trim %.1f ms p50, %.1f max (off the mapping thread in the nodelet); "
-        "checkpoint %.1f ms p50, %.1f max\n",
-        runs_, every_, submaps_, nodes_, q(ms_, 0.5), q(ms_, 1.0), q(checkpoint_ms_, 0.5),
-        q(checkpoint_ms_, 1.0));
-  }
-
- private:
-  frontend::TrimParams params_;
-  int every_;
-  int runs_ = 0;
-  int submaps_ = 0;
-  int nodes_ = 0;
-  std::vector<double> ms_;
-  std::vector<double> checkpoint_ms_;
-};
-
 std::vector<core::Pose2> refinedTrajectory(const frontend::LaserSlam& slam,
                                            const frontend::CarmenLog& log,
                                            const std::vector<std::size_t>& placed,
@@ -474,7 +416,8 @@ int main(int argc, char** argv) {
         }
       }
     }
-    OnlineTrims online(args.trim, args.trim_every_n_nodes);
+    frontend::OnlineTrimmer online({args.trim, args.trim_every_n_nodes, true});
+    std::size_t online_trims_printed = 0;
     const bool progress = !args.quiet && isatty(STDERR_FILENO);
     const std::size_t n =
         args.max_scans > 0 ? std::min(args.max_scans, log.scans.size()) : log.scans.size();
@@ -488,10 +431,10 @@ int main(int argc, char** argv) {
       const auto& record = log.scans[k];
       const auto scan_start = std::chrono::steady_clock::now();
       frontend::LaserSlam& slam = *slam_owner;
-      bool new_node = false;
+      const frontend::RangeScan scan = frontend::RangeScan::fromCarmen(record);
+      std::optional<int> node;
       try {
-        new_node =
-            slam.addScan(frontend::RangeScan::fromCarmen(record), record.odom_pose).has_value();
+        node = slam.addScan(scan, record.odom_pose);
         placed.push_back(k);
         latency.push_back(core::secondsSince(scan_start));
       } catch (const frontend::SensorMismatch& e) {
@@ -518,7 +461,13 @@ int main(int argc, char** argv) {
             stderr, "\r[slam] scan %zu/%zu  nodes %d  submaps %d  candidates %d  accepted %d   ",
             k + 1, n, status.nodes, slam.stats().submaps, status.candidates, status.accepted);
       }
-      if (new_node) online.afterNode(slam_owner, k + 1);  // may replace `slam`: the last use
+      // The last use of `slam`: a trim may replace it.
+      if (auto trimmed = online.afterScan(slam, scan, record.odom_pose, node)) {
+        slam_owner = std::move(trimmed);
+      }
+      for (; online_trims_printed < online.records().size(); ++online_trims_printed) {
+        tools::printOnlineTrim(online.records()[online_trims_printed]);
+      }
     }
     if (progress) std::fprintf(stderr, "\n");
     frontend::LaserSlam& slam = *slam_owner;
@@ -555,7 +504,9 @@ int main(int argc, char** argv) {
     std::printf("rejected       %d\n", status.rejected);
     tools::printSessions(slam);
     tools::printLatency(latency);
-    online.printSummary();
+    if (args.trim_every_n_nodes > 0) {
+      tools::printOnlineTrims(online.records(), args.trim_every_n_nodes);
+    }
     std::printf(
         "time           %.2f s (local SLAM %.2f, loop search %.2f, RRR %.2f), %.1fx real time\n",
         seconds, stats.local_slam_seconds, stats.loop_search_seconds, stats.rrr_seconds,

@@ -11,6 +11,7 @@
 #include "rrr_graphslam/core/quantile.h"
 #include "rrr_graphslam/frontend/laser_slam.h"
 #include "rrr_graphslam/frontend/map_trimming.h"
+#include "rrr_graphslam/frontend/online_trimmer.h"
 
 namespace rrr_graphslam::tools {
 
@@ -60,6 +61,39 @@ inline void printTrimReport(const frontend::TrimReport& report,
         t.marginal_edges, t.kl_nats, t.kl_clt_nats, t.kl_delete_nats, 1e3 * t.seconds,
         1e3 * t.kl_seconds);
   }
+}
+
+// One 'online_trim' line (rrr_slam_offline --trim-every-n-nodes).
+inline void printOnlineTrim(const frontend::OnlineTrimRecord& r) {
+  std::printf(
+      "online_trim scan %zu nodes %d -> %d submaps_trimmed %d marginal_edges %d waiting %d "
+      "checkpoint_ms %.2f trim_ms %.2f replayed %d replay_ms %.2f\n",
+      r.scan, r.nodes_before, r.nodes_after, r.report.trimmed_submaps, r.report.marginalEdges(),
+      r.report.waiting_submaps, r.checkpoint_ms, r.trim_ms, r.replayed_scans, r.replay_ms);
+}
+
+// The online trims' summary line.
+inline void printOnlineTrims(const std::vector<frontend::OnlineTrimRecord>& records,
+                             int every_n_nodes) {
+  std::vector<double> trim_ms, checkpoint_ms;
+  int submaps = 0, nodes = 0;
+  for (const frontend::OnlineTrimRecord& r : records) {
+    trim_ms.push_back(r.trim_ms);
+    checkpoint_ms.push_back(r.checkpoint_ms);
+    submaps += r.report.trimmed_submaps;
+    nodes += r.report.removedNodes();
+  }
+  std::sort(trim_ms.begin(), trim_ms.end());
+  std::sort(checkpoint_ms.begin(), checkpoint_ms.end());
+  auto q = [](const std::vector<double>& v, double p) {
+    return v.empty() ? 0.0 : nearestRank(v, p);
+  };
+  std::printf(
+      "online trims   %zu (every %d nodes once tied): %d submaps trimmed, %d nodes "
+      "marginalized; trim %.1f ms p50, %.1f max (off the mapping thread in the nodelet); "
+      "checkpoint %.1f ms p50, %.1f max\n",
+      records.size(), every_n_nodes, submaps, nodes, q(trim_ms, 0.5), q(trim_ms, 1.0),
+      q(checkpoint_ms, 0.5), q(checkpoint_ms, 1.0));
 }
 
 // Nodes and edges per session, and when the current session was tied to the earlier ones.

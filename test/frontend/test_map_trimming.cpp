@@ -12,6 +12,7 @@
 #include "rrr_graphslam/frontend/laser_slam.h"
 #include "rrr_graphslam/frontend/map_file.h"
 #include "rrr_graphslam/frontend/map_trimming.h"
+#include "rrr_graphslam/frontend/online_trimmer.h"
 #include "synthetic_room.h"
 
 namespace rrr_graphslam::frontend {
@@ -304,6 +305,54 @@ TEST(MapTrimming, ARunningSessionTrimsTheEarlierOnesAndGoesOnAsBefore) {
   const std::string path = ::testing::TempDir() + "online_trimmed.rrrmap";
   writeMapFile(b, path);
   EXPECT_EQ(readMapFile(path).nodes.size(), b.nodes.size());
+}
+
+// The online trimmer: in line or behind the running map (the scans that came meanwhile given
+// to the trimmed one), the running session goes on exactly as without trimming.
+TEST(MapTrimming, TheOnlineTrimmerTrimsInLineOrBehindTheMap) {
+  LaserSlamParams sparse = smallMaps();
+  sparse.loops.search_every_n_nodes = 150;
+  const core::Pose2 odom_frame(3.0, -2.0, 0.7);
+  auto reference = LaserSlam::fromMap(threeLaps(), sparse, "running");
+  drive(*reference, odom_frame, 280, 1000.0, 320);
+  const MapSnapshot untrimmed = reference->snapshot();
+  for (const bool in_line : {true, false}) {
+    SCOPED_TRACE(in_line ? "in line" : "behind");
+    TrimParams params = trimParams();
+    params.keep_current_session = true;
+    OnlineTrimmer trimmer({params, 100, in_line});
+    std::unique_ptr<LaserSlam> slam = LaserSlam::fromMap(threeLaps(), sparse, "running");
+    for (int k = 320; k < 600; ++k) {
+      RangeScan scan = castScan(room(), truthAt(k));
+      scan.timestamp = 1000.0 + 0.1 * k;
+      const core::Pose2 odom = core::compose(odom_frame, truthAt(k));
+      const std::optional<int> node = slam->addScan(scan, odom);
+      if (auto trimmed = trimmer.afterScan(*slam, scan, odom, node)) slam = std::move(trimmed);
+    }
+    if (auto trimmed = trimmer.wait()) slam = std::move(trimmed);
+    ASSERT_FALSE(trimmer.records().empty());
+    const OnlineTrimRecord& first = trimmer.records().front();
+    EXPECT_GT(first.report.trimmed_submaps, 0);
+    EXPECT_LT(first.nodes_after, first.nodes_before);
+    if (in_line) {
+      EXPECT_EQ(first.replayed_scans, 0);
+    }
+    const MapSnapshot map = slam->snapshot();
+    const int first_node = map.sessions.back().first_node;
+    const int untrimmed_first = untrimmed.sessions.back().first_node;
+    ASSERT_EQ(map.nodes.size() - static_cast<std::size_t>(first_node),
+              untrimmed.nodes.size() - static_cast<std::size_t>(untrimmed_first));
+    for (std::size_t k = 0; k + static_cast<std::size_t>(first_node) < map.nodes.size(); ++k) {
+      EXPECT_EQ(map.nodes[k + static_cast<std::size_t>(first_node)].local_pose,
+                untrimmed.nodes[k + static_cast<std::size_t>(untrimmed_first)].local_pose)
+          << k;
+    }
+    EXPECT_EQ(slam->stats().scans, reference->stats().scans);
+    EXPECT_TRUE(slam->tied());
+    if (!in_line) {
+      EXPECT_GT(first.replayed_scans, 0);  // the scans that came while it trimmed
+    }
+  }
 }
 
 // A trimmed map decided again at load keeps the loops it had: a robust ordering map that its

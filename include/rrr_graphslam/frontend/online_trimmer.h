@@ -1,0 +1,79 @@
+#pragma once
+// Online trimming: while a session maps, the earlier sessions' submaps that it covers are
+// trimmed (map_trimming.h), every `every_n_nodes` nodes of the session once it is tied to the map.
+// LaserSlam::checkpoint() is taken after the scan that made the due node; the trim and the
+// rebuild of the map (LaserSlam::trimmed) run on a thread of their own while the running map
+// goes on; the scans it took meanwhile are then given to the trimmed one, which replaces it.
+// The nodelet uses it; rrr_slam_offline does the same in line (no scan arrives meanwhile).
+//
+// What changes for the one who reads the map: the nodes and submaps are renumbered (the removed
+// ones leave gaps that close up), and RRR decides the loops that are kept again from scratch.
+
+#include <chrono>
+#include <future>
+#include <memory>
+#include <vector>
+
+#include "rrr_graphslam/frontend/laser_slam.h"
+#include "rrr_graphslam/frontend/map_trimming.h"
+
+namespace rrr_graphslam::frontend {
+
+struct OnlineTrimParams {
+  TrimParams trim;
+  /// A trim every this many nodes of the session (0: none).
+  int every_n_nodes = 0;
+  /// true: the trim runs in the caller's thread, at once (offline replays: reproducible).
+  bool in_line = false;
+};
+
+/// One online trim.
+struct OnlineTrimRecord {
+  std::size_t scan = 0;      ///< the caller's count of scans given when it started
+  int nodes_before = 0;      ///< in the map at the checkpoint
+  int nodes_after = 0;       ///< in the map that replaced it (nodes_before if nothing was trimmed)
+  TrimReport report;         ///< the trim (report_kl off: an instrument, not part of a trim)
+  double checkpoint_ms = 0;  ///< in the caller's thread
+  double trim_ms = 0;        ///< trim and rebuild (in line: in the caller's thread)
+  int replayed_scans = 0;    ///< the scans that came meanwhile, given to the trimmed map
+  double replay_ms = 0;      ///< in the caller's thread
+};
+
+class OnlineTrimmer {
+ public:
+  /// Throws std::invalid_argument for trim parameters out of range or every_n_nodes < 0.
+  explicit OnlineTrimmer(const OnlineTrimParams& params);
+  /// Waits for a trim in flight (its result is dropped).
+  ~OnlineTrimmer();
+  OnlineTrimmer(const OnlineTrimmer&) = delete;
+  OnlineTrimmer& operator=(const OnlineTrimmer&) = delete;
+
+  /// After each scan given to `slam`, refused or not (`node`: the node it became). Starts a trim
+  /// when one is due; when one has finished, returns the LaserSlam that replaces `slam` (the
+  /// scans given since the checkpoint given to it too), else nullptr.
+  std::unique_ptr<LaserSlam> afterScan(LaserSlam& slam, const RangeScan& scan,
+                                       const core::Pose2& odom_pose, std::optional<int> node);
+  /// Waits for a trim in flight and returns what replaces `slam` (as afterScan), or nullptr.
+  std::unique_ptr<LaserSlam> wait();
+  /// The running map was replaced otherwise (a map loaded, a reset): a trim in flight is dropped.
+  void drop();
+  bool inFlight() const { return pending_.valid(); }
+  const std::vector<OnlineTrimRecord>& records() const { return records_; }
+
+ private:
+  bool due(const LaserSlam& slam, std::optional<int> node) const;
+  std::unique_ptr<LaserSlam> finish(LaserSlam::Trimmed trimmed);
+
+  OnlineTrimParams params_;
+  std::size_t scans_ = 0;
+  std::future<LaserSlam::Trimmed> pending_;
+  std::chrono::steady_clock::time_point started_;
+  struct Given {
+    RangeScan scan;
+    core::Pose2 odom_pose;
+  };
+  std::vector<Given> since_checkpoint_;
+  std::vector<OnlineTrimRecord> records_;
+};
+
+}  // namespace rrr_graphslam::frontend
