@@ -26,9 +26,24 @@ OnlineTrimmer::OnlineTrimmer(const OnlineTrimParams& params) : params_(params) {
 
 OnlineTrimmer::~OnlineTrimmer() { drop(); }
 
+std::unique_ptr<LaserSlam> OnlineTrimmer::poll() {
+  if (!pending_.valid() ||
+      pending_.wait_for(std::chrono::seconds(0)) != std::future_status::ready) {
+    return nullptr;
+  }
+  return wait();
+}
+
 std::unique_ptr<LaserSlam> OnlineTrimmer::wait() {
   if (!pending_.valid()) return nullptr;
-  LaserSlam::Trimmed trimmed = pending_.get();
+  LaserSlam::Trimmed trimmed;
+  try {
+    trimmed = pending_.get();
+  } catch (...) {  // the running map stays; the trim never happened
+    records_.pop_back();
+    since_checkpoint_.clear();
+    throw;
+  }
   records_.back().trim_ms = msSince(started_);
   return finish(std::move(trimmed));
 }
@@ -53,10 +68,7 @@ std::unique_ptr<LaserSlam> OnlineTrimmer::afterScan(LaserSlam& slam, const Range
   ++scans_;
   if (pending_.valid()) {
     since_checkpoint_.push_back({scan, odom_pose});
-    if (pending_.wait_for(std::chrono::seconds(0)) != std::future_status::ready) return nullptr;
-    LaserSlam::Trimmed trimmed = pending_.get();  // rethrows what the trim threw
-    records_.back().trim_ms = msSince(started_);
-    return finish(std::move(trimmed));
+    return poll();
   }
   if (!due(slam, node)) return nullptr;
   started_ = std::chrono::steady_clock::now();
@@ -68,7 +80,13 @@ std::unique_ptr<LaserSlam> OnlineTrimmer::afterScan(LaserSlam& slam, const Range
   records_.push_back(std::move(record));
   if (params_.in_line) {
     const auto start = std::chrono::steady_clock::now();
-    LaserSlam::Trimmed trimmed = trim(checkpoint, params_.trim);
+    LaserSlam::Trimmed trimmed;
+    try {
+      trimmed = trim(checkpoint, params_.trim);
+    } catch (...) {
+      records_.pop_back();
+      throw;
+    }
     records_.back().trim_ms = msSince(start);
     return finish(std::move(trimmed));
   }

@@ -58,6 +58,10 @@ GraphSlamRos::GraphSlamRos(ros::NodeHandle nh, ros::NodeHandle private_nh)
                                 private_nh_.resolveName("map_file"));
   }
   if (params_.input_mode == "scan") {
+    if (params_.trim_every_n_nodes > 0) {
+      trimmer_ = std::make_unique<frontend::OnlineTrimmer>(
+          frontend::OnlineTrimParams{params_.trim, params_.trim_every_n_nodes, false});
+    }
     if (params_.map_file.empty()) {
       startSlam();
     } else {
@@ -220,6 +224,7 @@ void GraphSlamRos::workerLoop() {
         // Idle: outputs at most every publish_period (a path and markers per message would cost
         // more than RRR at high input rates), the status at once (replays in lockstep wait on it).
         lock.unlock();
+        pollOnlineTrim();
         if (dirty_ && secondsSince(last_publish_) >= params_.publish_period) publishOutputs();
         if (slam_ && map_dirty_ && secondsSince(last_map_) >= params_.map_publish_period) {
           offerMap();
@@ -490,6 +495,14 @@ void GraphSlamRos::publishStatus() {
   if (slam_) {
     msg.trimmed_submaps = static_cast<std::uint32_t>(slam_->lifelong().trimmed_submaps);
     msg.marginalized_nodes = static_cast<std::uint32_t>(slam_->lifelong().marginalized_nodes);
+    if (trimmer_ && !trimmer_->records().empty()) {
+      const auto& records = trimmer_->records();
+      msg.online_trims =
+          static_cast<std::uint32_t>(records.size() - (trimmer_->inFlight() ? 1 : 0));
+      if (msg.online_trims > 0) {
+        msg.last_online_trim_sec = 1e-3 * records[msg.online_trims - 1].trim_ms;
+      }
+    }
     const auto& sessions = slam_->sessions();
     msg.session = static_cast<std::uint32_t>(sessions.size() - 1);
     msg.tied_to_map = slam_->tied();

@@ -116,12 +116,58 @@ void GraphSlamRos::handleScan(const ScanInput& input) {
   const frontend::RangeScan scan = toRangeScan(msg, input.laser_in_base);
   last_scan_stamp_ = msg.header.stamp;
   owner_ = Owner::kScan;
-  if (slam_->addScan(scan, input.odom)) {
+  std::optional<int> node;
+  try {
+    node = slam_->addScan(scan, input.odom);
+  } catch (const frontend::ScanRefused&) {
+    trimOnline(scan, input.odom, std::nullopt);  // a refused scan re-anchors the odometry
+    throw;
+  }
+  if (node) {
     node_stamps_.push_back(msg.header.stamp);
     node_odom_poses_.push_back(input.odom);
     dirty_ = true;
     map_dirty_ = true;
   }
+  trimOnline(scan, input.odom, node);
+}
+
+void GraphSlamRos::trimOnline(const frontend::RangeScan& scan, const core::Pose2& odom,
+                              std::optional<int> node) {
+  if (!trimmer_) return;
+  try {
+    adoptTrimmed(trimmer_->afterScan(*slam_, scan, odom, node));
+  } catch (const std::exception& e) {  // what the trim threw: the map goes on untrimmed
+    ROS_ERROR("lifelong: online trim failed, the map goes on as it was: %s", e.what());
+  }
+}
+
+void GraphSlamRos::pollOnlineTrim() {
+  if (!trimmer_ || !slam_) return;
+  try {
+    adoptTrimmed(trimmer_->poll());
+  } catch (const std::exception& e) {
+    ROS_ERROR("lifelong: online trim failed, the map goes on as it was: %s", e.what());
+  }
+}
+
+void GraphSlamRos::adoptTrimmed(std::unique_ptr<frontend::LaserSlam> trimmed) {
+  if (!trimmed) return;
+  // Renumbered after the removed nodes: the stamps follow (the current session's odometry
+  // poses, one per node of it, stay as they are).
+  std::vector<ros::Time> stamps;
+  for (double t : trimmed->nodeTimestamps()) stamps.emplace_back(t);
+  slam_ = std::move(trimmed);
+  slam_->rrr().setCancelFlag(&cancel_);
+  node_stamps_ = std::move(stamps);
+  dirty_ = true;
+  map_dirty_ = true;
+  const frontend::OnlineTrimRecord& r = trimmer_->records().back();
+  ROS_INFO(
+      "lifelong: trimmed %d submaps of the earlier sessions while mapping, %d -> %d nodes (%d "
+      "marginal edges) in %.0f ms off the mapping thread; %d scans replayed in %.0f ms",
+      r.report.trimmed_submaps, r.nodes_before, r.nodes_after, r.report.marginalEdges(), r.trim_ms,
+      r.replayed_scans, r.replay_ms);
 }
 
 void GraphSlamRos::startSlam(const frontend::MapSnapshot* map) {
@@ -145,6 +191,7 @@ void GraphSlamRos::startSlam(const frontend::MapSnapshot* map) {
     }
     stamps.emplace_back(t);
   }
+  if (trimmer_) trimmer_->drop();  // it trims the map being replaced
   slam_ = std::move(slam);
   slam_->rrr().setCancelFlag(&cancel_);
   sensor_mismatch_.clear();  // a new map: its scans' setup is checked anew

@@ -163,6 +163,14 @@ NodeParams loadParams(const ros::NodeHandle& private_nh) {
       [](const std::string& s) { return s == "clt" || s == "delete"; },
       "clt or delete (dense keeps one factor over a whole blanket, which the map cannot hold)");
   p.trim.sparsification = frontend::parseSparsification(sparsification);
+  r.read<int>(
+      "trim_every_n_nodes", p.trim_every_n_nodes, [](const int& v) { return v >= 0; },
+      "at least 0 (0: trim only when ~save_map writes the map)");
+  if (p.trim_every_n_nodes > 0 && !p.lifelong) {
+    throw std::invalid_argument("parameter " + private_nh.resolveName("trim_every_n_nodes") +
+                                " is " + std::to_string(p.trim_every_n_nodes) +
+                                ": online trimming needs lifelong true");
+  }
   p.trim.threads = p.slam.loops.threads;
   r.positive("map_publish_period", p.map_publish_period);
   r.positive("tf_timeout", p.tf_timeout);

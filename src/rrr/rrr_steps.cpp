@@ -21,16 +21,6 @@ std::vector<int> Rrr::orderByRobustMap(const std::vector<int>& hypotheses,
   // others are tested in the recover step, against the good set's map.
   const std::vector<core::Pose2> initial = start;
   start = robustOrderingMap(hypotheses, initial);
-  // A map the outliers bent (the robust kernel let them pull it into another basin) orders
-  // nothing either: its trusted constraints fit it worse than all the hypotheses' links together
-  // could make them (a trimmed map's marginal constraints with many large outliers do this).
-  std::size_t links = 0;
-  for (int c : hypotheses) links += kept_links_[static_cast<std::size_t>(c)].size();
-  const double bend = graph_.trustedChi2At(start) - graph_.trustedChi2();
-  if (bend > core::chi2Quantile(params_.alpha, 3 * static_cast<int>(links))) {
-    start = initial;
-    return hypotheses;
-  }
   std::vector<int> agreeing, set_aside;
   std::vector<double> set_aside_index;
   for (int c : hypotheses) {
@@ -51,6 +41,15 @@ std::vector<int> Rrr::orderByRobustMap(const std::vector<int>& hypotheses,
     setStatus(set_aside[i], Status::kRejected,
               "robust ordering: " + indexTest("CI", set_aside_index[i]) + " at the robust map");
   }
+  // A map the outliers bent (the robust kernel let them pull it into another basin: its trusted
+  // constraints fit it worse than all the hypotheses' links together could make them) still
+  // orders, but is no place to start the joint test from: from there the optimizations stay in
+  // that basin and every cluster fails (a trimmed map's marginal constraints with many large
+  // outliers did this). They start where the trusted constraints hold.
+  std::size_t links = 0;
+  for (int c : hypotheses) links += kept_links_[static_cast<std::size_t>(c)].size();
+  const double bend = graph_.trustedChi2At(start) - graph_.trustedChi2();
+  if (bend > core::chi2Quantile(params_.alpha, 3 * static_cast<int>(links))) start = initial;
   return agreeing;
 }
 

@@ -474,6 +474,34 @@ def test_lifelong_trims_covered_submaps_when_the_map_is_saved(tmp_path):
     assert third.returncode == 0, third.stderr
 
 
+@needs_map_info
+def test_lifelong_trims_while_the_session_maps(tmp_path):
+    # The head of ACES twice: once the second session is tied, the first one's covered submaps
+    # go while it maps, every 10 of its nodes.
+    from rrr_graphslam.carmen import write_moved_log
+    first_map = tmp_path / "online.rrrmap"
+    first = run(SLAM_OFFLINE, ACES_HEAD, "--save-map", first_map, "--refine-resolution", 0, "--quiet",
+                *SMALL_SUBMAPS)
+    assert first.returncode == 0, first.stderr
+    before = dict(line.split(" ", 1) for line in run(MAP_INFO, first_map).stdout.splitlines())
+    moved = tmp_path / "moved.clf"
+    write_moved_log(ACES_HEAD, str(moved), (30.0, 10.0, -1.0))
+    out_map = tmp_path / "online_out.rrrmap"
+    second = run(SLAM_OFFLINE, moved, "--load-map", first_map, "--save-map", out_map, "--lifelong",
+                 "--trim-overlap", 0.5, "--keep-recent-submaps", 2, "--trim-every-n-nodes", 10,
+                 "--refine-resolution", 0, "--quiet", *SMALL_SUBMAPS)
+    assert second.returncode == 0, second.stderr
+    trims = [dict(zip(f[1::2], f[2::2])) for f in
+             (line.replace("->", "after").split() for line in second.stdout.splitlines()
+              if line.startswith("online_trim "))]
+    assert trims, second.stdout
+    assert sum(int(t["submaps_trimmed"]) for t in trims) > 0, second.stdout
+    assert re.search(r"^online trims   \d+ \(every 10 nodes once tied\)", second.stdout, re.M), second.stdout
+    after = dict(line.split(" ", 1) for line in run(MAP_INFO, out_map).stdout.splitlines())
+    assert int(after["trimmed_submaps"]) > 0 and int(after["marginal_edges"]) > 0
+    assert int(after["nodes"]) < 2 * int(before["nodes"])
+
+
 @needs_slam
 def test_lifelong_flags_are_checked(tmp_path):
     out = tmp_path / "m.rrrmap"
@@ -486,6 +514,10 @@ def test_lifelong_flags_are_checked(tmp_path):
             (("--lifelong", "--save-map", out, "--keep-current-session", "yes"),
              "--keep-current-session must be true or false"),
             (("--keep-current-session", "false", "--save-map", out),
-             "--keep-current-session needs --lifelong")):
+             "--keep-current-session needs --lifelong"),
+            (("--trim-every-n-nodes", 10, "--save-map", out), "--trim-every-n-nodes needs --lifelong"),
+            (("--lifelong", "--save-map", out, "--trim-every-n-nodes", 0), "--trim-every-n-nodes"),
+            (("--lifelong", "--save-map", out, "--trim-every-n-nodes", 10, "--decision-stream",
+              tmp_path / "s.tsv"), "cannot be combined with --decision-stream")):
         result = run(SLAM_OFFLINE, ACES_HEAD, *args)
         assert result.returncode != 0 and message in result.stderr, (args, result.stderr)

@@ -192,6 +192,47 @@ class Sessions(unittest.TestCase):
         self.assertTrue(answer.success, answer.message)
         self.assertTrue(wait_for(lambda: not self.status.sensor_mismatch, 10.0), str(self.status))
 
+    def test_e_lifelong_trims_the_earlier_session_while_mapping(self):
+        # A node continues the first session's map with trim_every_n_nodes: once the new session
+        # (the same minute from another odometry frame) is tied, the first session's covered
+        # submaps go while it maps, off the mapping thread, and the node goes on with the
+        # trimmed map.
+        name = "online_trim"
+        for key, value in {"input_mode": "scan", "map_file": self.map_path, "publish_tf": False,
+                           "scans_per_submap": 10, "min_node_separation": 15,
+                           "relocalization_confirm_distance": 2.0, "lifelong": True,
+                           "trim_overlap_ratio": 0.5, "keep_recent_submaps": 2,
+                           "trim_every_n_nodes": 10}.items():
+            rospy.set_param(f"/{name}/{key}", value)
+        status = {}
+        rospy.Subscriber(f"/{name}/status", RrrStatus, lambda m: status.update(last=m), queue_size=10)
+        binary = roslib.packages.find_node("rrr_graphslam", "rrr_graphslam_node")[0]
+        env = dict(os.environ, ROSCONSOLE_STDOUT_LINE_BUFFERED="1")
+        node = subprocess.Popen([binary, f"__name:={name}"], env=env, stdout=subprocess.PIPE,
+                                stderr=subprocess.STDOUT, text=True)
+        try:
+            self.assertTrue(wait_for(lambda: "last" in status, 30.0), "the node did not start")
+            loaded = status["last"].nodes
+            self.assertEqual(status["last"].online_trims, 0)
+            moved = os.path.join(self.folder, "moved_online.clf")
+            write_moved_log(self.log, moved, (-20.0, 40.0, 1.5), later=500.0)
+            self.play(moved, "replay_online")
+            self.assertTrue(wait_for(lambda: status["last"].online_trims > 0 and
+                                     status["last"].trimmed_submaps > 0, 20.0), str(status["last"]))
+            last = status["last"]
+            self.assertTrue(last.tied_to_map, str(last))
+            self.assertGreater(last.marginalized_nodes, 0)
+            self.assertGreater(last.last_online_trim_sec, 0.0)
+            self.assertLessEqual(last.session, 1)  # 0 once the first session left whole
+            self.assertLess(last.nodes, 2 * loaded, str(last))
+            saved = os.path.join(self.folder, "online.rrrmap")
+            answer = rospy.ServiceProxy(f"/{name}/save_map", SaveMap)(path=saved)
+            self.assertTrue(answer.success, answer.message)
+        finally:
+            node.terminate()
+            output, _ = node.communicate(timeout=30)
+        self.assertIn("lifelong: trimmed", output)
+
 
 if __name__ == "__main__":
     rostest.rosrun("rrr_graphslam", "sessions", Sessions)

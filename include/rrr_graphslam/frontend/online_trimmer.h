@@ -53,7 +53,10 @@ class OnlineTrimmer {
   /// scans given since the checkpoint given to it too), else nullptr.
   std::unique_ptr<LaserSlam> afterScan(LaserSlam& slam, const RangeScan& scan,
                                        const core::Pose2& odom_pose, std::optional<int> node);
-  /// Waits for a trim in flight and returns what replaces `slam` (as afterScan), or nullptr.
+  /// Without a scan (the robot stands still): what replaces the running map if the trim in
+  /// flight has finished (as afterScan), else nullptr.
+  std::unique_ptr<LaserSlam> poll();
+  /// Waits for a trim in flight and returns what replaces the running map, or nullptr.
   std::unique_ptr<LaserSlam> wait();
   /// The running map was replaced otherwise (a map loaded, a reset): a trim in flight is dropped.
   void drop();

@@ -49,6 +49,7 @@
 #include "rrr_graphslam/SaveMap.h"
 #include "rrr_graphslam/core/keyframe_selector.h"
 #include "rrr_graphslam/frontend/laser_slam.h"
+#include "rrr_graphslam/frontend/online_trimmer.h"
 #include "rrr_graphslam/ros/arrival_order.h"
 #include "rrr_graphslam/ros/input_error_log.h"
 #include "rrr_graphslam/ros/map_publisher.h"
@@ -113,6 +114,13 @@ class GraphSlamRos {
   /// Slam mode: a fresh front end (start, ~reset), or one continuing `map` in a new session
   /// (map_file, ~load_map).
   void startSlam(const frontend::MapSnapshot* map = nullptr);
+  /// Slam mode: hands the scan to the online trimmer (trim_every_n_nodes), and adopts the
+  /// trimmed map when a trim has finished.
+  void trimOnline(const frontend::RangeScan& scan, const core::Pose2& odom,
+                  std::optional<int> node);
+  /// Slam mode, idle: adopts the trimmed map if a trim finished meanwhile.
+  void pollOnlineTrim();
+  void adoptTrimmed(std::unique_ptr<frontend::LaserSlam> trimmed);
   /// False if the other input owns the graph (the message is then counted as ignored).
   bool claim(Owner owner, const char* topic);
   void replaceGraph(std::unique_ptr<rrr::OnlineRrr> replacement);
@@ -139,7 +147,8 @@ class GraphSlamRos {
 
   // Owned by the worker.
   std::unique_ptr<rrr::OnlineRrr> graph_;
-  std::unique_ptr<frontend::LaserSlam> slam_;  // slam mode only
+  std::unique_ptr<frontend::LaserSlam> slam_;         // slam mode only
+  std::unique_ptr<frontend::OnlineTrimmer> trimmer_;  // slam mode, trim_every_n_nodes > 0
   std::vector<ros::Time> node_stamps_;
   std::vector<core::Pose2> node_odom_poses_;  // slam mode: odom_frame pose of every node
   ros::Time last_scan_stamp_;

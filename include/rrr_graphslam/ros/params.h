@@ -49,6 +49,10 @@ struct NodeParams {
   /// keep_recent_submaps, sparsification (clt or delete).
   bool lifelong = false;
   frontend::TrimParams trim;
+  /// slam mode, lifelong: the earlier sessions are also trimmed while the current one maps,
+  /// every this many of its nodes once it is tied to the map, on a thread of its own
+  /// (frontend/online_trimmer.h); 0 (default): only when ~save_map writes the map.
+  int trim_every_n_nodes = 0;
   double map_publish_period = 5.0;  ///< s between map renderings while scans arrive
   double tf_timeout = 0.2;          ///< s a scan waits for odom_frame -> base_frame
 
