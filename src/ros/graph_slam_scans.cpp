@@ -208,7 +208,9 @@ void GraphSlamRos::offerMap() {
   if (!map_publisher_->wanted()) return;
   map_dirty_ = false;
   last_map_ = std::chrono::steady_clock::now();
-  map_publisher_->offer(slam_->mapInputs());
+  frontend::MapInputs inputs = slam_->mapInputs();
+  inputs.layering = params_.map_layering;
+  map_publisher_->offer(std::move(inputs));
 }
 
 }  // namespace rrr_graphslam::ros_adapter

@@ -141,6 +141,12 @@ NodeParams loadParams(const ros::NodeHandle& private_nh) {
     throw std::invalid_argument("parameter " + private_nh.resolveName("") + ": " + e.what());
   }
   r.positive("map_resolution", p.map_resolution);
+  std::string layering = frontend::toString(p.map_layering);
+  r.read<std::string>(
+      "map_layering", layering,
+      [](const std::string& v) { return v == "all" || v == "newest-session"; },
+      "all or newest-session");
+  p.map_layering = frontend::parseMapLayering(layering);
   r.read<std::string>(
       "map_file", p.map_file, [](const std::string&) { return true; }, "a path");
   r.read<std::string>(

@@ -32,6 +32,9 @@ BAD = [
     ({"trim_overlap_ratio": 1.5}, "trim_overlap_ratio must be in (0, 1], got 1.5"),
     ({"keep_recent_submaps": 0}, "keep_recent_submaps must be at least 1, got 0"),
     ({"sparsification": "dense"}, "sparsification must be clt or delete"),
+    ({"trim_every_n_nodes": -1}, "trim_every_n_nodes must be at least 0"),
+    ({"trim_every_n_nodes": 10}, "online trimming needs lifelong true"),
+    ({"map_layering": "newest"}, "map_layering must be all or newest-session"),
 ]
 
 
@@ -61,7 +64,8 @@ class Parameters(unittest.TestCase):
         code, output = self.start({"scan_odometry_stddev": [1, 1, 1], "odometry_stddev": [1, 1, 1],
                                    "scan_max_range": 20, "scan_refinement": "icp",
                                    "joint_link_check": False, "preset": "paper",
-                                   "loop_search_threads": 1}, 3)
+                                   "loop_search_threads": 1, "lifelong": True,
+                                   "trim_every_n_nodes": 50, "map_layering": "newest-session"}, 3)
         self.assertIsNone(code, output)
 
 

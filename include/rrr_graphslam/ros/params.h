@@ -40,7 +40,10 @@ struct NodeParams {
   // how long a scan waits for its tf.
   frontend::LaserSlamParams slam;
   double map_resolution = 0.05;  ///< m per cell of the published map
-  std::string map_file;          ///< slam mode: a saved map (*.rrrmap) to continue at start
+  /// How the published map layers the sessions' scans (map_render.h): every scan alike, or each
+  /// cell as the newest session that observed it saw it (a world that changed between sessions).
+  frontend::MapLayering map_layering = frontend::MapLayering::kAllScans;
+  std::string map_file;  ///< slam mode: a saved map (*.rrrmap) to continue at start
   /// slam mode with a map (map_file, ~load_map): "mapping" extends it, "localization" tracks the
   /// robot in it and leaves it as it was loaded.
   std::string mode = "mapping";
