@@ -187,15 +187,15 @@ std::unique_ptr<LaserSlam> LaserSlam::fromMap(const MapSnapshot& map, const Lase
   return slam;
 }
 
-void LaserSlam::load(const MapSnapshot& map, std::size_t finished_submaps) {
+void LaserSlam::load(const MapSnapshot& map, std::size_t finished_submaps, bool continuing) {
   const int n = static_cast<int>(map.nodes.size());
   const bool localizing = mode_ == SessionMode::kLocalization;
   if (n > 0) {
     rrr_ = rrr::OnlineRrr::fromPoseGraph(localizing ? graphToLocalizeIn(map) : graphToContinue(map),
-                                         params_.rrr);
+                                         params_.rrr, continuing);
     if (localizing) rrr_->fixNodes();
   }
-  rrr_->takeChanges();  // the loaded decisions are the starting point, not news
+  if (!continuing) rrr_->takeChanges();  // the loaded decisions are the starting point, not news
 
   for (const MapSnapshot::Node& node : map.nodes) {
     const bool session_start = node_local_poses_.empty() ||
@@ -260,8 +260,8 @@ LaserSlam::Checkpoint LaserSlam::checkpoint() const {
                     local_.checkpoint(),
                     sessions_,
                     session_first_submap_,
-                    crossing_.size(),
                     tied(),
+                    tied_by_marginals_,
                     {scan_node_.begin() + first_scan, scan_node_.end()},
                     {scan_offset_.begin() + first_scan, scan_offset_.end()},
                     {scan_timestamps_.begin() + first_scan, scan_timestamps_.end()},
@@ -306,7 +306,7 @@ LaserSlam::Trimmed LaserSlam::trimmed(const Checkpoint& c, const TrimParams& par
 
   auto slam = std::make_unique<LaserSlam>(c.params, c.sessions.back().name);
   const std::size_t finished = trim.map.submaps.size() - c.local.active.size();
-  slam->load(trim.map, finished);
+  slam->load(trim.map, finished, true);
   const int first = old_first - node_shift;
   slam->session_first_submap_ = c.session_first_submap - submap_shift;
   slam->session_first_scan_ = static_cast<std::size_t>(first);
@@ -339,7 +339,19 @@ LaserSlam::Trimmed LaserSlam::trimmed(const Checkpoint& c, const TrimParams& par
     if (std::min(a, b) < first && std::max(a, b) >= first)
       slam->crossing_.push_back({i, std::max(a, b)});
   }
-  slam->tied_by_marginals_ = c.tied && slam->crossing_.size() < c.crossings;
+  // Accepted loops between the session and the map leave only folded into marginal constraints.
+  auto acceptedCrossing = [](const MapSnapshot& m) {
+    const int session_first = m.sessions.back().first_node;
+    int count = 0;
+    for (const MapSnapshot::Edge& e : m.edges) {
+      count += e.kind == MapSnapshot::EdgeKind::kLoopCandidate &&
+               e.verdict == rrr::Verdict::kAccepted &&
+               (e.from < session_first) != (e.to < session_first);
+    }
+    return count;
+  };
+  slam->tied_by_marginals_ =
+      c.tied_by_marginals || (c.tied && acceptedCrossing(trim.map) < acceptedCrossing(c.map));
   slam->stats_ = c.stats;
   slam->stats_.nodes = static_cast<int>(map.nodes.size());
   slam->stats_.submaps = slam->local_.submaps().numSubmaps();

@@ -8,52 +8,30 @@
 namespace rrr_graphslam::frontend {
 namespace {
 
-double msSince(std::chrono::steady_clock::time_point start) {
-  return 1e3 * core::secondsSince(start);
-}
+using Clock = std::chrono::steady_clock;
 
-LaserSlam::Trimmed trim(const LaserSlam::Checkpoint& checkpoint, const TrimParams& params) {
-  return LaserSlam::trimmed(checkpoint, params, OverlapRatioTrimming(params.trim_overlap_ratio));
-}
+double msSince(Clock::time_point start) { return 1e3 * core::secondsSince(start); }
 
 }  // namespace
 
 OnlineTrimmer::OnlineTrimmer(const OnlineTrimParams& params) : params_(params) {
   validate(params_.trim);
   if (params_.every_n_nodes < 0) throw std::invalid_argument("every_n_nodes must be >= 0");
+  if (params_.every_n_nodes > 0 && params_.trim.sparsification != Sparsification::kClt) {
+    throw std::invalid_argument(
+        "online trimming needs sparsification clt: deletion would drop the running session's "
+        "loops to the map with the trimmed nodes and could cut the session loose");
+  }
   params_.trim.report_kl = false;  // an instrument of the benchmarks, not part of a trim
 }
 
 OnlineTrimmer::~OnlineTrimmer() { drop(); }
-
-std::unique_ptr<LaserSlam> OnlineTrimmer::poll() {
-  if (!pending_.valid() ||
-      pending_.wait_for(std::chrono::seconds(0)) != std::future_status::ready) {
-    return nullptr;
-  }
-  return wait();
-}
-
-std::unique_ptr<LaserSlam> OnlineTrimmer::wait() {
-  if (!pending_.valid()) return nullptr;
-  LaserSlam::Trimmed trimmed;
-  try {
-    trimmed = pending_.get();
-  } catch (...) {  // the running map stays; the trim never happened
-    records_.pop_back();
-    since_checkpoint_.clear();
-    throw;
-  }
-  records_.back().trim_ms = msSince(started_);
-  return finish(std::move(trimmed));
-}
 
 void OnlineTrimmer::drop() {
   if (!pending_.valid()) return;
   pending_.wait();
   pending_ = {};
   since_checkpoint_.clear();
-  records_.pop_back();  // it replaced nothing
 }
 
 bool OnlineTrimmer::due(const LaserSlam& slam, std::optional<int> node) const {
@@ -71,54 +49,72 @@ std::unique_ptr<LaserSlam> OnlineTrimmer::afterScan(LaserSlam& slam, const Range
     return poll();
   }
   if (!due(slam, node)) return nullptr;
-  started_ = std::chrono::steady_clock::now();
   OnlineTrimRecord record;
   record.scan = scans_;
   record.nodes_before = slam.stats().nodes;
+  const Clock::time_point start = Clock::now();
   LaserSlam::Checkpoint checkpoint = slam.checkpoint();
-  record.checkpoint_ms = msSince(started_);
-  records_.push_back(std::move(record));
+  record.checkpoint_ms = msSince(start);
+  auto run = [params = params_.trim](const LaserSlam::Checkpoint& c) {
+    const Clock::time_point watch = Clock::now();
+    LaserSlam::Trimmed trimmed =
+        LaserSlam::trimmed(c, params, OverlapRatioTrimming(params.trim_overlap_ratio));
+    return Outcome{std::move(trimmed), msSince(watch)};
+  };
   if (params_.in_line) {
-    const auto start = std::chrono::steady_clock::now();
-    LaserSlam::Trimmed trimmed;
-    try {
-      trimmed = trim(checkpoint, params_.trim);
-    } catch (...) {
-      records_.pop_back();
-      throw;
-    }
-    records_.back().trim_ms = msSince(start);
-    return finish(std::move(trimmed));
+    in_flight_ = std::move(record);
+    return finish(run(checkpoint));
   }
+  pending_ = std::async(std::launch::async,
+                        [run, checkpoint = std::move(checkpoint)] { return run(checkpoint); });
+  in_flight_ = std::move(record);
   since_checkpoint_.clear();
-  started_ = std::chrono::steady_clock::now();
-  pending_ =
-      std::async(std::launch::async, [checkpoint = std::move(checkpoint), params = params_.trim] {
-        return trim(checkpoint, params);
-      });
   return nullptr;
 }
 
-std::unique_ptr<LaserSlam> OnlineTrimmer::finish(LaserSlam::Trimmed trimmed) {
-  OnlineTrimRecord& record = records_.back();
-  record.report = std::move(trimmed.report);
-  record.nodes_after = record.nodes_before;
+std::unique_ptr<LaserSlam> OnlineTrimmer::poll() {
+  if (!pending_.valid() ||
+      pending_.wait_for(std::chrono::seconds(0)) != std::future_status::ready) {
+    return nullptr;
+  }
+  return wait();
+}
+
+std::unique_ptr<LaserSlam> OnlineTrimmer::wait() {
+  if (!pending_.valid()) return nullptr;
   std::vector<Given> given = std::move(since_checkpoint_);
   since_checkpoint_.clear();
-  if (!trimmed.slam) return nullptr;
-  record.nodes_after = trimmed.slam->stats().nodes;
-  const auto start = std::chrono::steady_clock::now();
-  for (const Given& g : given) {
-    try {
-      trimmed.slam->addScan(g.scan, g.odom_pose);
-    } catch (const ScanRefused&) {
-      // Refused by the running map too, and reported then.
-    } catch (const SensorMismatch&) {
+  Outcome outcome = pending_.get();  // rethrows what the trim threw: the running map stays
+  std::unique_ptr<LaserSlam> slam = finish(std::move(outcome));
+  if (!slam) return nullptr;
+  const Clock::time_point start = Clock::now();
+  try {
+    for (const Given& g : given) {
+      try {
+        slam->addScan(g.scan, g.odom_pose);
+      } catch (const ScanRefused&) {
+        // Refused by the running map too, and reported then.
+      } catch (const SensorMismatch&) {
+      }
     }
-    ++record.replayed_scans;
+  } catch (...) {  // the trimmed map is dropped: the running one stays
+    --replaced_;
+    throw;
   }
-  record.replay_ms = msSince(start);
-  return std::move(trimmed.slam);
+  last_.replayed_scans = static_cast<int>(given.size());
+  last_.replay_ms = msSince(start);
+  return slam;
+}
+
+std::unique_ptr<LaserSlam> OnlineTrimmer::finish(Outcome outcome) {
+  last_ = std::move(in_flight_);
+  last_.report = std::move(outcome.trimmed.report);
+  last_.trim_ms = outcome.ms;
+  last_.nodes_after =
+      outcome.trimmed.slam ? outcome.trimmed.slam->stats().nodes : last_.nodes_before;
+  ++finished_;
+  if (outcome.trimmed.slam) ++replaced_;
+  return std::move(outcome.trimmed.slam);
 }
 
 }  // namespace rrr_graphslam::frontend

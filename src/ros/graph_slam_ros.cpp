@@ -58,10 +58,6 @@ GraphSlamRos::GraphSlamRos(ros::NodeHandle nh, ros::NodeHandle private_nh)
                                 private_nh_.resolveName("map_file"));
   }
   if (params_.input_mode == "scan") {
-    if (params_.trim_every_n_nodes > 0) {
-      trimmer_ = std::make_unique<frontend::OnlineTrimmer>(
-          frontend::OnlineTrimParams{params_.trim, params_.trim_every_n_nodes, false});
-    }
     if (params_.map_file.empty()) {
       startSlam();
     } else {
@@ -495,12 +491,10 @@ void GraphSlamRos::publishStatus() {
   if (slam_) {
     msg.trimmed_submaps = static_cast<std::uint32_t>(slam_->lifelong().trimmed_submaps);
     msg.marginalized_nodes = static_cast<std::uint32_t>(slam_->lifelong().marginalized_nodes);
-    if (trimmer_ && !trimmer_->records().empty()) {
-      const auto& records = trimmer_->records();
-      msg.online_trims =
-          static_cast<std::uint32_t>(records.size() - (trimmer_->inFlight() ? 1 : 0));
-      if (msg.online_trims > 0) {
-        msg.last_online_trim_sec = 1e-3 * records[msg.online_trims - 1].trim_ms;
+    if (trimmer_) {
+      msg.online_trims = static_cast<std::uint32_t>(trimmer_->replaced());
+      if (const frontend::OnlineTrimRecord* last = trimmer_->last()) {
+        msg.last_online_trim_sec = 1e-3 * last->trim_ms;
       }
     }
     const auto& sessions = slam_->sessions();

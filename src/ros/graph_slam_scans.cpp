@@ -95,6 +95,7 @@ void GraphSlamRos::initialPose(const geometry_msgs::PoseWithCovarianceStamped& m
   ++processed_;
   enqueue(Command([this, pose] {
             try {
+              if (trimmer_) trimmer_->drop();  // made before the hint: it would lose it
               slam_->setInitialPose(pose);
               ROS_INFO("%s: relocalizing around (%.2f, %.2f, %.2f) until the session is tied",
                        nh_.resolveName(kInitialPoseTopic).c_str(), pose.x(), pose.y(), pose.z());
@@ -146,6 +147,7 @@ void GraphSlamRos::pollOnlineTrim() {
   if (!trimmer_ || !slam_) return;
   try {
     adoptTrimmed(trimmer_->poll());
+    publishChanges();  // the trimmed map's verdicts, renumbered
   } catch (const std::exception& e) {
     ROS_ERROR("lifelong: online trim failed, the map goes on as it was: %s", e.what());
   }
@@ -162,7 +164,7 @@ void GraphSlamRos::adoptTrimmed(std::unique_ptr<frontend::LaserSlam> trimmed) {
   node_stamps_ = std::move(stamps);
   dirty_ = true;
   map_dirty_ = true;
-  const frontend::OnlineTrimRecord& r = trimmer_->records().back();
+  const frontend::OnlineTrimRecord& r = *trimmer_->last();
   ROS_INFO(
       "lifelong: trimmed %d submaps of the earlier sessions while mapping, %d -> %d nodes (%d "
       "marginal edges) in %.0f ms off the mapping thread; %d scans replayed in %.0f ms",
@@ -191,7 +193,13 @@ void GraphSlamRos::startSlam(const frontend::MapSnapshot* map) {
     }
     stamps.emplace_back(t);
   }
-  if (trimmer_) trimmer_->drop();  // it trims the map being replaced
+  // A fresh trimmer: a trim in flight trims the map being replaced, and ~status counts the new
+  // map's trims.
+  trimmer_.reset();
+  if (params_.trim_every_n_nodes > 0) {
+    trimmer_ = std::make_unique<frontend::OnlineTrimmer>(
+        frontend::OnlineTrimParams{params_.trim, params_.trim_every_n_nodes, false});
+  }
   slam_ = std::move(slam);
   slam_->rrr().setCancelFlag(&cancel_);
   sensor_mismatch_.clear();  // a new map: its scans' setup is checked anew

@@ -207,6 +207,7 @@ bool GraphSlamRos::optimize(std_srvs::Trigger::Request&, std_srvs::Trigger::Resp
   res.success = runInWorker(
       [&]() -> std::string {
         const auto start = std::chrono::steady_clock::now();
+        if (trimmer_) trimmer_->drop();  // made before this decision: it would undo it
         graph().decideClosedFromScratch();
         map_dirty_ = map_dirty_ || slam_ != nullptr;  // the poses move, verdicts or not
         publishChanges();
@@ -224,6 +225,7 @@ bool GraphSlamRos::finish(std_srvs::Trigger::Request&, std_srvs::Trigger::Respon
   res.success = runInWorker(
       [&]() -> std::string {
         if (slam_) {
+          if (trimmer_) trimmer_->drop();
           slam_->finish();
           map_dirty_ = true;  // the decision from scratch moves the poses, verdicts or not
           offerMap();

@@ -172,6 +172,12 @@ NodeParams loadParams(const ros::NodeHandle& private_nh) {
   r.read<int>(
       "trim_every_n_nodes", p.trim_every_n_nodes, [](const int& v) { return v >= 0; },
       "at least 0 (0: trim only when ~save_map writes the map)");
+  if (p.trim_every_n_nodes > 0 && p.trim.sparsification != frontend::Sparsification::kClt) {
+    throw std::invalid_argument("parameter " + private_nh.resolveName("trim_every_n_nodes") +
+                                " is " + std::to_string(p.trim_every_n_nodes) +
+                                ": online trimming needs sparsification clt (deletion would drop "
+                                "the running session's loops to the map)");
+  }
   if (p.trim_every_n_nodes > 0 && !p.lifelong) {
     throw std::invalid_argument("parameter " + private_nh.resolveName("trim_every_n_nodes") +
                                 " is " + std::to_string(p.trim_every_n_nodes) +

@@ -84,6 +84,11 @@ void IncrementalRrr::finish() {
   scheduleNextRebatch();
 }
 
+void IncrementalRrr::finishReplayKeepingOpen() {
+  rrr_.decideFromScratch();
+  scheduleNextRebatch();
+}
+
 void IncrementalRrr::scheduleNextRebatch() {
   const int every = rrr_.params().incremental_rebatch_every;
   if (every > 0) next_rebatch_ = (current_node_ / every + 1) * every;

@@ -290,7 +290,8 @@ std::vector<DecisionRow> OnlineRrr::decisionRows() const {
 }
 
 std::unique_ptr<OnlineRrr> OnlineRrr::fromPoseGraph(const core::PoseGraph& graph,
-                                                    const OnlineRrrParams& params) {
+                                                    const OnlineRrrParams& params,
+                                                    bool keep_open_clusters) {
   auto online = std::make_unique<OnlineRrr>(params);
   const std::vector<NodeId> ids = graph.nodeIds();
   const std::vector<ReplayEdge> edges = replayEdges(graph);
@@ -326,7 +327,11 @@ std::unique_ptr<OnlineRrr> OnlineRrr::fromPoseGraph(const core::PoseGraph& graph
   online->incremental_.deferDecisions(false);
   // Decided once, as a run's end would, but a loaded map goes on: clusters waiting for their
   // session to be placed keep waiting.
-  online->incremental_.finish();
+  if (keep_open_clusters) {
+    online->incremental_.finishReplayKeepingOpen();
+  } else {
+    online->incremental_.finish();
+  }
   online->collectChanges();
   return online;
 }

@@ -45,7 +45,7 @@ std::vector<int> Rrr::orderByRobustMap(const std::vector<int>& hypotheses,
   // constraints fit it worse than all the hypotheses' links together could make them) still
   // orders, but is no place to start the joint test from: from there the optimizations stay in
   // that basin and every cluster fails (a trimmed map's marginal constraints with many large
-  // outliers did this). They start where the trusted constraints hold.
+  // outliers did this). They start from the starting poses, as without robust ordering.
   std::size_t links = 0;
   for (int c : hypotheses) links += kept_links_[static_cast<std::size_t>(c)].size();
   const double bend = graph_.trustedChi2At(start) - graph_.trustedChi2();

@@ -144,7 +144,7 @@ const std::string& usage() {
       "  --trim-every-n-nodes N  also trim while mapping: every N nodes of this run's session,\n"
       "                    the earlier sessions' submaps that it covers (none of its own; not\n"
       "                    before it is tied to the map; the submaps its undecided loops to the\n"
-      "                    map touch wait); an 'online_trim' line per trim (default 0: only\n"
+      "                    map touch wait); an 'online_trim' line per trim (without it: only\n"
       "                    before the map is saved)\n"
       "  --quiet           no progress line\n"
       "The front end's parameters (the same names and units as the ROS parameters, with "
@@ -317,6 +317,11 @@ Arguments parseArguments(int argc, char** argv) {
   if (args.lifelong && args.save_map.empty()) {
     cli.fail("--lifelong trims the map when it is saved: it needs --save-map");
   }
+  if (args.trim_every_n_nodes > 0 && args.trim.sparsification != frontend::Sparsification::kClt) {
+    cli.fail(
+        "--trim-every-n-nodes needs --sparsification clt: deletion would drop the running "
+        "session's loops to the map with the trimmed nodes");
+  }
   if (args.trim_every_n_nodes > 0 && !args.decision_stream.empty()) {
     cli.fail(
         "--trim-every-n-nodes renumbers the loop candidates as it trims: it cannot be "
@@ -417,7 +422,7 @@ int main(int argc, char** argv) {
       }
     }
     frontend::OnlineTrimmer online({args.trim, args.trim_every_n_nodes, true});
-    std::size_t online_trims_printed = 0;
+    std::vector<frontend::OnlineTrimRecord> online_trims;
     const bool progress = !args.quiet && isatty(STDERR_FILENO);
     const std::size_t n =
         args.max_scans > 0 ? std::min(args.max_scans, log.scans.size()) : log.scans.size();
@@ -465,8 +470,9 @@ int main(int argc, char** argv) {
       if (auto trimmed = online.afterScan(slam, scan, record.odom_pose, node)) {
         slam_owner = std::move(trimmed);
       }
-      for (; online_trims_printed < online.records().size(); ++online_trims_printed) {
-        tools::printOnlineTrim(online.records()[online_trims_printed]);
+      if (online.finished() > static_cast<int>(online_trims.size())) {
+        online_trims.push_back(*online.last());
+        tools::printOnlineTrim(online_trims.back());
       }
     }
     if (progress) std::fprintf(stderr, "\n");
@@ -505,7 +511,7 @@ int main(int argc, char** argv) {
     tools::printSessions(slam);
     tools::printLatency(latency);
     if (args.trim_every_n_nodes > 0) {
-      tools::printOnlineTrims(online.records(), args.trim_every_n_nodes);
+      tools::printOnlineTrims(online_trims, args.trim_every_n_nodes);
     }
     std::printf(
         "time           %.2f s (local SLAM %.2f, loop search %.2f, RRR %.2f), %.1fx real time\n",

@@ -517,6 +517,8 @@ def test_lifelong_flags_are_checked(tmp_path):
              "--keep-current-session needs --lifelong"),
             (("--trim-every-n-nodes", 10, "--save-map", out), "--trim-every-n-nodes needs --lifelong"),
             (("--lifelong", "--save-map", out, "--trim-every-n-nodes", 0), "--trim-every-n-nodes"),
+            (("--lifelong", "--save-map", out, "--trim-every-n-nodes", 10, "--sparsification", "delete"),
+             "--trim-every-n-nodes needs --sparsification clt"),
             (("--lifelong", "--save-map", out, "--trim-every-n-nodes", 10, "--decision-stream",
               tmp_path / "s.tsv"), "cannot be combined with --decision-stream")):
         result = run(SLAM_OFFLINE, ACES_HEAD, *args)

@@ -34,6 +34,8 @@ BAD = [
     ({"sparsification": "dense"}, "sparsification must be clt or delete"),
     ({"trim_every_n_nodes": -1}, "trim_every_n_nodes must be at least 0"),
     ({"trim_every_n_nodes": 10}, "online trimming needs lifelong true"),
+    ({"lifelong": True, "trim_every_n_nodes": 10, "sparsification": "delete"},
+     "online trimming needs sparsification clt"),
     ({"map_layering": "newest"}, "map_layering must be all or newest-session"),
 ]
 

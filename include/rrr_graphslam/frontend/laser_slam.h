@@ -108,9 +108,11 @@ class LaserSlam {
   ///      to the earlier sessions touch wait) and builds the LaserSlam that continues the same
   ///      session from the trimmed map: the earlier sessions' submaps rebuilt, RRR deciding the
   ///      kept candidates again, local SLAM exactly where the checkpoint left it (its nodes and
-  ///      submaps renumbered after the removed ones). Nothing is trimmed until the session is
-  ///      tied to the map (before, where it covers the map is not known); once its accepted loops
-  ///      to the map are folded into marginal constraints it stays tied;
+  ///      submaps renumbered after the removed ones; its open clusters stay open). Nothing is
+  ///      trimmed until the session is tied to the map (before, where it covers the map is not
+  ///      known); once accepted loops of it to the map are folded into marginal constraints it
+  ///      stays tied. The new RRR's verdicts are news (takeChanges: every decided candidate,
+  ///      numbered as in the trimmed map);
   ///   3. the scans added here since the checkpoint are added to the new one, which replaces this.
   /// Throws std::logic_error in localization or before the current session has a node.
   struct Checkpoint;
@@ -183,7 +185,9 @@ class LaserSlam {
  private:
   /// fromMap()'s loading: nodes, edges (RRR deciding the candidates again, or the map held fixed
   /// in localization), lifelong record and the first `finished_submaps` submaps rebuilt finished.
-  void load(const MapSnapshot& map, std::size_t finished_submaps);
+  /// `continuing` (trimmed()): the clusters open at the map's last node stay open, and RRR's
+  /// verdicts are news (under the trimmed map's numbering).
+  void load(const MapSnapshot& map, std::size_t finished_submaps, bool continuing = false);
   void searchLoops(int node, const PointCloud& points);
   void addLoop(const LoopMatch& loop);
   /// Keeps a thinned copy of the node's scan while its session is not tied, over the last
@@ -248,8 +252,8 @@ class LaserSlam {
     LocalSlam::Checkpoint local;
     std::vector<MapSnapshot::Session> sessions;
     int session_first_submap = 0;
-    std::size_t crossings = 0;
     bool tied = false;
+    bool tied_by_marginals = false;
     // The current session's scans (scan_node in the map's numbering).
     std::vector<int> scan_node;
     std::vector<core::Pose2> scan_offset;

@@ -31,7 +31,7 @@ struct OnlineTrimParams {
 struct OnlineTrimRecord {
   std::size_t scan = 0;      ///< the caller's count of scans given when it started
   int nodes_before = 0;      ///< in the map at the checkpoint
-  int nodes_after = 0;       ///< in the map that replaced it (nodes_before if nothing was trimmed)
+  int nodes_after = 0;       ///< in the trimmed map, before the replay (nodes_before: no change)
   TrimReport report;         ///< the trim (report_kl off: an instrument, not part of a trim)
   double checkpoint_ms = 0;  ///< in the caller's thread
   double trim_ms = 0;        ///< trim and rebuild (in line: in the caller's thread)
@@ -41,7 +41,9 @@ struct OnlineTrimRecord {
 
 class OnlineTrimmer {
  public:
-  /// Throws std::invalid_argument for trim parameters out of range or every_n_nodes < 0.
+  /// Throws std::invalid_argument for trim parameters out of range, every_n_nodes < 0, or a
+  /// sparsification other than clt (deletion would drop the running session's folded loops to
+  /// the map and could cut it loose while it counts as tied).
   explicit OnlineTrimmer(const OnlineTrimParams& params);
   /// Waits for a trim in flight (its result is dropped).
   ~OnlineTrimmer();
@@ -58,25 +60,37 @@ class OnlineTrimmer {
   std::unique_ptr<LaserSlam> poll();
   /// Waits for a trim in flight and returns what replaces the running map, or nullptr.
   std::unique_ptr<LaserSlam> wait();
-  /// The running map was replaced otherwise (a map loaded, a reset): a trim in flight is dropped.
+  /// The running map was replaced otherwise (a map loaded, a reset, RRR decided again, a
+  /// relocalization hint): a trim in flight, made from the map before, is dropped.
   void drop();
   bool inFlight() const { return pending_.valid(); }
-  const std::vector<OnlineTrimRecord>& records() const { return records_; }
+
+  /// Trims finished, and those of them that replaced the map (the others found nothing).
+  int finished() const { return finished_; }
+  int replaced() const { return replaced_; }
+  /// The last trim finished (nullptr before the first).
+  const OnlineTrimRecord* last() const { return finished_ > 0 ? &last_ : nullptr; }
 
  private:
+  struct Outcome {
+    LaserSlam::Trimmed trimmed;
+    double ms = 0.0;
+  };
   bool due(const LaserSlam& slam, std::optional<int> node) const;
-  std::unique_ptr<LaserSlam> finish(LaserSlam::Trimmed trimmed);
+  std::unique_ptr<LaserSlam> finish(Outcome outcome);
 
   OnlineTrimParams params_;
   std::size_t scans_ = 0;
-  std::future<LaserSlam::Trimmed> pending_;
-  std::chrono::steady_clock::time_point started_;
+  std::future<Outcome> pending_;
+  OnlineTrimRecord in_flight_;
   struct Given {
     RangeScan scan;
     core::Pose2 odom_pose;
   };
   std::vector<Given> since_checkpoint_;
-  std::vector<OnlineTrimRecord> records_;
+  int finished_ = 0;
+  int replaced_ = 0;
+  OnlineTrimRecord last_;
 };
 
 }  // namespace rrr_graphslam::frontend

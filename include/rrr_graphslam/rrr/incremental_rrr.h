@@ -32,6 +32,9 @@ class IncrementalRrr {
   /// After the last candidate: closes every open cluster and decides all of them from scratch.
   /// Clusters waiting for their session to be placed still wait (Rrr::rejectUnplaced ends that).
   void finish();
+  /// The end of a replay that goes on: the closed clusters decided from scratch, the open ones
+  /// left open (their candidates pending until more nodes close them).
+  void finishReplayKeepingOpen();
   /// While deferred, a closed cluster gets its intra test only and no decision is made: a saved
   /// graph replayed to be decided once, by finish() (whose decision from scratch does not depend
   /// on the decisions before it, so making them would be wasted).

@@ -84,8 +84,12 @@ class OnlineRrr {
   /// A graph saved by save() (or any g2o/TORO graph): nodes at their file poses, odometry and
   /// candidates replayed in node order, then every cluster decided (finish()); the changes
   /// report every candidate's verdict. New nodes must have larger ids than the file's.
+  /// With `keep_open_clusters` (a graph replayed to go on as it was: lifelong online trimming)
+  /// the clusters still open at the last node stay open and their candidates pending; the closed
+  /// ones are decided from scratch.
   static std::unique_ptr<OnlineRrr> fromPoseGraph(const core::PoseGraph& graph,
-                                                  const OnlineRrrParams& params = {});
+                                                  const OnlineRrrParams& params = {},
+                                                  bool keep_open_clusters = false);
 
   /// Holds every node it has now where it is (localization against a loaded map that must not
   /// change): they leave the optimization's variables, and the nodes added later are placed
