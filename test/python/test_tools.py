@@ -444,9 +444,9 @@ def test_damaged_or_incompatible_maps_are_refused_naming_the_file(tmp_path):
                      r"1\.000 deg apart", result.stderr), result.stderr
 
 
-@needs_map_info
-def test_lifelong_trims_covered_submaps_when_the_map_is_saved(tmp_path):
-    # The head of ACES twice as two sessions: the second covers the first, whose submaps go.
+def aces_head_twice(tmp_path):
+    """The head of ACES mapped and saved, and the same scans from another odometry frame:
+    (first map, its rrr_map_info values, the moved log)."""
     from rrr_graphslam.carmen import write_moved_log
     first_map = tmp_path / "lifelong.rrrmap"
     first = run(SLAM_OFFLINE, ACES_HEAD, "--save-map", first_map, "--refine-resolution", 0, "--quiet",
@@ -455,6 +455,13 @@ def test_lifelong_trims_covered_submaps_when_the_map_is_saved(tmp_path):
     before = dict(line.split(" ", 1) for line in run(MAP_INFO, first_map).stdout.splitlines())
     moved = tmp_path / "moved.clf"
     write_moved_log(ACES_HEAD, str(moved), (30.0, 10.0, -1.0))
+    return first_map, before, moved
+
+
+@needs_map_info
+def test_lifelong_trims_covered_submaps_when_the_map_is_saved(tmp_path):
+    # The head of ACES twice as two sessions: the second covers the first, whose submaps go.
+    first_map, before, moved = aces_head_twice(tmp_path)
     second = run(SLAM_OFFLINE, moved, "--load-map", first_map, "--save-map", first_map, "--lifelong",
                  "--trim-overlap", 0.5, "--keep-recent-submaps", 2, "--refine-resolution", 0, "--quiet",
                  *SMALL_SUBMAPS)
@@ -478,14 +485,7 @@ def test_lifelong_trims_covered_submaps_when_the_map_is_saved(tmp_path):
 def test_lifelong_trims_while_the_session_maps(tmp_path):
     # The head of ACES twice: once the second session is tied, the first one's covered submaps
     # go while it maps, every 10 of its nodes.
-    from rrr_graphslam.carmen import write_moved_log
-    first_map = tmp_path / "online.rrrmap"
-    first = run(SLAM_OFFLINE, ACES_HEAD, "--save-map", first_map, "--refine-resolution", 0, "--quiet",
-                *SMALL_SUBMAPS)
-    assert first.returncode == 0, first.stderr
-    before = dict(line.split(" ", 1) for line in run(MAP_INFO, first_map).stdout.splitlines())
-    moved = tmp_path / "moved.clf"
-    write_moved_log(ACES_HEAD, str(moved), (30.0, 10.0, -1.0))
+    first_map, before, moved = aces_head_twice(tmp_path)
     out_map = tmp_path / "online_out.rrrmap"
     second = run(SLAM_OFFLINE, moved, "--load-map", first_map, "--save-map", out_map, "--lifelong",
                  "--trim-overlap", 0.5, "--keep-recent-submaps", 2, "--trim-every-n-nodes", 10,

@@ -48,6 +48,19 @@ class Sessions(unittest.TestCase):
         self.assertTrue(wait_for(lambda: self.status.backlog == 0 and
                                  self.status.messages_processed == self.status.messages_received, 60.0))
 
+    def start_node(self, name, params):
+        """Another rrr_graphslam_node named `name` with `params`: (process, dict whose 'last' is
+        its newest ~status)."""
+        for key, value in params.items():
+            rospy.set_param(f"/{name}/{key}", value)
+        status = {}
+        rospy.Subscriber(f"/{name}/status", RrrStatus, lambda m: status.update(last=m), queue_size=10)
+        binary = roslib.packages.find_node("rrr_graphslam", "rrr_graphslam_node")[0]
+        env = dict(os.environ, ROSCONSOLE_STDOUT_LINE_BUFFERED="1")
+        node = subprocess.Popen([binary, f"__name:={name}"], env=env, stdout=subprocess.PIPE,
+                                stderr=subprocess.STDOUT, text=True)
+        return node, status
+
     def test_a_saved_map_is_continued_by_a_session_from_another_frame(self):
         self.play(self.log, "replay_first")
         first_nodes = self.status.nodes
@@ -101,17 +114,10 @@ class Sessions(unittest.TestCase):
     def test_b_localization_tracks_the_robot_and_leaves_the_map_as_it_is(self):
         # A second node localizes in the map saved above: mode localization, map_file at start.
         name = "localizer"
-        for key, value in {"input_mode": "scan", "map_file": self.map_path, "mode": "localization",
-                           "publish_tf": False, "scans_per_submap": 10,
-                           "min_node_separation": 15,
-                           "relocalization_confirm_distance": 2.0}.items():
-            rospy.set_param(f"/{name}/{key}", value)
-        status = {}
-        rospy.Subscriber(f"/{name}/status", RrrStatus, lambda m: status.update(last=m), queue_size=10)
-        binary = roslib.packages.find_node("rrr_graphslam", "rrr_graphslam_node")[0]
-        env = dict(os.environ, ROSCONSOLE_STDOUT_LINE_BUFFERED="1")
-        node = subprocess.Popen([binary, f"__name:={name}"], env=env, stdout=subprocess.PIPE,
-                                stderr=subprocess.STDOUT, text=True)
+        node, status = self.start_node(name, {
+            "input_mode": "scan", "map_file": self.map_path, "mode": "localization",
+            "publish_tf": False, "scans_per_submap": 10, "min_node_separation": 15,
+            "relocalization_confirm_distance": 2.0})
         try:
             self.assertTrue(wait_for(lambda: "last" in status, 30.0), "the localizer did not start")
             loaded_nodes = status["last"].nodes
@@ -134,19 +140,13 @@ class Sessions(unittest.TestCase):
         # submaps that later ones cover (keep_current_session false: the map's newest session,
         # here its only one, is judged too); loading the file back shows what it removed.
         name = "lifelong"
-        for key, value in {"input_mode": "scan", "map_file": self.map_path, "publish_tf": False,
-                           "scans_per_submap": 10, "min_node_separation": 15, "lifelong": True,
-                           "trim_overlap_ratio": 0.5, "keep_recent_submaps": 2,
-                           "keep_current_session": False}.items():
-            rospy.set_param(f"/{name}/{key}", value)
-        status, markers = {}, {}
-        rospy.Subscriber(f"/{name}/status", RrrStatus, lambda m: status.update(last=m), queue_size=10)
+        node, status = self.start_node(name, {
+            "input_mode": "scan", "map_file": self.map_path, "publish_tf": False,
+            "scans_per_submap": 10, "min_node_separation": 15, "lifelong": True,
+            "trim_overlap_ratio": 0.5, "keep_recent_submaps": 2, "keep_current_session": False})
+        markers = {}
         rospy.Subscriber(f"/{name}/markers", MarkerArray,
                          lambda m: markers.update({k.ns: k for k in m.markers}), queue_size=10)
-        binary = roslib.packages.find_node("rrr_graphslam", "rrr_graphslam_node")[0]
-        env = dict(os.environ, ROSCONSOLE_STDOUT_LINE_BUFFERED="1")
-        node = subprocess.Popen([binary, f"__name:={name}"], env=env, stdout=subprocess.PIPE,
-                                stderr=subprocess.STDOUT, text=True)
         try:
             self.assertTrue(wait_for(lambda: "last" in status, 30.0), "the lifelong node did not start")
             self.assertTrue(status["last"].lifelong)
@@ -197,19 +197,11 @@ class Sessions(unittest.TestCase):
         # (the same minute from another odometry frame) is tied, the first session's covered
         # submaps go while it maps, off the mapping thread, and the node goes on with the
         # trimmed map.
-        name = "online_trim"
-        for key, value in {"input_mode": "scan", "map_file": self.map_path, "publish_tf": False,
-                           "scans_per_submap": 10, "min_node_separation": 15,
-                           "relocalization_confirm_distance": 2.0, "lifelong": True,
-                           "trim_overlap_ratio": 0.5, "keep_recent_submaps": 2,
-                           "trim_every_n_nodes": 10}.items():
-            rospy.set_param(f"/{name}/{key}", value)
-        status = {}
-        rospy.Subscriber(f"/{name}/status", RrrStatus, lambda m: status.update(last=m), queue_size=10)
-        binary = roslib.packages.find_node("rrr_graphslam", "rrr_graphslam_node")[0]
-        env = dict(os.environ, ROSCONSOLE_STDOUT_LINE_BUFFERED="1")
-        node = subprocess.Popen([binary, f"__name:={name}"], env=env, stdout=subprocess.PIPE,
-                                stderr=subprocess.STDOUT, text=True)
+        node, status = self.start_node("online_trim", {
+            "input_mode": "scan", "map_file": self.map_path, "publish_tf": False,
+            "scans_per_submap": 10, "min_node_separation": 15,
+            "relocalization_confirm_distance": 2.0, "lifelong": True, "trim_overlap_ratio": 0.5,
+            "keep_recent_submaps": 2, "trim_every_n_nodes": 10})
         try:
             self.assertTrue(wait_for(lambda: "last" in status, 30.0), "the node did not start")
             loaded = status["last"].nodes
@@ -226,7 +218,7 @@ class Sessions(unittest.TestCase):
             self.assertLessEqual(last.session, 1)  # 0 once the first session left whole
             self.assertLess(last.nodes, 2 * loaded, str(last))
             saved = os.path.join(self.folder, "online.rrrmap")
-            answer = rospy.ServiceProxy(f"/{name}/save_map", SaveMap)(path=saved)
+            answer = rospy.ServiceProxy("/online_trim/save_map", SaveMap)(path=saved)
             self.assertTrue(answer.success, answer.message)
         finally:
             node.terminate()
