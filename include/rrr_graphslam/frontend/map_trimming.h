@@ -26,7 +26,9 @@
 // node that a pending loop candidate touches waits (it is not trimmed until the loop is decided);
 // rejected loops touching a removed node are dropped with it (they are no part of the map). An
 // accepted loop folded into a marginal constraint can no longer be reversed: trim after the
-// decisions are final (the end of a session, after RRR's decision from scratch).
+// decisions are final (the end of a session, after RRR's decision from scratch), or, while a
+// session runs (NewestSession::kRunning, online trimming), leave alone what its loops in open
+// clusters touch.
 //
 // KL: for each trim, the Kullback-Leibler divergence of the graph with the replacement (and with
 // plain deletion, for comparison) from the graph with the exact marginal (core/gaussian_kl.h),
