@@ -1,8 +1,9 @@
 """Lifelong benchmark (scripts/bench_lifelong, issue 20): a CARMEN log replayed as N sessions,
 each the whole log again with its odometry moved by a seeded random SE(2), each mapped by
 `rrr_slam_offline --load-map` from the map the previous session saved. The same moved logs are
-run in several configurations: `untrimmed` (no --lifelong), `clt` (--lifelong, Chow-Liu tree)
-and `delete` (--lifelong --sparsification delete).
+run in several configurations: `untrimmed` (no --lifelong), `clt` (--lifelong, Chow-Liu tree),
+`delete` (--lifelong --sparsification delete) and `online` (--lifelong --trim-every-n-nodes 200:
+the earlier sessions also trimmed while each maps).
 
 Per session and configuration: the saved map's nodes, edges, marginal edges, submaps and file
 size (rrr_map_info); the trim's time and KL divergences (the tool's `trim_*` lines); the time of
@@ -54,6 +55,7 @@ CONFIGS = {
     "untrimmed": [],
     "clt": ["--lifelong"],
     "delete": ["--lifelong", "--sparsification", "delete"],
+    "online": ["--lifelong", "--trim-every-n-nodes", "200"],
 }
 
 
@@ -90,6 +92,10 @@ class Trim:
 
 RECORD = re.compile(r"^trim_record submap (\d+) submaps (\d+) nodes (\d+) blanket (\d+) constraints (\d+) "
                     r"edges (\d+) kl (\S+) kl_clt (\S+) kl_delete (\S+) ms (\S+)(?: kl_ms (\S+))?\s*$")
+
+
+# `online_trim scan S nodes B -> A ...` (--trim-every-n-nodes): B, the graph before the trim.
+ONLINE_TRIM = re.compile(r"^online_trim scan \d+ nodes (\d+) -> ", re.M)
 
 
 def parse_trim(text: str) -> Optional[Trim]:
@@ -245,6 +251,7 @@ class SessionResult:
     reopt_file_s: float = math.nan
     relation: Optional[RelationError] = None
     loops: Optional[LoopCheck] = None
+    peak_nodes: int = 0              # the most the run's graph held (before a save's or online trim)
 
     def value(self, key: str) -> int:
         return int(self.info.values.get(key, 0))
@@ -324,7 +331,7 @@ def _f(x: float, fmt: str) -> str:
     return "–" if x is None or (isinstance(x, float) and math.isnan(x)) else fmt.format(x)
 
 
-HEADER = ("| config | session | nodes | edges | marginal edges | submaps | map file (MB) | trim p50 / p99 (ms) "
+HEADER = ("| config | session | nodes | peak nodes in the run | edges | marginal edges | submaps | map file (MB) | trim p50 / p99 (ms) "
           "[slowest trim_record] | "
           "KL clt / delete (nats) | re-optimization CPU from LAGO / from the map's poses (ms) | relation error (m) | "
           "inter-session loops (false) | wall (s) |")
@@ -338,7 +345,7 @@ def fmt_row(r: SessionResult) -> str:
     rel = "–" if r.relation is None or not r.relation.count else \
         f"{r.relation.trans_mean:.4f} ± {r.relation.trans_std:.4f}"
     loops = "–" if r.loops is None or r.session == 0 else f"{r.loops.inter_session} ({r.loops.inter_session_false})"
-    return (f"| {r.config} | {r.session + 1} | {r.info.nodes} | {r.value('edges')} | {r.value('marginal_edges')} | "
+    return (f"| {r.config} | {r.session + 1} | {r.info.nodes} | {r.peak_nodes or '–'} | {r.value('edges')} | {r.value('marginal_edges')} | "
             f"{r.value('submaps')} | {r.info.bytes / 1e6:.2f} | {trim_ms} | {kl} | "
             f"{_f(r.reopt_lago_s * 1e3, '{:.1f}')} / {_f(r.reopt_file_s * 1e3, '{:.1f}')} | {rel} | {loops} | "
             f"{_f(r.wall_s, '{:.1f}')} |")
@@ -359,7 +366,7 @@ def plot(results: Dict[str, List[SessionResult]], out_prefix: str, title: str) -
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    colors = {"untrimmed": "tab:gray", "clt": "tab:blue", "delete": "tab:orange"}
+    colors = {"untrimmed": "tab:gray", "clt": "tab:blue", "delete": "tab:orange", "online": "tab:green"}
     paths = []
 
     from matplotlib.ticker import MaxNLocator
@@ -532,6 +539,7 @@ def evaluate_config(tools: Tools, data: Optional[LogData], runs, config: str,
     for k, (stem, summary, text, wall) in enumerate(runs):
         info = tools.info(stem + ".rrrmap", stem + ".map.g2o", stem + ".map.traj.txt")
         row = SessionResult(config, k, info, summary, parse_trim(text), wall)
+        row.peak_nodes = max([summary.nodes] + [int(m) for m in ONLINE_TRIM.findall(text)])
         run_lines, map_lines = read_lines(stem + ".g2o"), read_lines(stem + ".map.g2o")
         decisions = read_decisions(stem + ".tsv")
         trusted, kept = trusted_graph_lines(map_lines, untrusted_candidates(run_lines, decisions))
@@ -553,7 +561,12 @@ def evaluate_config(tools: Tools, data: Optional[LogData], runs, config: str,
             s_stamps, s_poses = read_tum(stem + ".session.txt")
             if data.relations:
                 row.relation = relation_error(s_stamps, s_poses, data.relations)
-            loaded = 0 if prev_info is None else prev_info.nodes
+            # The loaded nodes still in the run's graph: all of the map it loaded, unless online
+            # trims removed some (the session's own nodes are never trimmed: the saved map's last
+            # session holds them all). Their ids keep their order, so --trajectory's first lines
+            # are theirs; session_of() tells them from the session's, not their own sessions apart.
+            run_nodes = sum(1 for line in run_lines if line.startswith("VERTEX_SE2 "))
+            loaded = run_nodes - (info.nodes - info.first_nodes()[-1])
             loaded_stamps = read_tum(stem + ".traj.txt")[0][:loaded]
             stamps = node_stamps(run_lines, loaded_stamps, loaded, map_lines, read_tum(stem + ".map.traj.txt")[0],
                                  s_stamps, s_poses)

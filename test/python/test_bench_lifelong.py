@@ -4,7 +4,7 @@ the issue's targets and the table."""
 import math
 
 import pytest
-from rrr_graphslam.bench_lifelong import (HEADER, SessionResult, Trim, TrimRecord, check_targets,
+from rrr_graphslam.bench_lifelong import (HEADER, ONLINE_TRIM, SessionResult, Trim, TrimRecord, check_targets,
                                           expected_trusted_edges, fmt_row, node_stamps,
                                           parse_trim, percentile, table,
                                           trusted_graph_lines, untrusted_candidates)
@@ -205,9 +205,19 @@ def test_table_rows_have_the_headers_columns():
     lines = text.splitlines()
     assert lines[0] == HEADER and len(lines) == 4
     assert all(line.count("|") == HEADER.count("|") for line in lines)
-    assert "| clt | 1 | 2405 | 2519 | 0 | 20 | 0.70 | 30.0 / 40.0 [52.9] | 2.26 / 21 | 10.5 / 5.2 | " \
+    assert "| clt | 1 | 2405 | – | 2519 | 0 | 20 | 0.70 | 30.0 / 40.0 [52.9] | 2.26 / 21 | 10.5 / 5.2 | " \
            "0.0348 ± 0.0300 | – | 30.0 |" == lines[2]
     assert fmt_row(rows[1]).endswith("| – | – | 14.0 / 7.0 | – | 5 (0) | 31.0 |")
+    rows[1].peak_nodes = 3106
+    assert fmt_row(rows[1]).startswith("| clt | 2 | 2900 | 3106 | 3300 |")
+
+
+def test_online_trim_lines_give_the_graph_before_each_trim():
+    text = ("online_trim scan 462 nodes 3106 -> 2206 submaps_trimmed 26 marginal_edges 236 waiting 3 "
+            "checkpoint_ms 1.8 trim_ms 520.1 replayed 0 replay_ms 0.00\n"
+            "online_trim scan 1113 nodes 2406 -> 2226 submaps_trimmed 3 marginal_edges 36 waiting 1 "
+            "checkpoint_ms 1.6 trim_ms 845.4 replayed 0 replay_ms 0.00\nnodes          2894 in 49 submaps\n")
+    assert [int(b) for b in ONLINE_TRIM.findall(text)] == [3106, 2406]
 
 
 def test_plots_are_written(tmp_path):
