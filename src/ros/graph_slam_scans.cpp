@@ -135,26 +135,25 @@ void GraphSlamRos::handleScan(const ScanInput& input) {
 
 void GraphSlamRos::trimOnline(const frontend::RangeScan& scan, const core::Pose2& odom,
                               std::optional<int> node) {
-  if (!trimmer_) return;
-  try {
-    adoptTrimmed(trimmer_->afterScan(*slam_, scan, odom, node));
-  } catch (const std::exception& e) {  // what the trim threw: the map goes on untrimmed
-    ROS_ERROR("lifelong: online trim failed, the map goes on as it was: %s", e.what());
-  }
+  if (trimmer_) adoptTrimmed([&] { return trimmer_->afterScan(*slam_, scan, odom, node); });
 }
 
 void GraphSlamRos::pollOnlineTrim() {
-  if (!trimmer_ || !slam_) return;
-  try {
-    adoptTrimmed(trimmer_->poll());
+  if (trimmer_ && slam_ && adoptTrimmed([&] { return trimmer_->poll(); })) {
     publishChanges();  // the trimmed map's verdicts, renumbered
-  } catch (const std::exception& e) {
-    ROS_ERROR("lifelong: online trim failed, the map goes on as it was: %s", e.what());
   }
 }
 
-void GraphSlamRos::adoptTrimmed(std::unique_ptr<frontend::LaserSlam> trimmed) {
-  if (!trimmed) return;
+bool GraphSlamRos::adoptTrimmed(
+    const std::function<std::unique_ptr<frontend::LaserSlam>()>& harvest) {
+  std::unique_ptr<frontend::LaserSlam> trimmed;
+  try {
+    trimmed = harvest();
+  } catch (const std::exception& e) {  // what the trim threw: the map goes on untrimmed
+    ROS_ERROR("lifelong: online trim failed, the map goes on as it was: %s", e.what());
+    return false;
+  }
+  if (!trimmed) return false;
   // Renumbered after the removed nodes: the stamps follow (the current session's odometry
   // poses, one per node of it, stay as they are).
   std::vector<ros::Time> stamps;
@@ -170,6 +169,7 @@ void GraphSlamRos::adoptTrimmed(std::unique_ptr<frontend::LaserSlam> trimmed) {
       "marginal edges) in %.0f ms off the mapping thread; %d scans replayed in %.0f ms",
       r.report.trimmed_submaps, r.nodes_before, r.nodes_after, r.report.marginalEdges(), r.trim_ms,
       r.replayed_scans, r.replay_ms);
+  return true;
 }
 
 void GraphSlamRos::startSlam(const frontend::MapSnapshot* map) {

@@ -99,12 +99,19 @@ std::vector<int> VerificationGraph::trustedComponents() const {
   return component;
 }
 
-double VerificationGraph::trustedChi2At(const std::vector<core::Pose2>& poses) const {
+std::vector<int> VerificationGraph::trustedConstraints() const {
   std::vector<char> candidate(static_cast<std::size_t>(optimizer_.numConstraints()), 0);
   for (const LoopCandidate& c : candidates_) candidate[static_cast<std::size_t>(c.constraint)] = 1;
-  double sum = 0.0;
+  std::vector<int> trusted;
   for (int c = 0; c < optimizer_.numConstraints(); ++c) {
-    if (candidate[static_cast<std::size_t>(c)]) continue;
+    if (!candidate[static_cast<std::size_t>(c)]) trusted.push_back(c);
+  }
+  return trusted;
+}
+
+double VerificationGraph::trustedChi2At(const std::vector<core::Pose2>& poses) const {
+  double sum = 0.0;
+  for (int c : trustedConstraints()) {
     const Eigen::Vector3d e = core::edgeError(
         poses.at(static_cast<std::size_t>(optimizer_.from(c))),
         poses.at(static_cast<std::size_t>(optimizer_.to(c))), optimizer_.measurement(c));
@@ -116,12 +123,9 @@ double VerificationGraph::trustedChi2At(const std::vector<core::Pose2>& poses) c
 double VerificationGraph::trustedChi2() const {
   if (marginal_.empty()) return 0.0;  // odometry alone is a forest: it holds exactly
   if (trusted_chi2_marginals_ == marginal_.size()) return trusted_chi2_;
-  std::vector<char> candidate(static_cast<std::size_t>(optimizer_.numConstraints()), 0);
-  for (const LoopCandidate& c : candidates_) candidate[static_cast<std::size_t>(c.constraint)] = 1;
   core::Optimizer trusted(optimizer_.params());
   for (const core::Pose2& p : initial_poses_) trusted.addNode(p);
-  for (int c = 0; c < optimizer_.numConstraints(); ++c) {
-    if (candidate[static_cast<std::size_t>(c)]) continue;
+  for (int c : trustedConstraints()) {
     trusted.addConstraint(optimizer_.from(c), optimizer_.to(c), optimizer_.measurement(c),
                           optimizer_.information(c));
   }

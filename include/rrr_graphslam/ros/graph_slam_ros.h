@@ -120,7 +120,9 @@ class GraphSlamRos {
                   std::optional<int> node);
   /// Slam mode, idle: adopts the trimmed map if a trim finished meanwhile.
   void pollOnlineTrim();
-  void adoptTrimmed(std::unique_ptr<frontend::LaserSlam> trimmed);
+  /// Runs `harvest` (the trimmer's) and adopts the map it returns, if any (true); what it throws
+  /// is logged and the running map stays.
+  bool adoptTrimmed(const std::function<std::unique_ptr<frontend::LaserSlam>()>& harvest);
   /// False if the other input owns the graph (the message is then counted as ignored).
   bool claim(Owner owner, const char* topic);
   void replaceGraph(std::unique_ptr<rrr::OnlineRrr> replacement);

@@ -93,6 +93,8 @@ class VerificationGraph {
                                     const core::OptimizationRequest& request = {});
 
  private:
+  /// The optimizer's constraints that are no candidate (odometry and marginal), in order.
+  std::vector<int> trustedConstraints() const;
   std::vector<core::PoseGraph::NodeId> node_ids_;
   std::vector<core::Pose2> initial_poses_;
   std::vector<LoopCandidate> candidates_;
