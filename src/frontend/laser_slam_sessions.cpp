@@ -272,52 +272,113 @@ LaserSlam::Checkpoint LaserSlam::checkpoint() const {
                     map_sensor_,
                     relocalization_matches_,
                     relocalization_paused_until_,
-                    session_points_};
+                    session_points_,
+                    {node_travel_.begin() + sessions_.back().first_node, node_travel_.end()}};
+}
+
+bool LaserSlam::trimsWhileMapping(bool tied, std::size_t sessions, const TrimParams& params) {
+  return tied || (sessions == 1 && !params.keep_current_session);
+}
+
+bool LaserSlam::trimsWhileMapping(const TrimParams& params) const {
+  return mode_ == SessionMode::kMapping && trimsWhileMapping(tied(), sessions_.size(), params);
 }
 
 LaserSlam::Trimmed LaserSlam::trimmed(const Checkpoint& c, const TrimParams& params,
                                       const TrimmingStrategy& strategy) {
-  if (!c.tied) return {};  // where the session covers the map is not known yet
-  TrimResult trim =
-      trimMap(c.map, params, strategy, c.params.local.submap, NewestSession::kRunning);
+  if (!trimsWhileMapping(c.tied, c.sessions.size(), params)) return {};
+  // The submaps local SLAM still builds are never trimmed.
+  TrimParams p = params;
+  p.keep_recent_submaps = std::max(p.keep_recent_submaps, static_cast<int>(c.local.active.size()));
+  TrimResult trim = trimMap(c.map, p, strategy, c.params.local.submap, NewestSession::kRunning);
   Trimmed out{nullptr, trim.report};
   if (trim.map.nodes.size() == c.map.nodes.size() &&
       trim.map.submaps.size() == c.map.submaps.size()) {
     return out;  // nothing left: the running map stays
   }
-  // The current session is kept whole, after the earlier sessions' kept nodes and submaps.
+  const std::vector<int>& node_index = trim.node_index;
   const int old_first = c.sessions.back().first_node;
   const int old_nodes = static_cast<int>(c.map.nodes.size());
-  const int node_shift = old_first - trim.node_index[static_cast<std::size_t>(old_first)];
+  const int old_submaps = static_cast<int>(c.map.submaps.size());
+  // A node number of the checkpoint, renumbered after the nodes removed before it: a kept node's
+  // new index, a removed one's (or one past the end's) that of the next kept node.
+  std::vector<int> removed_before(static_cast<std::size_t>(old_nodes) + 1, 0);
+  for (int k = 0; k < old_nodes; ++k) {
+    removed_before[static_cast<std::size_t>(k) + 1] =
+        removed_before[static_cast<std::size_t>(k)] + (node_index[static_cast<std::size_t>(k)] < 0);
+  }
+  auto renumbered = [&](int node) {
+    return node - removed_before[static_cast<std::size_t>(std::clamp(node, 0, old_nodes))];
+  };
+  // Local SLAM's submaps and their nodes are the newest: kept, in one block that moves as one.
+  const int active_first_submap = old_submaps - static_cast<int>(c.local.active.size());
+  const int active_first_node =
+      c.local.active.empty()
+          ? old_nodes - 1
+          : c.map.submaps[static_cast<std::size_t>(active_first_submap)].first_node;
+  const int node_shift = removed_before[static_cast<std::size_t>(old_nodes)];
   const int submap_shift =
-      c.session_first_submap - trim.submap_index[static_cast<std::size_t>(c.session_first_submap)];
-  for (int k = old_first; k < old_nodes; ++k) {
-    if (trim.node_index[static_cast<std::size_t>(k)] != k - node_shift) {
-      throw std::logic_error("online trimming removed a node of the running session");
+      old_submaps - static_cast<int>(trim.map.submaps.size());  // trimmed before the active ones
+  for (int k = active_first_node; k < old_nodes; ++k) {
+    if (node_index[static_cast<std::size_t>(k)] != k - node_shift) {
+      throw std::logic_error("online trimming removed a node of local SLAM's submaps");
     }
   }
-  for (std::size_t i = static_cast<std::size_t>(c.session_first_submap); i < c.map.submaps.size();
-       ++i) {
-    if (trim.submap_index[i] != static_cast<int>(i) - submap_shift) {
-      throw std::logic_error("online trimming removed a submap of the running session");
+  for (int i = active_first_submap; i < old_submaps; ++i) {
+    if (trim.submap_index[static_cast<std::size_t>(i)] != i - submap_shift) {
+      throw std::logic_error("online trimming removed a submap local SLAM builds");
     }
   }
-  auto shifted = [&](int node) { return node >= old_first ? node - node_shift : node; };
 
   auto slam = std::make_unique<LaserSlam>(c.params, c.sessions.back().name);
   const std::size_t finished = trim.map.submaps.size() - c.local.active.size();
   slam->load(trim.map, finished, true);
-  const int first = old_first - node_shift;
-  slam->session_first_submap_ = c.session_first_submap - submap_shift;
+  const int first = trim.map.sessions.back().first_node;
+  slam->session_first_submap_ = static_cast<int>(finished);
+  for (int i = old_submaps - 1; i >= c.session_first_submap; --i) {
+    const int to = trim.submap_index[static_cast<std::size_t>(i)];
+    if (to >= 0) slam->session_first_submap_ = to;
+  }
   slam->session_first_scan_ = static_cast<std::size_t>(first);
-  // The current session's scans as they were, not one per node as load() has them.
+  // The current session's scans as they were, not one per node as load() has them. A scan of a
+  // removed node rides from now on with the nearest kept node of the session (the one before it,
+  // or the first), at the pose the checkpoint's map gave it.
   slam->scan_node_.resize(slam->session_first_scan_);
   slam->scan_offset_.resize(slam->session_first_scan_);
   slam->scan_timestamps_.resize(slam->session_first_scan_);
-  for (int node : c.scan_node) slam->scan_node_.push_back(shifted(node));
-  slam->scan_offset_.insert(slam->scan_offset_.end(), c.scan_offset.begin(), c.scan_offset.end());
+  std::vector<int> anchor(static_cast<std::size_t>(old_nodes - old_first), -1);
+  int kept = -1;
+  for (int k = old_first; k < old_nodes; ++k) {
+    if (node_index[static_cast<std::size_t>(k)] >= 0) kept = k;
+    anchor[static_cast<std::size_t>(k - old_first)] = kept;
+  }
+  int first_kept = old_first;
+  while (node_index[static_cast<std::size_t>(first_kept)] < 0) ++first_kept;
+  for (int& a : anchor) {
+    if (a >= 0) break;
+    a = first_kept;  // none kept before it
+  }
+  for (std::size_t i = 0; i < c.scan_node.size(); ++i) {
+    const int node = c.scan_node[i];
+    const int to = anchor[static_cast<std::size_t>(node - old_first)];
+    slam->scan_node_.push_back(node_index[static_cast<std::size_t>(to)]);
+    slam->scan_offset_.push_back(
+        to == node
+            ? c.scan_offset[i]
+            : core::compose(core::between(c.map.nodes[static_cast<std::size_t>(to)].map_pose,
+                                          c.map.nodes[static_cast<std::size_t>(node)].map_pose),
+                            c.scan_offset[i]));
+  }
   slam->scan_timestamps_.insert(slam->scan_timestamps_.end(), c.scan_timestamps.begin(),
                                 c.scan_timestamps.end());
+  // The session's travel as it was measured, not across the gaps removed nodes leave.
+  for (int k = old_first; k < old_nodes; ++k) {
+    const int to = node_index[static_cast<std::size_t>(k)];
+    if (to >= 0) {
+      slam->node_travel_.at(static_cast<std::size_t>(to)) =
+          c.session_travel.at(static_cast<std::size_t>(k - old_first));
+    }
+  }
   const MapSnapshot& map = trim.map;
   slam->local_ = LocalSlam::resume(c.local, node_shift, submap_shift,
                                    [&map](int k) -> const mrpt::obs::CObservation2DRangeScan& {
@@ -327,7 +388,7 @@ LaserSlam::Trimmed LaserSlam::trimmed(const Checkpoint& c, const TrimParams& par
     const int to = trim.submap_index[i];
     if (to < 0) continue;
     slam->search_state_.at(static_cast<std::size_t>(to)) = {
-        shifted(c.search_state[i].last_searched), shifted(c.search_state[i].last_matched)};
+        renumbered(c.search_state[i].last_searched), renumbered(c.search_state[i].last_matched)};
   }
   // The loops between the current session and the earlier ones, in arrival order: those of open
   // clusters all kept (they hold their submaps back); accepted ones of closed clusters may now be
@@ -356,14 +417,18 @@ LaserSlam::Trimmed LaserSlam::trimmed(const Checkpoint& c, const TrimParams& par
   slam->stats_.nodes = static_cast<int>(map.nodes.size());
   slam->stats_.submaps = slam->local_.submaps().numSubmaps();
   slam->stats_.finished_submaps = static_cast<int>(finished);
-  if (c.tied_at) slam->tied_at_ = shifted(*c.tied_at);
+  if (c.tied_at) slam->tied_at_ = renumbered(*c.tied_at);
   slam->hint_ = c.hint;
-  if (slam->hint_ && slam->hint_->node >= 0) slam->hint_->node = shifted(slam->hint_->node);
+  if (slam->hint_ && slam->hint_->node >= 0) slam->hint_->node = renumbered(slam->hint_->node);
   slam->map_sensor_ = c.map_sensor;
   slam->relocalization_matches_ = c.relocalization_matches;
-  slam->relocalization_paused_until_ = shifted(c.relocalization_paused_until);
-  slam->session_points_ = c.session_points;
-  for (KeptPoints& kept : slam->session_points_) kept.node = shifted(kept.node);
+  slam->relocalization_paused_until_ = renumbered(c.relocalization_paused_until);
+  slam->session_points_.clear();
+  for (const KeptPoints& points : c.session_points) {
+    if (node_index[static_cast<std::size_t>(points.node)] < 0) continue;
+    slam->session_points_.push_back(points);
+    slam->session_points_.back().node = node_index[static_cast<std::size_t>(points.node)];
+  }
   out.slam = std::move(slam);
   return out;
 }

@@ -235,7 +235,7 @@ TrimResult trimMap(const MapSnapshot& map, const TrimParams& params,
   const int submaps = static_cast<int>(map.submaps.size());
 
   // Nodes a pending loop touches: their submaps wait; in a running session, so do those its loops
-  // to the earlier sessions in open clusters touch (their verdicts are not final).
+  // in open clusters touch (their verdicts are not final).
   const int newest_session = n > 0 ? map.nodes.back().session : 0;
   const bool running = newest == NewestSession::kRunning;
   auto inNewest = [&](int node) {
@@ -244,8 +244,7 @@ TrimResult trimMap(const MapSnapshot& map, const TrimParams& params,
   std::vector<char> pending_node(n, 0);
   for (const MapSnapshot::Edge& e : map.edges) {
     if (e.kind != MapSnapshot::EdgeKind::kLoopCandidate) continue;
-    const bool open_crossing = running && e.cluster < 0 && inNewest(e.from) != inNewest(e.to);
-    if (e.verdict == rrr::Verdict::kPending || open_crossing) {
+    if (e.verdict == rrr::Verdict::kPending || (running && e.cluster < 0)) {
       pending_node[static_cast<std::size_t>(e.from)] =
           pending_node[static_cast<std::size_t>(e.to)] = 1;
     }
@@ -266,7 +265,7 @@ TrimResult trimMap(const MapSnapshot& map, const TrimParams& params,
     for (std::uint64_t key : own) c.covered_cells += kept_cells.count(key);
     report.coverage.push_back(c);
     const MapSnapshot::Submap& span = map.submaps[static_cast<std::size_t>(s)];
-    const bool current = (params.keep_current_session || running) && inNewest(span.first_node);
+    const bool current = params.keep_current_session && inNewest(span.first_node);
     bool trim = s < submaps - params.keep_recent_submaps && !current && strategy.trim(c);
     if (trim) {
       for (int k = span.first_node; k <= span.last_node && trim; ++k) {

@@ -34,21 +34,21 @@ void OnlineTrimmer::drop() {
   since_checkpoint_.clear();
 }
 
-bool OnlineTrimmer::due(const LaserSlam& slam, std::optional<int> node) const {
-  if (params_.every_n_nodes <= 0 || !node || slam.mode() != SessionMode::kMapping) return false;
-  const int session_nodes = *node - slam.sessions().back().first_node + 1;
-  return session_nodes > 0 && session_nodes % params_.every_n_nodes == 0 && slam.tied();
+bool OnlineTrimmer::due(const LaserSlam& slam) const {
+  return params_.every_n_nodes > 0 && session_nodes_ % params_.every_n_nodes == 0 &&
+         slam.trimsWhileMapping(params_.trim);
 }
 
 std::unique_ptr<LaserSlam> OnlineTrimmer::afterScan(LaserSlam& slam, const RangeScan& scan,
                                                     const core::Pose2& odom_pose,
                                                     std::optional<int> node) {
   ++scans_;
+  if (node) ++session_nodes_;
   if (pending_.valid()) {
     since_checkpoint_.push_back({scan, odom_pose});
     return poll();
   }
-  if (!due(slam, node)) return nullptr;
+  if (!node || !due(slam)) return nullptr;
   OnlineTrimRecord record;
   record.scan = scans_;
   record.nodes_before = slam.stats().nodes;

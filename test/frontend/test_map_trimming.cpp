@@ -240,7 +240,7 @@ TEST(MapTrimming, ARunningSessionTrimsTheEarlierOnesAndGoesOnAsBefore) {
   ASSERT_TRUE(running->tied());
   const LaserSlam::Checkpoint checkpoint = running->checkpoint();
   TrimParams params = trimParams();
-  params.keep_current_session = false;  // the running session stays whatever this says
+  params.keep_current_session = true;  // the running session stays whole
   const LaserSlam::Trimmed trimmed =
       LaserSlam::trimmed(checkpoint, params, OverlapRatioTrimming(params.trim_overlap_ratio));
   ASSERT_NE(trimmed.slam, nullptr);
@@ -359,6 +359,79 @@ TEST(MapTrimming, TheOnlineTrimmerTrimsInLineOrBehindTheMap) {
       EXPECT_GT(first.replayed_scans, 0);  // the scans that came while it trimmed
     }
   }
+}
+
+// One endless session (laps of the room, no map before), keep_current_session off: its older
+// submaps are trimmed while it maps, so the graph stops growing with the laps; local SLAM goes on
+// as without trimming (to 1e-9 m: the rebuilt submaps round differently), and every scan, those of
+// removed nodes too, stays where an untrimmed run puts it.
+TEST(MapTrimming, AnEndlessSessionTrimsItsOwnOlderSubmaps) {
+  // The robot never leaves this small room: with the default gap its loops (every 10 nodes) would
+  // make one cluster that never closes, and the submaps open clusters touch wait.
+  LaserSlamParams sparse = smallMaps();
+  sparse.loops.search_every_n_nodes = 150;
+  sparse.rrr.rrr.cluster_gap = 4;
+  constexpr int kScans = 640;  // six laps
+  LaserSlam reference(sparse, "endless");
+  drive(reference, core::Pose2::Zero(), kScans, 0.0);
+  const MapSnapshot untrimmed = reference.snapshot();
+  const std::vector<core::Pose2> untrimmed_scans = reference.scanMapPoses();
+  std::map<double, core::Pose2> local_at;  // the untrimmed run's local pose of each node
+  for (const MapSnapshot::Node& node : untrimmed.nodes) local_at[node.timestamp] = node.local_pose;
+
+  for (const bool in_line : {true, false}) {
+    SCOPED_TRACE(in_line ? "in line" : "behind");
+    TrimParams params = trimParams();
+    OnlineTrimmer trimmer({params, 60, in_line});
+    auto slam = std::make_unique<LaserSlam>(sparse, "endless");
+    int most_nodes = 0;
+    for (int k = 0; k < kScans; ++k) {
+      RangeScan scan = castScan(room(), truthAt(k));
+      scan.timestamp = 0.1 * k;
+      const std::optional<int> node = slam->addScan(scan, truthAt(k));
+      std::unique_ptr<LaserSlam> trimmed = trimmer.afterScan(*slam, scan, truthAt(k), node);
+      if (trimmed) slam = std::move(trimmed);
+      most_nodes = std::max(most_nodes, slam->stats().nodes);
+    }
+    if (std::unique_ptr<LaserSlam> trimmed = trimmer.wait()) slam = std::move(trimmed);
+    ASSERT_GT(trimmer.replaced(), 1);
+    const MapSnapshot map = slam->snapshot();
+    ASSERT_EQ(map.sessions.size(), 1u);
+    EXPECT_GT(map.lifelong.trimmed_submaps, 0);
+    // The graph grows with the room, not with the laps.
+    EXPECT_LT(map.nodes.size(), untrimmed.nodes.size() / 2);
+    EXPECT_LT(most_nodes, static_cast<int>(untrimmed.nodes.size()) * 2 / 3);
+    EXPECT_GT(countKind(map, MapSnapshot::EdgeKind::kMarginal), 0);
+    for (const MapSnapshot::Node& node : map.nodes) {
+      ASSERT_EQ(local_at.count(node.timestamp), 1u);
+      EXPECT_LT((node.local_pose - local_at[node.timestamp]).norm(), 1e-9) << node.timestamp;
+    }
+    EXPECT_EQ(slam->stats().scans, reference.stats().scans);
+    EXPECT_EQ(slam->sessionFirstScan(), 0u);
+    const std::vector<core::Pose2> scans = slam->scanMapPoses();
+    ASSERT_EQ(scans.size(), untrimmed_scans.size());
+    const core::Pose2 motion = core::compose(untrimmed_scans.back(), core::inverse(scans.back()));
+    for (std::size_t i = 0; i < scans.size(); i += 7) {
+      const core::Pose2 expected = core::compose(motion, scans[i]);
+      EXPECT_LT((untrimmed_scans[i].head<2>() - expected.head<2>()).norm(), 0.1) << i;
+      EXPECT_LT((truthAt(static_cast<int>(i)).head<2>() - scans[i].head<2>()).norm(), 0.15) << i;
+    }
+    const std::string path = ::testing::TempDir() + "endless_trimmed.rrrmap";
+    writeMapFile(map, path);
+    EXPECT_EQ(readMapFile(path).nodes.size(), map.nodes.size());
+  }
+  // With keep_current_session a first session has nothing to trim: no trim is even started.
+  TrimParams keep = trimParams();
+  keep.keep_current_session = true;
+  OnlineTrimmer idle({keep, 60, true});
+  LaserSlam slam(sparse, "endless");
+  for (int k = 0; k < 300; ++k) {
+    RangeScan scan = castScan(room(), truthAt(k));
+    scan.timestamp = 0.1 * k;
+    const std::optional<int> node = slam.addScan(scan, truthAt(k));
+    EXPECT_EQ(idle.afterScan(slam, scan, truthAt(k), node), nullptr);
+  }
+  EXPECT_EQ(idle.finished(), 0);
 }
 
 // A trimmed map decided again at load keeps the loops it had: a robust ordering map that its

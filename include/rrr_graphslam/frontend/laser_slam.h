@@ -99,21 +99,22 @@ class LaserSlam {
   /// Every parameter of both tables it runs with, as a map file records them (name, value).
   std::vector<std::pair<std::string, std::string>> snapshotParams() const;
 
-  /// Online trimming (map_trimming.h) of the earlier sessions while this one maps, in three
-  /// steps so that the slow one runs off the thread that adds scans:
+  /// Online trimming (map_trimming.h) while this session maps, in three steps so that the slow
+  /// one runs off the thread that adds scans:
   ///   1. checkpoint(), on that thread: a copy of the map and of the session's state (the scans
   ///      shared, never written);
   ///   2. trimmed(checkpoint, ...), on any thread: trims the checkpoint's map with the current
-  ///      session running (NewestSession::kRunning: its submaps stay, those its undecided loops
-  ///      to the earlier sessions touch wait) and builds the LaserSlam that continues the same
-  ///      session from the trimmed map: the earlier sessions' submaps rebuilt, RRR deciding the
-  ///      kept candidates again, local SLAM exactly where the checkpoint left it (its nodes and
-  ///      submaps renumbered after the removed ones; its open clusters stay open). Nothing is
-  ///      trimmed until the session is tied to the map (before, where it covers the map is not
-  ///      known); once accepted loops of it to the map are folded into marginal constraints it
-  ///      stays tied. The new RRR's verdicts are news (takeChanges: every decided candidate,
-  ///      numbered as in the trimmed map);
+  ///      session running (NewestSession::kRunning: with keep_current_session its submaps stay,
+  ///      without it its older ones are judged against its newer ones; local SLAM's submaps and
+  ///      those a loop in an open cluster touches wait) and builds the LaserSlam that continues
+  ///      the same session from the trimmed map: the kept submaps rebuilt, RRR deciding the kept
+  ///      candidates again (its open clusters stay open), local SLAM exactly where the checkpoint
+  ///      left it. Nodes and submaps are renumbered after the removed ones; a scan of a removed
+  ///      node of the session rides from then on with the nearest kept node before it (as the
+  ///      checkpoint's map placed them). The new RRR's verdicts are news (takeChanges: every
+  ///      decided candidate, numbered as in the trimmed map);
   ///   3. the scans added here since the checkpoint are added to the new one, which replaces this.
+  /// Nothing is trimmed while trimsWhileMapping() is false.
   /// Throws std::logic_error in localization or before the current session has a node.
   struct Checkpoint;
   Checkpoint checkpoint() const;
@@ -121,6 +122,11 @@ class LaserSlam {
     std::unique_ptr<LaserSlam> slam;  ///< nullptr when nothing was trimmed
     TrimReport report;
   };
+  /// Whether online trimming with `params` may trim now: once the session is tied to the map
+  /// (before, where it covers the map is not known; once accepted loops of it to the map are
+  /// folded into marginal constraints it stays tied), or in the map's first session when
+  /// keep_current_session is off (it trims its own older submaps). Mapping mode only.
+  bool trimsWhileMapping(const TrimParams& params) const;
   static Trimmed trimmed(const Checkpoint& checkpoint, const TrimParams& params,
                          const TrimmingStrategy& strategy);
 
@@ -188,6 +194,7 @@ class LaserSlam {
   /// `continuing` (trimmed()): the clusters open at the map's last node stay open, and RRR's
   /// verdicts are news (under the trimmed map's numbering).
   void load(const MapSnapshot& map, std::size_t finished_submaps, bool continuing = false);
+  static bool trimsWhileMapping(bool tied, std::size_t sessions, const TrimParams& params);
   void searchLoops(int node, const PointCloud& points);
   void addLoop(const LoopMatch& loop);
   /// Keeps a thinned copy of the node's scan while its session is not tied, over the last
@@ -266,6 +273,7 @@ class LaserSlam {
     int relocalization_matches = 0;
     int relocalization_paused_until = 0;
     std::deque<KeptPoints> session_points;
+    std::vector<double> session_travel;  // node_travel_ of the current session's nodes
   };
 };
 

@@ -173,11 +173,12 @@ struct TrimResult {
 enum class NewestSession {
   /// Its decisions are final (a map being saved, between sessions): keep_current_session applies.
   kFinished,
-  /// It is still mapping (online trimming): its submaps are kept whatever keep_current_session
-  /// says, and a submap whose nodes its loop candidates to the earlier sessions in open clusters
-  /// touch waits, as for a pending loop (RRR still decides them as the cluster grows). The loops
-  /// of closed clusters are taken as decided: an accepted one folded into a marginal constraint
-  /// can no longer be reversed.
+  /// It is still mapping (online trimming): keep_current_session applies too (false: its older
+  /// submaps are judged against its newer ones, so that one endless session stops growing; the
+  /// caller keeps the submaps still being built within keep_recent_submaps), and a submap whose
+  /// nodes a loop candidate in an open cluster touches waits, as for a pending loop (RRR still
+  /// decides it as the cluster grows). The loops of closed clusters are taken as decided: an
+  /// accepted one folded into a marginal constraint can no longer be reversed.
   kRunning,
 };
 

@@ -1,6 +1,8 @@
 #pragma once
-// Online trimming: while a session maps, the earlier sessions' submaps that it covers are
-// trimmed (map_trimming.h), every `every_n_nodes` nodes of the session once it is tied to the map.
+// Online trimming: while a session maps, the submaps that newer ones cover are trimmed
+// (map_trimming.h), every `every_n_nodes` nodes of the session once LaserSlam::trimsWhileMapping
+// (tied to the map; in a first session, with keep_current_session off): the earlier sessions'
+// submaps, and without keep_current_session the session's own older ones.
 // LaserSlam::checkpoint() is taken after the scan that made the due node; the trim and the
 // rebuild of the map (LaserSlam::trimmed) run on a thread of their own while the running map
 // goes on; the scans it took meanwhile are then given to the trimmed one, which replaces it.
@@ -76,11 +78,12 @@ class OnlineTrimmer {
     LaserSlam::Trimmed trimmed;
     double ms = 0.0;
   };
-  bool due(const LaserSlam& slam, std::optional<int> node) const;
+  bool due(const LaserSlam& slam) const;
   std::unique_ptr<LaserSlam> finish(Outcome outcome);
 
   OnlineTrimParams params_;
   std::size_t scans_ = 0;
+  int session_nodes_ = 0;  // nodes the session made (its node numbers change with each trim)
   std::future<Outcome> pending_;
   OnlineTrimRecord in_flight_;
   struct Given {
