@@ -287,9 +287,11 @@ bool LaserSlam::trimsWhileMapping(const TrimParams& params) const {
 LaserSlam::Trimmed LaserSlam::trimmed(const Checkpoint& c, const TrimParams& params,
                                       const TrimmingStrategy& strategy) {
   if (!trimsWhileMapping(c.tied, c.sessions.size(), params)) return {};
-  // The submaps local SLAM still builds are never trimmed.
+  // The submaps local SLAM still builds are never trimmed; the session's own older ones only
+  // once it came back to them.
   TrimParams p = params;
   p.keep_recent_submaps = std::max(p.keep_recent_submaps, static_cast<int>(c.local.active.size()));
+  p.revisit_gap_nodes = std::max(p.revisit_gap_nodes, c.params.loops.min_node_separation);
   TrimResult trim = trimMap(c.map, p, strategy, c.params.local.submap, NewestSession::kRunning);
   Trimmed out{nullptr, trim.report};
   if (trim.map.nodes.size() == c.map.nodes.size() &&

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <deque>
 #include <exception>
 #include <map>
 #include <stdexcept>
@@ -54,6 +55,10 @@ void validate(const TrimParams& params) {
          " is out of range: must be in (0, 10] m");
   }
   if (params.threads < 1) fail("threads must be at least 1");
+  if (params.revisit_gap_nodes < 0) {
+    fail("revisit_gap_nodes = " + std::to_string(params.revisit_gap_nodes) +
+         " is out of range: must be at least 0");
+  }
   if (params.sparsification == Sparsification::kDense) {
     fail(
         "sparsification 'dense' keeps one factor over the whole Markov blanket, which the map "
@@ -256,15 +261,28 @@ TrimResult trimMap(const MapSnapshot& map, const TrimParams& params,
       observedCells(map, submap_params, params.coverage_resolution_m, params.threads);
   std::vector<char> trimmed(map.submaps.size(), 0);
   std::unordered_set<std::uint64_t> kept_cells;
+  // In a running session, the kept submaps of its own that do not cover its older ones yet: they
+  // begin less than revisit_gap_nodes after those end (newest first).
+  std::deque<int> not_yet;
+  auto covers = [&](int t, const MapSnapshot::Submap& span) {
+    const MapSnapshot::Submap& newer = map.submaps[static_cast<std::size_t>(t)];
+    return !running || !inNewest(span.first_node) || params.revisit_gap_nodes <= 0 ||
+           newer.first_node - span.last_node >= params.revisit_gap_nodes;
+  };
   for (int s = submaps - 1; s >= 0; --s) {
     const Cells& own = cells[static_cast<std::size_t>(s)];
+    const MapSnapshot::Submap& span = map.submaps[static_cast<std::size_t>(s)];
+    while (!not_yet.empty() && covers(not_yet.front(), span)) {
+      const Cells& newer = cells[static_cast<std::size_t>(not_yet.front())];
+      kept_cells.insert(newer.begin(), newer.end());
+      not_yet.pop_front();
+    }
     SubmapCoverage c;
     c.submap = s;
     c.observed_cells = own.size();
     c.cell_area_m2 = params.coverage_resolution_m * params.coverage_resolution_m;
     for (std::uint64_t key : own) c.covered_cells += kept_cells.count(key);
     report.coverage.push_back(c);
-    const MapSnapshot::Submap& span = map.submaps[static_cast<std::size_t>(s)];
     const bool current = params.keep_current_session && inNewest(span.first_node);
     bool trim = s < submaps - params.keep_recent_submaps && !current && strategy.trim(c);
     if (trim) {
@@ -274,7 +292,7 @@ TrimResult trimMap(const MapSnapshot& map, const TrimParams& params,
       if (!trim) ++report.waiting_submaps;
     }
     trimmed[static_cast<std::size_t>(s)] = trim ? 1 : 0;
-    if (!trim) kept_cells.insert(own.begin(), own.end());
+    if (!trim) not_yet.push_back(s);
   }
   report.coverage_seconds = core::secondsSince(coverage_watch);
 

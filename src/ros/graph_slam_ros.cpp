@@ -439,10 +439,10 @@ void GraphSlamRos::publishOutputs() {
     } else if (slam_) {
       // The graph's node poses are local-SLAM poses; odom_frame is the robot's odometry. A loaded
       // map's nodes belong to other runs: until this session has a node there is no map -> odom.
-      if (node_odom_poses_.empty()) {
+      if (!newest_node_odom_) {
         map_to_odom_.reset();
       } else {
-        map_to_odom_ = core::compose(poses.back(), core::inverse(node_odom_poses_.back()));
+        map_to_odom_ = core::compose(poses.back(), core::inverse(*newest_node_odom_));
       }
     } else {
       map_to_odom_ = graph().mapToOdom();

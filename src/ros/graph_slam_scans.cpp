@@ -126,7 +126,7 @@ void GraphSlamRos::handleScan(const ScanInput& input) {
   }
   if (node) {
     node_stamps_.push_back(msg.header.stamp);
-    node_odom_poses_.push_back(input.odom);
+    newest_node_odom_ = input.odom;
     dirty_ = true;
     map_dirty_ = true;
   }
@@ -154,8 +154,8 @@ bool GraphSlamRos::adoptTrimmed(
     return false;
   }
   if (!trimmed) return false;
-  // Renumbered after the removed nodes: the stamps follow (the current session's odometry
-  // poses, one per node of it, stay as they are).
+  // Renumbered after the removed nodes: the stamps follow (the newest node, whose odometry pose
+  // makes map -> odom, always stays).
   std::vector<ros::Time> stamps;
   for (double t : trimmed->nodeTimestamps()) stamps.emplace_back(t);
   slam_ = std::move(trimmed);
@@ -165,7 +165,7 @@ bool GraphSlamRos::adoptTrimmed(
   map_dirty_ = true;
   const frontend::OnlineTrimRecord& r = *trimmer_->last();
   ROS_INFO(
-      "lifelong: trimmed %d submaps of the earlier sessions while mapping, %d -> %d nodes (%d "
+      "lifelong: trimmed %d submaps while mapping, %d -> %d nodes (%d "
       "marginal edges) in %.0f ms off the mapping thread; %d scans replayed in %.0f ms",
       r.report.trimmed_submaps, r.nodes_before, r.nodes_after, r.report.marginalEdges(), r.trim_ms,
       r.replayed_scans, r.replay_ms);
@@ -205,7 +205,7 @@ void GraphSlamRos::startSlam(const frontend::MapSnapshot* map) {
   sensor_mismatch_.clear();  // a new map: its scans' setup is checked anew
   sensor_mismatch_scans_ = 0;
   node_stamps_ = std::move(stamps);
-  node_odom_poses_.clear();  // the current session's nodes
+  newest_node_odom_.reset();  // the current session has no node yet
   last_scan_stamp_ = ros::Time();
   map_dirty_ = true;
 }

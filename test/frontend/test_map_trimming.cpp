@@ -420,6 +420,33 @@ TEST(MapTrimming, AnEndlessSessionTrimsItsOwnOlderSubmaps) {
     writeMapFile(map, path);
     EXPECT_EQ(readMapFile(path).nodes.size(), map.nodes.size());
   }
+  // A running session's own submap is judged against its submaps of a later pass only, not
+  // against those that follow it on the way (they would trim the trail the robot leaves, and with
+  // it the submaps its next loops close on).
+  const MapSnapshot& laps = threeLaps();  // 3 laps of about 100 nodes
+  auto trimmedRunning = [&](int gap) {
+    TrimParams p = trimParams();
+    p.report_kl = false;
+    p.revisit_gap_nodes = gap;
+    return trimMap(laps, p, smallMaps().local.submap, NewestSession::kRunning).report;
+  };
+  const int any_newer = trimmedRunning(0).trimmed_submaps;
+  const int next_lap = trimmedRunning(60).trimmed_submaps;
+  EXPECT_GT(next_lap, 0);
+  EXPECT_LT(next_lap, any_newer);
+  EXPECT_EQ(trimmedRunning(1000).trimmed_submaps, 0);  // no pass came back that late
+  EXPECT_EQ(trimMap(
+                laps,
+                [] {
+                  TrimParams p = trimParams();
+                  p.report_kl = false;
+                  p.revisit_gap_nodes = 1000;
+                  return p;
+                }(),
+                smallMaps().local.submap)
+                .report.trimmed_submaps,
+            any_newer);  // a finished session's submaps are judged against every newer one
+
   // With keep_current_session a first session has nothing to trim: no trim is even started.
   TrimParams keep = trimParams();
   keep.keep_current_session = true;

@@ -8,6 +8,7 @@ import os
 import re
 import subprocess
 
+import numpy as np
 import pytest
 from conftest import DATA
 from rrr_graphslam.decision_stream import read_decision_stream
@@ -500,6 +501,67 @@ def test_lifelong_trims_while_the_session_maps(tmp_path):
     after = dict(line.split(" ", 1) for line in run(MAP_INFO, out_map).stdout.splitlines())
     assert int(after["trimmed_submaps"]) > 0 and int(after["marginal_edges"]) > 0
     assert int(after["nodes"]) < 2 * int(before["nodes"])
+
+
+def write_there_and_back(source, target):
+    """The CARMEN log `source` (FLASER and ODOM lines) and then its scans again in reverse order,
+    the robot driving its path back: one session that covers its own first half."""
+    from rrr_graphslam.carmen import text_lines
+    lines = [line.split() for _, line in text_lines(source)]
+    lines = [f for f in lines if f and f[0] in ("FLASER", "ODOM")]
+
+    def stamps(f):  # the indices of a line's two timestamps
+        k = 8 + int(f[1]) if f[0] == "FLASER" else 7
+        return (k, k + 2)
+
+    end = max(float(f[k]) for f in lines for k in stamps(f))
+    back = []
+    for f in reversed(lines):
+        g = list(f)
+        for k in stamps(g):
+            g[k] = repr(2.0 * end + 0.05 - float(g[k]))
+        back.append(g)
+    with open(target, "w") as out:
+        for f in lines + back:
+            out.write(" ".join(f) + "\n")
+
+
+@needs_map_info
+def test_lifelong_trims_an_endless_sessions_own_submaps(tmp_path):
+    # One session (no map before) that drives the head of ACES there and back: with
+    # --keep-current-session false its own older submaps go while it maps (the robot moves a few
+    # metres: at overlap 0.5 the newest submaps cover nearly all the older ones).
+    log = tmp_path / "there_and_back.clf"
+    write_there_and_back(ACES_HEAD, str(log))
+    plain_map, trimmed_map = tmp_path / "plain.rrrmap", tmp_path / "trimmed.rrrmap"
+    common = ("--refine-resolution", 0, "--quiet", *SMALL_SUBMAPS)
+    plain_traj = tmp_path / "plain.txt"
+    plain = run(SLAM_OFFLINE, log, "--save-map", plain_map, "--trajectory", plain_traj, *common)
+    assert plain.returncode == 0, plain.stderr
+    traj = tmp_path / "trimmed.txt"
+    trimmed = run(SLAM_OFFLINE, log, "--save-map", trimmed_map, "--lifelong", "--keep-current-session",
+                  "false", "--trim-overlap", 0.5, "--keep-recent-submaps", 2, "--trim-every-n-nodes", 10,
+                  "--trajectory", traj, *common)
+    assert trimmed.returncode == 0, trimmed.stderr
+    trims = [dict(zip(f[1::2], f[2::2])) for f in
+             (line.replace("->", "after").split() for line in trimmed.stdout.splitlines()
+              if line.startswith("online_trim "))]
+    assert sum(int(t["submaps_trimmed"]) for t in trims) > 0, trimmed.stdout
+    before = dict(line.split(" ", 1) for line in run(MAP_INFO, plain_map).stdout.splitlines())
+    after = dict(line.split(" ", 1) for line in run(MAP_INFO, trimmed_map).stdout.splitlines())
+    assert int(after["sessions"]) == 1 and int(after["trimmed_submaps"]) > 0
+    assert int(after["nodes"]) < int(before["nodes"]) // 2
+    # Every scan keeps its pose, those of the removed nodes too, near where the untrimmed run has
+    # it (up to the gauge: the trimmed map's first node is another; 0.13 m at most when written).
+    def poses(path):
+        return np.array([[float(v) for v in line.split()[1:3]] for line in open(path)
+                         if line.strip() and not line.startswith("#")])
+    mine, theirs = poses(traj), poses(plain_traj)
+    assert len(mine) == len(theirs) == sum(1 for line in open(log) if line.startswith("FLASER"))
+    u, _, vt = np.linalg.svd((mine - mine.mean(0)).T @ (theirs - theirs.mean(0)))
+    rotation = (u @ vt).T
+    aligned = (mine - mine.mean(0)) @ rotation.T + theirs.mean(0)
+    assert np.linalg.norm(aligned - theirs, axis=1).max() < 0.2
 
 
 @needs_slam

@@ -66,6 +66,12 @@ struct TrimParams {
   /// it is now (trimming within the session would lose the cells its later submaps did not see
   /// again). Earlier sessions' submaps are judged against them. false: every submap is judged.
   bool keep_current_session = true;
+  /// While a session runs (NewestSession::kRunning), a submap of its own is judged only against
+  /// its kept submaps that begin at least this many nodes after it ends: a revisit, not the
+  /// submaps that follow it on the way, so the older submaps the session's next loops would
+  /// close on stay until it comes back (LaserSlam::trimmed takes the loop search's
+  /// min_node_separation). 0: against every newer kept submap.
+  int revisit_gap_nodes = 0;
   Sparsification sparsification = Sparsification::kClt;
   /// Cell size of the coverage grids (m).
   double coverage_resolution_m = 0.1;

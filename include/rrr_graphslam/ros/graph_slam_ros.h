@@ -152,7 +152,7 @@ class GraphSlamRos {
   std::unique_ptr<frontend::LaserSlam> slam_;         // slam mode only
   std::unique_ptr<frontend::OnlineTrimmer> trimmer_;  // slam mode, trim_every_n_nodes > 0
   std::vector<ros::Time> node_stamps_;
-  std::vector<core::Pose2> node_odom_poses_;  // slam mode: odom_frame pose of every node
+  std::optional<core::Pose2> newest_node_odom_;  // slam mode: odom_frame pose of the newest node
   ros::Time last_scan_stamp_;
   bool map_dirty_ = false;
   std::chrono::steady_clock::time_point last_map_;
