@@ -512,7 +512,7 @@ int main(int argc, char** argv) {
     tools::printSessions(slam);
     tools::printLatency(latency);
     if (args.trim_every_n_nodes > 0) {
-      tools::printOnlineTrims(online_trims, args.trim_every_n_nodes);
+      tools::printOnlineTrims(online_trims, args.trim_every_n_nodes, !args.load_map.empty());
     }
     std::printf(
         "time           %.2f s (local SLAM %.2f, loop search %.2f, RRR %.2f), %.1fx real time\n",

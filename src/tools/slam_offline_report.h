@@ -74,7 +74,7 @@ inline void printOnlineTrim(const frontend::OnlineTrimRecord& r) {
 
 // The online trims' summary line.
 inline void printOnlineTrims(const std::vector<frontend::OnlineTrimRecord>& records,
-                             int every_n_nodes) {
+                             int every_n_nodes, bool continued_a_map) {
   std::vector<double> trim_ms, checkpoint_ms;
   int submaps = 0, nodes = 0;
   for (const frontend::OnlineTrimRecord& r : records) {
@@ -89,11 +89,11 @@ inline void printOnlineTrims(const std::vector<frontend::OnlineTrimRecord>& reco
     return v.empty() ? 0.0 : nearestRank(v, p);
   };
   std::printf(
-      "online trims   %zu (every %d nodes once tied): %d submaps trimmed, %d nodes "
+      "online trims   %zu (every %d nodes%s): %d submaps trimmed, %d nodes "
       "marginalized; trim %.1f ms p50, %.1f max (off the mapping thread in the nodelet); "
       "checkpoint %.1f ms p50, %.1f max\n",
-      records.size(), every_n_nodes, submaps, nodes, q(trim_ms, 0.5), q(trim_ms, 1.0),
-      q(checkpoint_ms, 0.5), q(checkpoint_ms, 1.0));
+      records.size(), every_n_nodes, continued_a_map ? " once tied" : "", submaps, nodes,
+      q(trim_ms, 0.5), q(trim_ms, 1.0), q(checkpoint_ms, 0.5), q(checkpoint_ms, 1.0));
 }
 
 // Nodes and edges per session, and when the current session was tied to the earlier ones.
