@@ -191,3 +191,40 @@ def write_moved_log(source: str, target: str, frame: Pose, later: float = 0.0) -
         out.append(" ".join(fields) + "\n")
     with open(target, "w") as f:
         f.write("".join(out))
+
+
+def write_there_and_back_log(source: str, target: str) -> None:
+    """Writes the CARMEN log `source` (plain or .gz) to `target` followed by its FLASER,
+    ROBOTLASER1 and ODOM lines again in reverse order, timestamps mirrored after the last: the
+    robot drives its path back, one session that comes back over all it saw. Other lines are
+    copied once, first. For tests of a session that revisits its own path."""
+    def stamps(fields: List[str]) -> Tuple[int, int]:
+        tag = fields[0]
+        if tag == "FLASER":
+            k = 8 + int(fields[1])
+        elif tag == "ROBOTLASER1":
+            n = int(fields[8])
+            k = 10 + n + int(fields[9 + n]) + 11
+        else:
+            k = 7
+        return (k, k + 2)
+
+    header, motion = [], []
+    for _, line in text_lines(source):
+        fields = line.split()
+        if fields and fields[0] in ("FLASER", "ROBOTLASER1", "ODOM"):
+            motion.append(fields)
+        else:
+            header.append(line)
+    if not motion:
+        raise GraphFileError(f"{source}: no FLASER, ROBOTLASER1 or ODOM line to drive back")
+    end = max(float(f[k]) for f in motion for k in stamps(f))
+    back = []
+    for fields in reversed(motion):
+        mirrored = list(fields)
+        for k in stamps(mirrored):
+            mirrored[k] = repr(2.0 * end + 0.05 - float(mirrored[k]))
+        back.append(mirrored)
+    with open(target, "w") as f:
+        f.write("".join(line + "\n" for line in header))
+        f.write("".join(" ".join(fields) + "\n" for fields in motion + back))

@@ -503,36 +503,14 @@ def test_lifelong_trims_while_the_session_maps(tmp_path):
     assert int(after["nodes"]) < 2 * int(before["nodes"])
 
 
-def write_there_and_back(source, target):
-    """The CARMEN log `source` (FLASER and ODOM lines) and then its scans again in reverse order,
-    the robot driving its path back: one session that covers its own first half."""
-    from rrr_graphslam.carmen import text_lines
-    lines = [line.split() for _, line in text_lines(source)]
-    lines = [f for f in lines if f and f[0] in ("FLASER", "ODOM")]
-
-    def stamps(f):  # the indices of a line's two timestamps
-        k = 8 + int(f[1]) if f[0] == "FLASER" else 7
-        return (k, k + 2)
-
-    end = max(float(f[k]) for f in lines for k in stamps(f))
-    back = []
-    for f in reversed(lines):
-        g = list(f)
-        for k in stamps(g):
-            g[k] = repr(2.0 * end + 0.05 - float(g[k]))
-        back.append(g)
-    with open(target, "w") as out:
-        for f in lines + back:
-            out.write(" ".join(f) + "\n")
-
-
 @needs_map_info
 def test_lifelong_trims_an_endless_sessions_own_submaps(tmp_path):
     # One session (no map before) that drives the head of ACES there and back: with
     # --keep-current-session false its own older submaps go while it maps (the robot moves a few
     # metres: at overlap 0.5 the newest submaps cover nearly all the older ones).
+    from rrr_graphslam.carmen import write_there_and_back_log
     log = tmp_path / "there_and_back.clf"
-    write_there_and_back(ACES_HEAD, str(log))
+    write_there_and_back_log(ACES_HEAD, str(log))
     plain_map, trimmed_map = tmp_path / "plain.rrrmap", tmp_path / "trimmed.rrrmap"
     common = ("--refine-resolution", 0, "--quiet", *SMALL_SUBMAPS)
     plain_traj = tmp_path / "plain.txt"

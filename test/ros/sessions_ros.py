@@ -15,7 +15,7 @@ import rostest
 from geometry_msgs.msg import PoseWithCovarianceStamped
 from visualization_msgs.msg import MarkerArray
 
-from rrr_graphslam.carmen import write_moved_log  # noqa: E402
+from rrr_graphslam.carmen import write_moved_log, write_there_and_back_log  # noqa: E402
 from rrr_graphslam.msg import LoopClosureDecision, RrrStatus  # noqa: E402
 from rrr_graphslam.srv import LoadMap, SaveMap  # noqa: E402
 from rostest_helpers import wait_for  # noqa: E402
@@ -219,6 +219,31 @@ class Sessions(unittest.TestCase):
             self.assertLess(last.nodes, 2 * loaded, str(last))
             saved = os.path.join(self.folder, "online.rrrmap")
             answer = rospy.ServiceProxy("/online_trim/save_map", SaveMap)(path=saved)
+            self.assertTrue(answer.success, answer.message)
+        finally:
+            node.terminate()
+            output, _ = node.communicate(timeout=30)
+        self.assertIn("lifelong: trimmed", output)
+
+    def test_f_one_endless_session_trims_its_own_older_submaps(self):
+        # No map: one session that drives its path there and back. With keep_current_session
+        # off, its own older submaps go while it maps, once it came back over them.
+        node, status = self.start_node("endless", {
+            "input_mode": "scan", "publish_tf": False, "scans_per_submap": 10,
+            "min_node_separation": 15, "lifelong": True, "keep_current_session": False,
+            "trim_overlap_ratio": 0.5, "keep_recent_submaps": 2, "trim_every_n_nodes": 10})
+        try:
+            self.assertTrue(wait_for(lambda: "last" in status, 30.0), "the node did not start")
+            there_and_back = os.path.join(self.folder, "there_and_back.clf")
+            write_there_and_back_log(self.log, there_and_back)
+            self.play(there_and_back, "replay_endless")
+            self.assertTrue(wait_for(lambda: status["last"].online_trims > 0 and
+                                     status["last"].trimmed_submaps > 0, 20.0), str(status["last"]))
+            last = status["last"]
+            self.assertEqual(last.session, 0)
+            self.assertGreater(last.marginalized_nodes, 0)
+            saved = os.path.join(self.folder, "endless.rrrmap")
+            answer = rospy.ServiceProxy("/endless/save_map", SaveMap)(path=saved)
             self.assertTrue(answer.success, answer.message)
         finally:
             node.terminate()
