@@ -99,7 +99,10 @@ std::optional<int> LaserSlam::addScan(const RangeScan& scan, const core::Pose2& 
     }
     keepSessionPoints(node, result.points);
     searchLoops(node, result.points);
-    if (!tied_at_ && sessions_.size() > 1 && tied()) tied_at_ = node;
+    // A session of a loaded map trims its own nodes only once it is tied: the count is exact.
+    if (!tie_ && sessions_.size() > 1 && tied()) {
+      tie_ = Tie{node, node - sessions_.back().first_node, scan.timestamp};
+    }
   }
   const int newest = static_cast<int>(node_local_poses_.size()) - 1;
   scan_timestamps_.push_back(scan.timestamp);

@@ -107,7 +107,8 @@ namespace {
 // start where the map has them instead, as one rigid piece placed in the odometry frame of its
 // first node: the pieces of a trimmed session, and sessions whose loops trimming folded into
 // marginal constraints, are bound by trusted constraints that their own odometry frames would
-// violate.
+// violate. All of it moved rigidly so that the first node, which holds the gauge, starts at its
+// map pose: the map frame stays where it was when trimming removed the nodes that defined it.
 std::vector<core::Pose2> startingPoses(const MapSnapshot& map) {
   const std::size_t n = map.nodes.size();
   core::UnionFind trusted(n);
@@ -134,6 +135,10 @@ std::vector<core::Pose2> startingPoses(const MapSnapshot& map) {
     const core::Pose2 map_to_local =
         core::compose(anchor.local_pose, core::inverse(anchor.map_pose));
     poses[k] = core::compose(map_to_local, map.nodes[k].map_pose);
+  }
+  if (n > 0) {
+    const core::Pose2 to_map = core::compose(map.nodes[0].map_pose, core::inverse(poses[0]));
+    for (core::Pose2& pose : poses) pose = core::compose(to_map, pose);
   }
   return poses;
 }
@@ -267,8 +272,7 @@ LaserSlam::Checkpoint LaserSlam::checkpoint() const {
                     {scan_timestamps_.begin() + first_scan, scan_timestamps_.end()},
                     search_state_,
                     stats_,
-                    tied_at_,
-                    hint_,
+                    tie_,
                     map_sensor_,
                     relocalization_matches_,
                     relocalization_paused_until_,
@@ -343,22 +347,22 @@ LaserSlam::Trimmed LaserSlam::trimmed(const Checkpoint& c, const TrimParams& par
   }
   slam->session_first_scan_ = static_cast<std::size_t>(first);
   // The current session's scans as they were, not one per node as load() has them. A scan of a
-  // removed node rides from now on with the nearest kept node of the session (the one before it,
-  // or the first), at the pose the checkpoint's map gave it.
+  // removed node rides from now on with the kept node of the session nearest along its path
+  // (before or after it), at the pose the checkpoint's map gave it.
   slam->scan_node_.resize(slam->session_first_scan_);
   slam->scan_offset_.resize(slam->session_first_scan_);
   slam->scan_timestamps_.resize(slam->session_first_scan_);
-  std::vector<int> anchor(static_cast<std::size_t>(old_nodes - old_first), -1);
-  int kept = -1;
-  for (int k = old_first; k < old_nodes; ++k) {
+  const auto session_nodes = static_cast<std::size_t>(old_nodes - old_first);
+  auto travel = [&](int k) { return c.session_travel.at(static_cast<std::size_t>(k - old_first)); };
+  std::vector<int> anchor(session_nodes, -1);               // old numbers
+  for (int k = old_first, kept = -1; k < old_nodes; ++k) {  // the kept node before
     if (node_index[static_cast<std::size_t>(k)] >= 0) kept = k;
     anchor[static_cast<std::size_t>(k - old_first)] = kept;
   }
-  int first_kept = old_first;
-  while (node_index[static_cast<std::size_t>(first_kept)] < 0) ++first_kept;
-  for (int& a : anchor) {
-    if (a >= 0) break;
-    a = first_kept;  // none kept before it
+  for (int k = old_nodes - 1, kept = -1; k >= old_first; --k) {  // or the one after, if nearer
+    if (node_index[static_cast<std::size_t>(k)] >= 0) kept = k;
+    int& a = anchor[static_cast<std::size_t>(k - old_first)];
+    if (a < 0 || (kept >= 0 && travel(kept) - travel(k) < travel(k) - travel(a))) a = kept;
   }
   for (std::size_t i = 0; i < c.scan_node.size(); ++i) {
     const int node = c.scan_node[i];
@@ -419,9 +423,10 @@ LaserSlam::Trimmed LaserSlam::trimmed(const Checkpoint& c, const TrimParams& par
   slam->stats_.nodes = static_cast<int>(map.nodes.size());
   slam->stats_.submaps = slam->local_.submaps().numSubmaps();
   slam->stats_.finished_submaps = static_cast<int>(finished);
-  if (c.tied_at) slam->tied_at_ = renumbered(*c.tied_at);
-  slam->hint_ = c.hint;
-  if (slam->hint_ && slam->hint_->node >= 0) slam->hint_->node = renumbered(slam->hint_->node);
+  slam->tie_ = c.tie;
+  if (slam->tie_) slam->tie_->node = renumbered(slam->tie_->node);
+  // No relocalization hint: it guides the searches until the session is tied, and a trim comes
+  // only after (or in the map's first session, which has none).
   slam->map_sensor_ = c.map_sensor;
   slam->relocalization_matches_ = c.relocalization_matches;
   slam->relocalization_paused_until_ = renumbered(c.relocalization_paused_until);

@@ -501,9 +501,8 @@ void GraphSlamRos::publishStatus() {
     msg.session = static_cast<std::uint32_t>(sessions.size() - 1);
     msg.tied_to_map = slam_->tied();
     msg.sensor_mismatch = !sensor_mismatch_.empty();
-    if (const auto tied = slam_->tiedAt()) {
-      msg.tied_after_sec =
-          slam_->nodeTimestamps()[static_cast<std::size_t>(*tied)] - sessions.back().start_time;
+    if (const auto& tie = slam_->tie()) {
+      msg.tied_after_sec = tie->timestamp - sessions.back().start_time;
     }
   }
   status_pub_.publish(msg);

@@ -133,10 +133,9 @@ inline void printSessions(const frontend::LaserSlam& slam) {
                 sessions[s].name.c_str(), end - first, edges, crossing_accepted);
   }
   const auto& current = sessions.back();
-  if (const auto tied = slam.tiedAt()) {
+  if (const auto& tie = slam.tie()) {
     std::printf("relocalized    at node %d (the session's node %d, %.1f s after its start)%s\n",
-                *tied, *tied - current.first_node,
-                slam.nodeTimestamps()[static_cast<std::size_t>(*tied)] - current.start_time,
+                tie->node, tie->session_node, tie->timestamp - current.start_time,
                 slam.tied() ? "" : "; not tied at the end");
   } else if (slam.tied()) {
     std::printf("relocalized    only by the final decision\n");

@@ -372,53 +372,82 @@ TEST(MapTrimming, AnEndlessSessionTrimsItsOwnOlderSubmaps) {
   sparse.loops.search_every_n_nodes = 150;
   sparse.rrr.rrr.cluster_gap = 4;
   constexpr int kScans = 640;  // six laps
-  LaserSlam reference(sparse, "endless");
-  drive(reference, core::Pose2::Zero(), kScans, 0.0);
-  const MapSnapshot untrimmed = reference.snapshot();
-  const std::vector<core::Pose2> untrimmed_scans = reference.scanMapPoses();
-  std::map<double, core::Pose2> local_at;  // the untrimmed run's local pose of each node
-  for (const MapSnapshot::Node& node : untrimmed.nodes) local_at[node.timestamp] = node.local_pose;
+  // The map's first session, and a session continuing threeLaps() from another odometry frame
+  // (trimming the earlier session and, once tied, its own older submaps).
+  for (const bool continued : {false, true}) {
+    SCOPED_TRACE(continued ? "continuing a map" : "first session");
+    const int first = continued ? 320 : 0;
+    const double t0 = continued ? 1000.0 : 0.0;
+    const core::Pose2 odom_frame = continued ? core::Pose2(3.0, -2.0, 0.7) : core::Pose2::Zero();
+    auto start = [&] {
+      return continued ? LaserSlam::fromMap(threeLaps(), sparse, "endless")
+                       : std::make_unique<LaserSlam>(sparse, "endless");
+    };
+    const std::unique_ptr<LaserSlam> reference = start();
+    drive(*reference, odom_frame, kScans, t0, first);
+    const MapSnapshot untrimmed = reference->snapshot();
+    const std::vector<core::Pose2> untrimmed_scans = reference->scanMapPoses();
+    std::map<double, core::Pose2> local_at;  // the untrimmed run's local pose of each node
+    for (const MapSnapshot::Node& node : untrimmed.nodes)
+      local_at[node.timestamp] = node.local_pose;
 
-  for (const bool in_line : {true, false}) {
-    SCOPED_TRACE(in_line ? "in line" : "behind");
-    TrimParams params = trimParams();
-    OnlineTrimmer trimmer({params, 60, in_line});
-    auto slam = std::make_unique<LaserSlam>(sparse, "endless");
-    int most_nodes = 0;
-    for (int k = 0; k < kScans; ++k) {
-      RangeScan scan = castScan(room(), truthAt(k));
-      scan.timestamp = 0.1 * k;
-      const std::optional<int> node = slam->addScan(scan, truthAt(k));
-      std::unique_ptr<LaserSlam> trimmed = trimmer.afterScan(*slam, scan, truthAt(k), node);
-      if (trimmed) slam = std::move(trimmed);
-      most_nodes = std::max(most_nodes, slam->stats().nodes);
+    for (const bool in_line : {true, false}) {
+      SCOPED_TRACE(in_line ? "in line" : "behind");
+      OnlineTrimmer trimmer({trimParams(), 60, in_line});
+      std::unique_ptr<LaserSlam> slam = start();
+      int most_nodes = 0;
+      for (int k = first; k < first + kScans; ++k) {
+        RangeScan scan = castScan(room(), truthAt(k));
+        scan.timestamp = t0 + 0.1 * k;
+        const core::Pose2 odom = core::compose(odom_frame, truthAt(k));
+        const std::optional<int> node = slam->addScan(scan, odom);
+        std::unique_ptr<LaserSlam> trimmed = trimmer.afterScan(*slam, scan, odom, node);
+        if (trimmed) slam = std::move(trimmed);
+        most_nodes = std::max(most_nodes, slam->stats().nodes);
+      }
+      if (std::unique_ptr<LaserSlam> trimmed = trimmer.wait()) slam = std::move(trimmed);
+      ASSERT_GT(trimmer.replaced(), 1);
+      const MapSnapshot map = slam->snapshot();
+      EXPECT_EQ(map.sessions.back().name, "endless");
+      EXPECT_GT(map.lifelong.trimmed_submaps, 0);
+      // The graph grows with the room, not with the laps.
+      EXPECT_LT(map.nodes.size(), untrimmed.nodes.size() / 2);
+      EXPECT_LT(most_nodes, static_cast<int>(untrimmed.nodes.size()) * 2 / 3);
+      EXPECT_GT(countKind(map, MapSnapshot::EdgeKind::kMarginal), 0);
+      // The running session lost nodes of its own, and local SLAM went on as without trimming.
+      const int session_nodes = static_cast<int>(map.nodes.size()) - map.sessions.back().first_node;
+      EXPECT_LT(session_nodes, static_cast<int>(untrimmed.nodes.size()) -
+                                   untrimmed.sessions.back().first_node - 60);
+      for (const MapSnapshot::Node& node : map.nodes) {
+        ASSERT_EQ(local_at.count(node.timestamp), 1u);
+        EXPECT_LT((node.local_pose - local_at[node.timestamp]).norm(), 1e-9) << node.timestamp;
+      }
+      EXPECT_EQ(slam->stats().scans, reference->stats().scans);
+      // The tie as it happened, before any trim of the session's own.
+      ASSERT_EQ(slam->tie().has_value(), continued);
+      if (continued) {
+        EXPECT_TRUE(slam->tied());
+        EXPECT_EQ(slam->tie()->session_node, reference->tie()->session_node);
+        EXPECT_EQ(slam->tie()->timestamp, reference->tie()->timestamp);
+      }
+      // Every scan of the session, those of removed nodes too, where the untrimmed run and the
+      // truth have it (the map's frame is the first session's odometry frame, the truth's).
+      const std::vector<core::Pose2> scans = slam->scanMapPoses();
+      const std::size_t mine = slam->sessionFirstScan();
+      const std::size_t theirs = reference->sessionFirstScan();
+      ASSERT_EQ(scans.size() - mine, untrimmed_scans.size() - theirs);
+      const core::Pose2 motion = core::compose(untrimmed_scans.back(), core::inverse(scans.back()));
+      for (std::size_t i = 0; mine + i < scans.size(); i += 7) {
+        const core::Pose2& scan = scans[mine + i];
+        const core::Pose2 expected = core::compose(motion, scan);
+        EXPECT_LT((untrimmed_scans[theirs + i].head<2>() - expected.head<2>()).norm(), 0.1) << i;
+        EXPECT_LT((truthAt(first + static_cast<int>(i)).head<2>() - scan.head<2>()).norm(), 0.15)
+            << i;
+      }
+      const std::string path = ::testing::TempDir() + "endless_trimmed.rrrmap";
+      writeMapFile(map, path);
+      EXPECT_EQ(readMapFile(path).nodes.size(), map.nodes.size());
     }
-    if (std::unique_ptr<LaserSlam> trimmed = trimmer.wait()) slam = std::move(trimmed);
-    ASSERT_GT(trimmer.replaced(), 1);
-    const MapSnapshot map = slam->snapshot();
-    ASSERT_EQ(map.sessions.size(), 1u);
-    EXPECT_GT(map.lifelong.trimmed_submaps, 0);
-    // The graph grows with the room, not with the laps.
-    EXPECT_LT(map.nodes.size(), untrimmed.nodes.size() / 2);
-    EXPECT_LT(most_nodes, static_cast<int>(untrimmed.nodes.size()) * 2 / 3);
-    EXPECT_GT(countKind(map, MapSnapshot::EdgeKind::kMarginal), 0);
-    for (const MapSnapshot::Node& node : map.nodes) {
-      ASSERT_EQ(local_at.count(node.timestamp), 1u);
-      EXPECT_LT((node.local_pose - local_at[node.timestamp]).norm(), 1e-9) << node.timestamp;
-    }
-    EXPECT_EQ(slam->stats().scans, reference.stats().scans);
-    EXPECT_EQ(slam->sessionFirstScan(), 0u);
-    const std::vector<core::Pose2> scans = slam->scanMapPoses();
-    ASSERT_EQ(scans.size(), untrimmed_scans.size());
-    const core::Pose2 motion = core::compose(untrimmed_scans.back(), core::inverse(scans.back()));
-    for (std::size_t i = 0; i < scans.size(); i += 7) {
-      const core::Pose2 expected = core::compose(motion, scans[i]);
-      EXPECT_LT((untrimmed_scans[i].head<2>() - expected.head<2>()).norm(), 0.1) << i;
-      EXPECT_LT((truthAt(static_cast<int>(i)).head<2>() - scans[i].head<2>()).norm(), 0.15) << i;
-    }
-    const std::string path = ::testing::TempDir() + "endless_trimmed.rrrmap";
-    writeMapFile(map, path);
-    EXPECT_EQ(readMapFile(path).nodes.size(), map.nodes.size());
   }
   // A running session's own submap is judged against its submaps of a later pass only, not
   // against those that follow it on the way (they would trim the trail the robot leaves, and with

@@ -240,8 +240,8 @@ class Sessions(unittest.TestCase):
             self.assertTrue(wait_for(lambda: status["last"].online_trims > 0 and
                                      status["last"].trimmed_submaps > 0, 20.0), str(status["last"]))
             last = status["last"]
-            self.assertEqual(last.session, 0)
             self.assertGreater(last.marginalized_nodes, 0)
+            self.assertLess(last.nodes, 150, str(last))  # untrimmed: 191 (rrr_slam_offline)
             saved = os.path.join(self.folder, "endless.rrrmap")
             answer = rospy.ServiceProxy("/endless/save_map", SaveMap)(path=saved)
             self.assertTrue(answer.success, answer.message)

@@ -110,7 +110,7 @@ class LaserSlam {
   ///      the same session from the trimmed map: the kept submaps rebuilt, RRR deciding the kept
   ///      candidates again (its open clusters stay open), local SLAM exactly where the checkpoint
   ///      left it. Nodes and submaps are renumbered after the removed ones; a scan of a removed
-  ///      node of the session rides from then on with the nearest kept node before it (as the
+  ///      node of the session rides from then on with the kept node nearest along its path (as the
   ///      checkpoint's map placed them). The new RRR's verdicts are news (takeChanges: every
   ///      decided candidate, numbered as in the trimmed map);
   ///   3. the scans added here since the checkpoint are added to the new one, which replaces this.
@@ -153,9 +153,15 @@ class LaserSlam {
 
   /// The sessions so far; the last is the current one.
   const std::vector<MapSnapshot::Session>& sessions() const { return sessions_; }
-  /// The node at which the current session was first tied to the earlier ones, if it was;
-  /// nullopt for the first session.
-  std::optional<int> tiedAt() const { return tied_at_; }
+  /// When the current session was first tied to the earlier ones, if it was; nullopt for the
+  /// first session.
+  struct Tie {
+    int node;          ///< the node it was tied at (a later trim that removes it: the next kept)
+    int session_node;  ///< that node's number in the session at the time (0: its first)
+    double timestamp;  ///< of that node
+  };
+  const std::optional<Tie>& tie() const { return tie_; }
+  std::optional<int> tiedAt() const { return tie_ ? std::optional<int>(tie_->node) : std::nullopt; }
   /// Whether the loops RRR accepts now between the current session and the earlier ones lie at
   /// least relocalization_confirm_distance apart along the session's path.
   bool tied() const;
@@ -229,7 +235,7 @@ class LaserSlam {
   MapSnapshot::Lifelong lifelong_;                   // what trimming removed, as loaded
   int session_first_submap_ = 0;  // submaps of earlier sessions have smaller indices
   std::size_t session_first_scan_ = 0;
-  std::optional<int> tied_at_;
+  std::optional<Tie> tie_;
   bool tied_by_marginals_ = false;  // online trimming folded loops that tied the session
   struct Hint {
     int node;  // the node the hint places (-1: the session's first node, not there yet)
@@ -267,8 +273,7 @@ class LaserSlam {
     std::vector<double> scan_timestamps;
     std::vector<SubmapSearchState> search_state;
     LaserSlamStats stats;
-    std::optional<int> tied_at;
-    std::optional<Hint> hint;
+    std::optional<Tie> tie;
     std::optional<SensorSetup> map_sensor;
     int relocalization_matches = 0;
     int relocalization_paused_until = 0;

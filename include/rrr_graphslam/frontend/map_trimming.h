@@ -69,8 +69,9 @@ struct TrimParams {
   /// While a session runs (NewestSession::kRunning), a submap of its own is judged only against
   /// its kept submaps that begin at least this many nodes after it ends: a revisit, not the
   /// submaps that follow it on the way, so the older submaps the session's next loops would
-  /// close on stay until it comes back (LaserSlam::trimmed takes the loop search's
-  /// min_node_separation). 0: against every newer kept submap.
+  /// close on stay until it comes back (LaserSlam::trimmed uses at least the loop search's
+  /// min_node_separation, so online the gap is never 0). 0: against every newer kept submap.
+  /// Node numbers count the nodes left after earlier trims: the gap is at least this many.
   int revisit_gap_nodes = 0;
   Sparsification sparsification = Sparsification::kClt;
   /// Cell size of the coverage grids (m).
