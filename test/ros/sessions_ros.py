@@ -48,6 +48,11 @@ class Sessions(unittest.TestCase):
         self.assertTrue(wait_for(lambda: self.status.backlog == 0 and
                                  self.status.messages_processed == self.status.messages_received, 60.0))
 
+    def save_map(self, name, filename):
+        """Has node `name` save its map into the test's folder."""
+        answer = rospy.ServiceProxy(f"/{name}/save_map", SaveMap)(path=os.path.join(self.folder, filename))
+        self.assertTrue(answer.success, answer.message)
+
     def start_node(self, name, params):
         """Another rrr_graphslam_node named `name` with `params`: (process, dict whose 'last' is
         its newest ~status)."""
@@ -217,9 +222,7 @@ class Sessions(unittest.TestCase):
             self.assertGreater(last.last_online_trim_sec, 0.0)
             self.assertLessEqual(last.session, 1)  # 0 once the first session left whole
             self.assertLess(last.nodes, 2 * loaded, str(last))
-            saved = os.path.join(self.folder, "online.rrrmap")
-            answer = rospy.ServiceProxy("/online_trim/save_map", SaveMap)(path=saved)
-            self.assertTrue(answer.success, answer.message)
+            self.save_map("online_trim", "online.rrrmap")
         finally:
             node.terminate()
             output, _ = node.communicate(timeout=30)
@@ -242,9 +245,7 @@ class Sessions(unittest.TestCase):
             last = status["last"]
             self.assertGreater(last.marginalized_nodes, 0)
             self.assertLess(last.nodes, 150, str(last))  # untrimmed: 191 (rrr_slam_offline)
-            saved = os.path.join(self.folder, "endless.rrrmap")
-            answer = rospy.ServiceProxy("/endless/save_map", SaveMap)(path=saved)
-            self.assertTrue(answer.success, answer.message)
+            self.save_map("endless", "endless.rrrmap")
         finally:
             node.terminate()
             output, _ = node.communicate(timeout=30)
