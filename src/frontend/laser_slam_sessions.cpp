@@ -107,8 +107,9 @@ namespace {
 // start where the map has them instead, as one rigid piece placed in the odometry frame of its
 // first node: the pieces of a trimmed session, and sessions whose loops trimming folded into
 // marginal constraints, are bound by trusted constraints that their own odometry frames would
-// violate. All of it moved rigidly so that the first node, which holds the gauge, starts at its
-// map pose: the map frame stays where it was when trimming removed the nodes that defined it.
+// violate. In a trimmed map all of it moves rigidly so that the first node, which holds the
+// gauge, starts at its map pose: the map frame stays where it was when trimming removed the
+// nodes that defined it (an untrimmed map starts exactly as it was mapped).
 std::vector<core::Pose2> startingPoses(const MapSnapshot& map) {
   const std::size_t n = map.nodes.size();
   core::UnionFind trusted(n);
@@ -136,7 +137,7 @@ std::vector<core::Pose2> startingPoses(const MapSnapshot& map) {
         core::compose(anchor.local_pose, core::inverse(anchor.map_pose));
     poses[k] = core::compose(map_to_local, map.nodes[k].map_pose);
   }
-  if (n > 0) {
+  if (n > 0 && map.lifelong.trimmed_submaps > 0) {
     const core::Pose2 to_map = core::compose(map.nodes[0].map_pose, core::inverse(poses[0]));
     for (core::Pose2& pose : poses) pose = core::compose(to_map, pose);
   }
