@@ -48,7 +48,7 @@ class Sessions(unittest.TestCase):
         self.assertTrue(wait_for(lambda: self.status.backlog == 0 and
                                  self.status.messages_processed == self.status.messages_received, 60.0))
 
-    def save_map(self, name, filename):
+    def save_map_of(self, name, filename):
         """Has node `name` save its map into the test's folder."""
         answer = rospy.ServiceProxy(f"/{name}/save_map", SaveMap)(path=os.path.join(self.folder, filename))
         self.assertTrue(answer.success, answer.message)
@@ -222,7 +222,7 @@ class Sessions(unittest.TestCase):
             self.assertGreater(last.last_online_trim_sec, 0.0)
             self.assertLessEqual(last.session, 1)  # 0 once the first session left whole
             self.assertLess(last.nodes, 2 * loaded, str(last))
-            self.save_map("online_trim", "online.rrrmap")
+            self.save_map_of("online_trim", "online.rrrmap")
         finally:
             node.terminate()
             output, _ = node.communicate(timeout=30)
@@ -245,7 +245,7 @@ class Sessions(unittest.TestCase):
             last = status["last"]
             self.assertGreater(last.marginalized_nodes, 0)
             self.assertLess(last.nodes, 150, str(last))  # untrimmed: 191 (rrr_slam_offline)
-            self.save_map("endless", "endless.rrrmap")
+            self.save_map_of("endless", "endless.rrrmap")
         finally:
             node.terminate()
             output, _ = node.communicate(timeout=30)
