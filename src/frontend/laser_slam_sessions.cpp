@@ -342,9 +342,12 @@ LaserSlam::Trimmed LaserSlam::trimmed(const Checkpoint& c, const TrimParams& par
   slam->load(trim.map, finished, true);
   const int first = trim.map.sessions.back().first_node;
   slam->session_first_submap_ = static_cast<int>(finished);
-  for (int i = old_submaps - 1; i >= c.session_first_submap; --i) {
+  for (int i = c.session_first_submap; i < old_submaps; ++i) {  // its first kept one
     const int to = trim.submap_index[static_cast<std::size_t>(i)];
-    if (to >= 0) slam->session_first_submap_ = to;
+    if (to >= 0) {
+      slam->session_first_submap_ = to;
+      break;
+    }
   }
   slam->session_first_scan_ = static_cast<std::size_t>(first);
   // The current session's scans as they were, not one per node as load() has them. A scan of a
@@ -381,10 +384,7 @@ LaserSlam::Trimmed LaserSlam::trimmed(const Checkpoint& c, const TrimParams& par
   // The session's travel as it was measured, not across the gaps removed nodes leave.
   for (int k = old_first; k < old_nodes; ++k) {
     const int to = node_index[static_cast<std::size_t>(k)];
-    if (to >= 0) {
-      slam->node_travel_.at(static_cast<std::size_t>(to)) =
-          c.session_travel.at(static_cast<std::size_t>(k - old_first));
-    }
+    if (to >= 0) slam->node_travel_.at(static_cast<std::size_t>(to)) = travel(k);
   }
   const MapSnapshot& map = trim.map;
   slam->local_ = LocalSlam::resume(c.local, node_shift, submap_shift,

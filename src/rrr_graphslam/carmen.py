@@ -151,6 +151,21 @@ def is_miss(reading: float, max_range: Optional[float]) -> bool:
     return max_range is not None and reading >= max_range
 
 
+def _motion_fields(fields: List[str]) -> Optional[Tuple[Tuple[int, ...], Tuple[int, int]]]:
+    """Where a FLASER, ROBOTLASER1 or ODOM line's fields hold its poses (x y theta each) and its
+    two timestamps; None for any other line."""
+    tag = fields[0] if fields else ""
+    if tag == "FLASER":
+        n = int(fields[1])
+        return (2 + n, 5 + n), (8 + n, 10 + n)
+    if tag == "ROBOTLASER1":
+        k = 10 + int(fields[8]) + int(fields[9 + int(fields[8])])
+        return (k, k + 3), (k + 11, k + 13)
+    if tag == "ODOM":
+        return (1,), (7, 9)
+    return None
+
+
 def write_moved_log(source: str, target: str, frame: Pose, later: float = 0.0) -> None:
     """Writes the CARMEN log `source` (plain or .gz) to `target` as another run would have logged
     it: every pose of its FLASER, ROBOTLASER1 and ODOM lines seen from an odometry frame moved by
@@ -158,36 +173,19 @@ def write_moved_log(source: str, target: str, frame: Pose, later: float = 0.0) -
     copied. For multi-session tests and benchmarks: the same scans from an unrelated frame."""
     fx, fy, ft = frame
     c, s = math.cos(ft), math.sin(ft)
-
-    def move(fields: List[str], k: int) -> None:
-        x, y, t = (float(v) for v in fields[k:k + 3])
-        fields[k:k + 3] = [repr(fx + c * x - s * y), repr(fy + s * x + c * y), repr(t + ft)]
-
-    def delay(fields: List[str], *ks: int) -> None:
-        for k in ks:
-            fields[k] = repr(float(fields[k]) + later)
-
     out = []
     for _, line in text_lines(source):
         fields = line.split()
-        tag = fields[0] if fields else ""
-        if tag == "FLASER":
-            n = int(fields[1])
-            move(fields, 2 + n)
-            move(fields, 5 + n)
-            delay(fields, 8 + n, 10 + n)
-        elif tag == "ROBOTLASER1":
-            n = int(fields[8])
-            k = 10 + n + int(fields[9 + n])
-            move(fields, k)
-            move(fields, k + 3)
-            delay(fields, k + 11, k + 13)
-        elif tag == "ODOM":
-            move(fields, 1)
-            delay(fields, 7, 9)
-        else:
+        where = _motion_fields(fields)
+        if where is None:
             out.append(line + "\n")
             continue
+        poses, stamps = where
+        for k in poses:
+            x, y, t = (float(v) for v in fields[k:k + 3])
+            fields[k:k + 3] = [repr(fx + c * x - s * y), repr(fy + s * x + c * y), repr(t + ft)]
+        for k in stamps:
+            fields[k] = repr(float(fields[k]) + later)
         out.append(" ".join(fields) + "\n")
     with open(target, "w") as f:
         f.write("".join(out))
@@ -198,33 +196,23 @@ def write_there_and_back_log(source: str, target: str) -> None:
     ROBOTLASER1 and ODOM lines again in reverse order, timestamps mirrored after the last: the
     robot drives its path back, one session that comes back over all it saw. Other lines are
     copied once, first. For tests of a session that revisits its own path."""
-    def stamps(fields: List[str]) -> Tuple[int, int]:
-        tag = fields[0]
-        if tag == "FLASER":
-            k = 8 + int(fields[1])
-        elif tag == "ROBOTLASER1":
-            n = int(fields[8])
-            k = 10 + n + int(fields[9 + n]) + 11
-        else:
-            k = 7
-        return (k, k + 2)
-
     header, motion = [], []
     for _, line in text_lines(source):
         fields = line.split()
-        if fields and fields[0] in ("FLASER", "ROBOTLASER1", "ODOM"):
-            motion.append(fields)
-        else:
+        where = _motion_fields(fields)
+        if where is None:
             header.append(line)
+        else:
+            motion.append((fields, where[1]))
     if not motion:
         raise GraphFileError(f"{source}: no FLASER, ROBOTLASER1 or ODOM line to drive back")
-    end = max(float(f[k]) for f in motion for k in stamps(f))
+    end = max(float(fields[k]) for fields, stamps in motion for k in stamps)
     back = []
-    for fields in reversed(motion):
+    for fields, stamps in reversed(motion):
         mirrored = list(fields)
-        for k in stamps(mirrored):
+        for k in stamps:
             mirrored[k] = repr(2.0 * end + 0.05 - float(mirrored[k]))
         back.append(mirrored)
     with open(target, "w") as f:
         f.write("".join(line + "\n" for line in header))
-        f.write("".join(" ".join(fields) + "\n" for fields in motion + back))
+        f.write("".join(" ".join(fields) + "\n" for fields in [m[0] for m in motion] + back))

@@ -299,9 +299,9 @@ TEST(MapFile, ANewSessionInAnotherOdometryFrameIsTiedToTheMap) {
   // The second run's odometry starts somewhere else entirely.
   const core::Pose2 elsewhere(100.0, -50.0, 2.0);
   drive(*slam, elsewhere, 100, 1000.0);
-  ASSERT_TRUE(slam->tiedAt().has_value()) << "the session never joined the map";
+  ASSERT_TRUE(slam->tie().has_value()) << "the session never joined the map";
   // Placed by the first matches, confirmed by those 3 m on (one node per 0.09 m scan here).
-  EXPECT_LT(*slam->tiedAt() - static_cast<int>(map.nodes.size()), 75);
+  EXPECT_LT(slam->tie()->node - static_cast<int>(map.nodes.size()), 75);
   slam->finish();
   // Tied, the second session's nodes sit where the robot was, in the first session's frame
   // (which is the room's: its first odometry pose was the truth).
@@ -329,7 +329,7 @@ TEST(MapFile, LoopsAtOnePlaceWaitUntilLoopsFarEnoughApartTieTheSession) {
   drive(*slam, elsewhere, 60, 1000.0);
   EXPECT_FALSE(slam->placed());
   EXPECT_FALSE(slam->tied());
-  EXPECT_FALSE(slam->tiedAt().has_value());
+  EXPECT_FALSE(slam->tie().has_value());
   const rrr::OnlineRrr& rrr = slam->rrr();
   const int first = static_cast<int>(map.nodes.size());
   int waiting = 0;
@@ -364,14 +364,14 @@ TEST(MapFile, LocalizationTracksTheRobotAndLeavesTheMapAsItIs) {
   const core::Pose2 elsewhere(100.0, -50.0, 2.0);
   drive(*slam, elsewhere, 100, 1000.0);
   slam->finish();
-  ASSERT_TRUE(slam->tiedAt().has_value()) << "never localized";
+  ASSERT_TRUE(slam->tie().has_value()) << "never localized";
   const auto poses = slam->rrr().mapPoses();
   const auto n = map.nodes.size();
   for (std::size_t k = 0; k < n; ++k) {
     EXPECT_LT((poses[k] - map.nodes[k].map_pose).norm(), 1e-9) << "map node " << k << " moved";
   }
   const auto& stamps = slam->nodeTimestamps();
-  for (std::size_t k = static_cast<std::size_t>(*slam->tiedAt()); k < poses.size(); ++k) {
+  for (std::size_t k = static_cast<std::size_t>(slam->tie()->node); k < poses.size(); ++k) {
     const int scan = static_cast<int>(std::lround((stamps[k] - 1000.0) / 0.1));
     EXPECT_LT((poses[k].head<2>() - truthAt(scan).head<2>()).norm(), 0.1) << "node " << k;
   }
@@ -463,13 +463,13 @@ TEST(MapFile, AnInitialPoseRestrictsTheSearchAroundIt) {
   auto hinted = LaserSlam::fromMap(map, smallMaps(), "hinted");
   hinted->setInitialPose(truthAt(0));
   drive(*hinted, elsewhere, 100, 1000.0);
-  EXPECT_TRUE(hinted->tiedAt().has_value());
+  EXPECT_TRUE(hinted->tie().has_value());
   EXPECT_EQ(hinted->stats().relocalization_searches, 0);
   // Wrong by 40 m: nothing near it in the map, so nothing is found, not even far away.
   auto misled = LaserSlam::fromMap(map, smallMaps(), "misled");
   misled->setInitialPose(core::Pose2(40.0, 0.0, 0.0));
   drive(*misled, elsewhere, 100, 1000.0);
-  EXPECT_FALSE(misled->tiedAt().has_value());
+  EXPECT_FALSE(misled->tie().has_value());
   EXPECT_EQ(misled->stats().relocalization_searches, 0);
   // In a first session there is no map to be placed in.
   LaserSlam fresh(smallMaps());

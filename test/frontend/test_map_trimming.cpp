@@ -210,7 +210,7 @@ TEST(MapTrimming, TrimmedMapSavesLoadsAndContinues) {
   EXPECT_EQ(countKind(next, MapSnapshot::EdgeKind::kMarginal),
             countKind(read, MapSnapshot::EdgeKind::kMarginal));
   EXPECT_EQ(next.lifelong.trimmed_submaps, read.lifelong.trimmed_submaps);
-  ASSERT_TRUE(slam->tiedAt().has_value()) << "the new session did not tie to the trimmed map";
+  ASSERT_TRUE(slam->tie().has_value()) << "the new session did not tie to the trimmed map";
   // The loaded nodes stay where the trimmed map had them (up to the map's own gauge motion).
   const core::Pose2 motion =
       core::compose(next.nodes[0].map_pose, core::inverse(read.nodes[0].map_pose));

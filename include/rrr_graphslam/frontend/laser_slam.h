@@ -161,7 +161,6 @@ class LaserSlam {
     double timestamp;  ///< of that node
   };
   const std::optional<Tie>& tie() const { return tie_; }
-  std::optional<int> tiedAt() const { return tie_ ? std::optional<int>(tie_->node) : std::nullopt; }
   /// Whether the loops RRR accepts now between the current session and the earlier ones lie at
   /// least relocalization_confirm_distance apart along the session's path.
   bool tied() const;
