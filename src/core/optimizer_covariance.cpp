@@ -151,6 +151,50 @@ Eigen::MatrixXd Optimizer::covariance(const std::vector<int>& nodes) const {
   return out;
 }
 
+Eigen::MatrixXd Optimizer::projectedCovariance(const std::vector<JacobianBlock>& J,
+                                               int rows) const {
+  std::vector<int> nodes;
+  for (const JacobianBlock& b : J) {
+    if (b.row < 0 || b.row >= rows) {
+      throw std::out_of_range("Optimizer::projectedCovariance: a block in row " +
+                              std::to_string(b.row) + " of " + std::to_string(rows));
+    }
+    nodes.push_back(b.node);
+  }
+  std::sort(nodes.begin(), nodes.end());
+  nodes.erase(std::unique(nodes.begin(), nodes.end()), nodes.end());
+  const auto m = 3 * static_cast<Eigen::Index>(rows);
+  if (!nodes.empty() && (nodes.front() < 0 || nodes.back() >= numNodes())) {
+    throw std::out_of_range("Optimizer::projectedCovariance: no node " +
+                            std::to_string(nodes.front() < 0 ? nodes.front() : nodes.back()) +
+                            " (of " + std::to_string(numNodes()) + ")");
+  }
+  if (!covarianceAvailable()) return Eigen::MatrixXd::Zero(m, m);
+  if (!nodes.empty() && nodes.back() >= factored_nodes_) {
+    // Nodes added since the factorization: through their joint covariance (propagated).
+    auto column = [&](int node) {
+      return 3 * static_cast<Eigen::Index>(std::lower_bound(nodes.begin(), nodes.end(), node) -
+                                           nodes.begin());
+    };
+    Eigen::MatrixXd dense = Eigen::MatrixXd::Zero(m, 3 * static_cast<Eigen::Index>(nodes.size()));
+    for (const JacobianBlock& b : J) dense.block<3, 3>(3 * b.row, column(b.node)) += b.value;
+    return dense * covariance(nodes) * dense.transpose();
+  }
+  // B = J' on the factor's variables; fixed nodes have none (zero covariance).
+  std::vector<Eigen::Triplet<double>> entries;
+  entries.reserve(9 * J.size());
+  for (const JacobianBlock& b : J) {
+    const int v = variable_of_node_[static_cast<std::size_t>(b.node)];
+    if (v < 0) continue;
+    for (int r = 0; r < 3; ++r) {
+      for (int c = 0; c < 3; ++c) entries.emplace_back(3 * v + c, 3 * b.row + r, b.value(r, c));
+    }
+  }
+  SparseSolver::Matrix B(solver_.dimension(), m);
+  B.setFromTriplets(entries.begin(), entries.end());  // repeated blocks add up
+  return solver_.inverseProjection(B);
+}
+
 Eigen::SparseMatrix<double> Optimizer::informationMatrix() const {
   std::vector<Eigen::Triplet<double>> entries;
   for (std::size_t k = 0; k < constraints_.size(); ++k) {

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <numeric>
+#include <stdexcept>
+#include <string>
 
 #include <Eigen/CholmodSupport>
 
@@ -139,40 +141,86 @@ Eigen::MatrixXd SparseSolver::solve(const Eigen::MatrixXd& rhs) const {
 
 namespace {
 
-// L^-1 e_k of a simplicial factor, as (row, value) pairs along the path from k to the root of
-// the elimination tree (increasing rows): each column's diagonal entry comes first (D of LDL',
-// unit L implied), and a column's parent is its smallest row below the diagonal. `work` is a
-// zeroed dense vector of L's size, left zeroed.
-std::vector<std::pair<int, double>> simplicialForwardSolveUnit(const cholmod_factor& L, int k,
-                                                               std::vector<double>& work) {
-  std::vector<std::pair<int, double>> path;
+// A column of a sparse right-hand side: (row of P A P', value) pairs.
+using SparseColumn = std::vector<std::pair<int, double>>;
+
+// The lower triangle of `lower` mirrored into its upper one.
+Eigen::MatrixXd symmetricFromLower(const Eigen::MatrixXd& lower) {
+  Eigen::MatrixXd out = lower.selfadjointView<Eigen::Lower>();
+  return out;
+}
+
+// B' A^-1 B for a simplicial factor P A P' = L D L' (or L L'): each column y = L^-1 b, scaled by
+// D^-1/2, is nonzero only on the union of the paths from b's rows to the root of the elimination
+// tree (a column's parent is its smallest row below the diagonal), walked in increasing order.
+Eigen::MatrixXd simplicialInverseProjection(const cholmod_factor& L,
+                                            const std::vector<SparseColumn>& columns) {
   const auto* p = static_cast<const int*>(L.p);
   const auto* i = static_cast<const int*>(L.i);
   const auto* nz = static_cast<const int*>(L.nz);
   const auto* x = static_cast<const double*>(L.x);
-  work[static_cast<std::size_t>(k)] = 1.0;
-  for (int j = k; j >= 0;) {
-    const int start = p[j];
-    double yj = work[static_cast<std::size_t>(j)];
-    if (L.is_ll) yj /= x[start];
-    path.emplace_back(j, yj);
+  const auto n = static_cast<std::size_t>(L.n);
+  auto parent = [&](int j) {
     int next = -1;
-    for (int q = start + 1; q < start + nz[j]; ++q) {
-      work[static_cast<std::size_t>(i[q])] -= x[q] * yj;
+    for (int q = p[j] + 1; q < p[j] + nz[j]; ++q) {
       if (next < 0 || i[q] < next) next = i[q];
     }
-    j = next;
+    return next;
+  };
+  std::vector<double> work(n, 0.0);
+  std::vector<char> on_path(n, 0);
+  std::vector<int> slot(n, -1);  // the row of Y a row of L takes
+  std::vector<int> slot_row;     // and back
+  std::vector<SparseColumn> ys;
+  ys.reserve(columns.size());
+  for (const SparseColumn& b : columns) {
+    std::vector<int> path;
+    for (const auto& entry : b) {
+      for (int j = entry.first; j >= 0 && !on_path[static_cast<std::size_t>(j)]; j = parent(j)) {
+        on_path[static_cast<std::size_t>(j)] = 1;
+        path.push_back(j);
+      }
+      work[static_cast<std::size_t>(entry.first)] += entry.second;
+    }
+    std::sort(path.begin(), path.end());  // children before parents
+    SparseColumn y;
+    y.reserve(path.size());
+    for (int j : path) {
+      double yj = work[static_cast<std::size_t>(j)];
+      if (L.is_ll) yj /= x[p[j]];
+      for (int q = p[j] + 1; q < p[j] + nz[j]; ++q)
+        work[static_cast<std::size_t>(i[q])] -= x[q] * yj;
+      y.emplace_back(j, L.is_ll ? yj : yj / std::sqrt(x[p[j]]));
+      work[static_cast<std::size_t>(j)] = 0.0;
+      on_path[static_cast<std::size_t>(j)] = 0;
+      if (slot[static_cast<std::size_t>(j)] < 0) {
+        slot[static_cast<std::size_t>(j)] = static_cast<int>(slot_row.size());
+        slot_row.push_back(j);
+      }
+    }
+    ys.push_back(std::move(y));
   }
-  for (const auto& [row, value] : path) work[static_cast<std::size_t>(row)] = 0.0;
-  return path;
+  Eigen::MatrixXd Y = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(slot_row.size()),
+                                            static_cast<Eigen::Index>(columns.size()));
+  for (std::size_t a = 0; a < ys.size(); ++a) {
+    for (const auto& [row, value] : ys[a])
+      Y(slot[static_cast<std::size_t>(row)], static_cast<Eigen::Index>(a)) = value;
+  }
+  Eigen::MatrixXd lower = Eigen::MatrixXd::Zero(Y.cols(), Y.cols());
+  lower.selfadjointView<Eigen::Lower>().rankUpdate(Y.transpose());
+  return symmetricFromLower(lower);
 }
 
-// Y = L^-1 [e_k for k in starts] of a supernodal (LL') factor, on the columns of the supernodes
-// the paths from the starts to the root visit (the only rows it fills; slot[s] is where
-// supernode s's columns begin), by one blocked forward solve: per supernode a triangular solve
-// and a product for its rows below. The paths meet near the root, where the separators are
-// dense blocks, so all columns go through them together.
-Eigen::MatrixXd supernodalForwardSolve(const cholmod_factor& L, const std::vector<int>& starts) {
+// B' A^-1 B for a supernodal factor P A P' = L L' by one blocked forward solve Y = L^-1 B on the
+// supernodes the paths from B's rows to the root visit (the only rows Y fills), children before
+// parents: per supernode a triangular solve and a product for its rows below, then its rows'
+// share of Y' Y. The paths meet near the root, where the separators are dense blocks, so all
+// columns go through them together. Lower down a supernode is on the paths of only some
+// columns: with the columns sorted by the first supernode they reach, those are a range, and the
+// solve works on that range alone (a loop's two ends climb separate subtrees until they meet).
+// Y is kept transposed (a column of Yt per row of L), so each scattered row is contiguous.
+Eigen::MatrixXd supernodalInverseProjection(const cholmod_factor& L,
+                                            const std::vector<SparseColumn>& columns) {
   const auto* super = static_cast<const int*>(L.super);
   const auto* pi = static_cast<const int*>(L.pi);
   const auto* px = static_cast<const int*>(L.px);
@@ -184,13 +232,37 @@ Eigen::MatrixXd supernodalForwardSolve(const cholmod_factor& L, const std::vecto
   };
   auto columns_of = [&](int s) { return super[s + 1] - super[s]; };
   auto rows_of = [&](int s) { return pi[s + 1] - pi[s]; };
+  auto parent_of = [&](int s) {
+    return rows_of(s) > columns_of(s) ? supernode_of(rows[pi[s] + columns_of(s)]) : -1;
+  };
+  const auto k = static_cast<int>(columns.size());
+  // Columns in the order of the first supernode they reach.
+  std::vector<int> first(static_cast<std::size_t>(k), nsuper);
+  for (int a = 0; a < k; ++a) {
+    for (const auto& entry : columns[static_cast<std::size_t>(a)])
+      first[static_cast<std::size_t>(a)] =
+          std::min(first[static_cast<std::size_t>(a)], supernode_of(entry.first));
+  }
+  std::vector<int> order(static_cast<std::size_t>(k));  // order[position] = column
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
+    return first[static_cast<std::size_t>(a)] < first[static_cast<std::size_t>(b)];
+  });
+  // The supernodes visited, and per supernode the range of positions whose paths reach it.
   std::vector<int> slot(static_cast<std::size_t>(nsuper), -1);
+  std::vector<int> lo(static_cast<std::size_t>(nsuper), k),
+      hi(static_cast<std::size_t>(nsuper), -1);
   std::vector<int> visited;
-  for (int k : starts) {
-    for (int s = supernode_of(k); s >= 0 && slot[static_cast<std::size_t>(s)] < 0;) {
-      slot[static_cast<std::size_t>(s)] = 0;
-      visited.push_back(s);
-      s = rows_of(s) > columns_of(s) ? supernode_of(rows[pi[s] + columns_of(s)]) : -1;
+  for (int position = 0; position < k; ++position) {
+    for (const auto& entry :
+         columns[static_cast<std::size_t>(order[static_cast<std::size_t>(position)])]) {
+      const int start = supernode_of(entry.first);
+      lo[static_cast<std::size_t>(start)] = std::min(lo[static_cast<std::size_t>(start)], position);
+      hi[static_cast<std::size_t>(start)] = std::max(hi[static_cast<std::size_t>(start)], position);
+      for (int s = start; s >= 0 && slot[static_cast<std::size_t>(s)] < 0; s = parent_of(s)) {
+        slot[static_cast<std::size_t>(s)] = 0;
+        visited.push_back(s);
+      }
     }
   }
   std::sort(visited.begin(), visited.end());  // children before parents
@@ -198,75 +270,100 @@ Eigen::MatrixXd supernodalForwardSolve(const cholmod_factor& L, const std::vecto
   for (int s : visited) {
     slot[static_cast<std::size_t>(s)] = height;
     height += columns_of(s);
+    const int parent = parent_of(s);
+    if (parent < 0) continue;
+    lo[static_cast<std::size_t>(parent)] =
+        std::min(lo[static_cast<std::size_t>(parent)], lo[static_cast<std::size_t>(s)]);
+    hi[static_cast<std::size_t>(parent)] =
+        std::max(hi[static_cast<std::size_t>(parent)], hi[static_cast<std::size_t>(s)]);
   }
   auto row_slot = [&](int column) {
     const int s = supernode_of(column);
     return slot[static_cast<std::size_t>(s)] + column - super[s];
   };
-  Eigen::MatrixXd Y = Eigen::MatrixXd::Zero(height, static_cast<Eigen::Index>(starts.size()));
-  for (std::size_t a = 0; a < starts.size(); ++a)
-    Y(row_slot(starts[a]), static_cast<Eigen::Index>(a)) = 1.0;
+  Eigen::MatrixXd Yt = Eigen::MatrixXd::Zero(k, height);
+  for (int position = 0; position < k; ++position) {
+    for (const auto& [row, value] :
+         columns[static_cast<std::size_t>(order[static_cast<std::size_t>(position)])])
+      Yt(position, row_slot(row)) += value;
+  }
+  Eigen::MatrixXd lower = Eigen::MatrixXd::Zero(k, k);  // Y'Y by positions, lower triangle
   Eigen::MatrixXd below;
   for (int s : visited) {
     const int ncols = columns_of(s);
     const int nrows = rows_of(s);
+    const int from = lo[static_cast<std::size_t>(s)];
+    const int width = hi[static_cast<std::size_t>(s)] - from + 1;
     const Eigen::Map<const Eigen::MatrixXd, 0, Eigen::OuterStride<>> block(
         x + px[s], nrows, ncols, Eigen::OuterStride<>(nrows));
-    auto Ys = Y.middleRows(slot[static_cast<std::size_t>(s)], ncols);
-    block.topRows(ncols).triangularView<Eigen::Lower>().solveInPlace(Ys);
+    auto Ys =
+        Yt.block(from, slot[static_cast<std::size_t>(s)], width, ncols);  // Y's rows, transposed
+    // Y_s = L_ss^-1 Y_s, i.e. Yt_s = Yt_s L_ss^-T.
+    block.topRows(ncols).triangularView<Eigen::Lower>().transpose().solveInPlace<Eigen::OnTheRight>(
+        Ys);
+    lower.block(from, from, width, width).selfadjointView<Eigen::Lower>().rankUpdate(Ys);
     if (nrows == ncols) continue;
-    below.noalias() = block.bottomRows(nrows - ncols) * Ys;
+    below.noalias() = Ys * block.bottomRows(nrows - ncols).transpose();
     for (int r = 0; r < nrows - ncols; ++r)
-      Y.row(row_slot(rows[pi[s] + ncols + r])) -= below.row(r);
+      Yt.block(from, row_slot(rows[pi[s] + ncols + r]), width, 1) -= below.col(r);
   }
-  return Y;
+  // Back from positions to the columns' own order.
+  const Eigen::MatrixXd by_position = symmetricFromLower(lower);
+  Eigen::MatrixXd out(k, k);
+  for (int a = 0; a < k; ++a) {
+    for (int b = 0; b < k; ++b)
+      out(order[static_cast<std::size_t>(a)], order[static_cast<std::size_t>(b)]) =
+          by_position(a, b);
+  }
+  return out;
 }
 
 }  // namespace
 
-Eigen::MatrixXd SparseSolver::inverseSubmatrix(const std::vector<int>& indices) const {
-  const auto m = static_cast<Eigen::Index>(indices.size());
+int SparseSolver::dimension() const {
   const cholmod_factor* L = cholmod_->llt.factor();
-  if (!factor_usable_ || L == nullptr || m == 0) return Eigen::MatrixXd::Zero(m, m);
+  return L == nullptr ? 0 : static_cast<int>(L->n);
+}
+
+Eigen::MatrixXd SparseSolver::inverseProjection(const Matrix& B) const {
+  const cholmod_factor* L = cholmod_->llt.factor();
+  const auto k = static_cast<Eigen::Index>(B.cols());
+  if (!factor_usable_ || L == nullptr || k == 0) return Eigen::MatrixXd::Zero(k, k);
   const auto n = static_cast<std::size_t>(L->n);
-  std::vector<int> starts;  // the rows of P A P' that `indices` become
-  starts.reserve(indices.size());
+  if (static_cast<std::size_t>(B.rows()) != n) {
+    throw std::invalid_argument("SparseSolver::inverseProjection: B has " +
+                                std::to_string(B.rows()) + " rows, the factor " +
+                                std::to_string(n));
+  }
+  // B's rows as rows of P A P'.
+  std::vector<int> position(n);
   const auto* perm = static_cast<const int*>(L->Perm);
-  if (perm == nullptr) {
-    starts = indices;
-  } else {
-    std::vector<int> position(n);
-    for (std::size_t k = 0; k < n; ++k)
-      position[static_cast<std::size_t>(perm[k])] = static_cast<int>(k);
-    for (int index : indices) starts.push_back(position[static_cast<std::size_t>(index)]);
-  }
-  if (L->is_super) {
-    const Eigen::MatrixXd Y = supernodalForwardSolve(*L, starts);
-    return Y.transpose() * Y;
-  }
-  // Simplicial: Y on the union of the paths, each row scaled by D^-1/2 of an LDL' factor.
-  std::vector<double> work(n, 0.0);
-  std::vector<std::vector<std::pair<int, double>>> columns;
-  columns.reserve(starts.size());
-  for (int k : starts) columns.push_back(simplicialForwardSolveUnit(*L, k, work));
-  const auto* p = static_cast<const int*>(L->p);
-  const auto* x = static_cast<const double*>(L->x);
-  std::vector<int> slot(n, -1);
-  int height = 0;
-  for (const auto& column : columns) {
-    for (const auto& entry : column) {
-      if (slot[static_cast<std::size_t>(entry.first)] < 0)
-        slot[static_cast<std::size_t>(entry.first)] = height++;
+  for (std::size_t r = 0; r < n; ++r)
+    position[static_cast<std::size_t>(perm != nullptr ? perm[r] : static_cast<int>(r))] =
+        static_cast<int>(r);
+  std::vector<SparseColumn> columns(static_cast<std::size_t>(k));
+  for (Eigen::Index c = 0; c < k; ++c) {
+    for (Matrix::InnerIterator it(B, c); it; ++it) {
+      if (it.value() != 0.0)
+        columns[static_cast<std::size_t>(c)].emplace_back(
+            position[static_cast<std::size_t>(it.row())], it.value());
     }
   }
-  Eigen::MatrixXd Y = Eigen::MatrixXd::Zero(height, m);
-  for (Eigen::Index a = 0; a < m; ++a) {
-    for (const auto& [row, value] : columns[static_cast<std::size_t>(a)]) {
-      const double scale = L->is_ll ? 1.0 : 1.0 / std::sqrt(x[p[row]]);
-      Y(slot[static_cast<std::size_t>(row)], a) = value * scale;
-    }
-  }
-  return Y.transpose() * Y;
+  return L->is_super ? supernodalInverseProjection(*L, columns)
+                     : simplicialInverseProjection(*L, columns);
+}
+
+Eigen::MatrixXd SparseSolver::inverseSubmatrix(const std::vector<int>& indices) const {
+  const cholmod_factor* L = cholmod_->llt.factor();
+  const auto m = static_cast<Eigen::Index>(indices.size());
+  if (!factor_usable_ || L == nullptr || m == 0) return Eigen::MatrixXd::Zero(m, m);
+  std::vector<Eigen::Triplet<double>> units;
+  units.reserve(indices.size());
+  for (Eigen::Index a = 0; a < m; ++a)
+    units.emplace_back(indices[static_cast<std::size_t>(a)], a, 1.0);
+  Matrix E(static_cast<Eigen::Index>(L->n), m);
+  E.setFromTriplets(units.begin(), units.end());
+  return inverseProjection(E);
 }
 
 }  // namespace rrr_graphslam::core

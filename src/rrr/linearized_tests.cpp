@@ -1,7 +1,5 @@
 #include "rrr_graphslam/rrr/linearized_tests.h"
 
-#include <algorithm>
-
 #include <Eigen/Dense>
 
 #include "rrr_graphslam/core/chi2.h"
@@ -20,17 +18,12 @@ struct LinksLinearization {
 
 LinksLinearization linearizeLinks(const VerificationGraph& graph, const std::vector<int>& links,
                                   const std::vector<core::Pose2>& poses) {
-  const std::vector<int> nodes = graph.touchedNodes(links);
-  auto column = [&](int node) {
-    return 3 * static_cast<Eigen::Index>(std::lower_bound(nodes.begin(), nodes.end(), node) -
-                                         nodes.begin());
-  };
-  const Eigen::MatrixXd map_covariance = graph.optimizer().covariance(nodes);
   const auto rows = 3 * static_cast<Eigen::Index>(links.size());
   LinksLinearization out;
   out.residual.resize(rows);
   out.link_covariance = Eigen::MatrixXd::Zero(rows, rows);
-  Eigen::MatrixXd J = Eigen::MatrixXd::Zero(rows, map_covariance.cols());
+  std::vector<core::Optimizer::JacobianBlock> J;
+  J.reserve(2 * links.size());
   for (std::size_t i = 0; i < links.size(); ++i) {
     const LoopCandidate& c = graph.candidate(links[i]);
     const core::EdgeLinearization lin =
@@ -38,11 +31,11 @@ LinksLinearization linearizeLinks(const VerificationGraph& graph, const std::vec
                             poses[static_cast<std::size_t>(c.to)], c.measurement);
     const auto r = 3 * static_cast<Eigen::Index>(i);
     out.residual.segment<3>(r) = lin.error;
-    J.block<3, 3>(r, column(c.from)) += lin.J_from;
-    J.block<3, 3>(r, column(c.to)) += lin.J_to;
+    J.push_back({static_cast<int>(i), c.from, lin.J_from});
+    J.push_back({static_cast<int>(i), c.to, lin.J_to});
     out.link_covariance.block<3, 3>(r, r) = c.information.inverse();
   }
-  out.map_term = J * map_covariance * J.transpose();
+  out.map_term = graph.optimizer().projectedCovariance(J, static_cast<int>(links.size()));
   return out;
 }
 

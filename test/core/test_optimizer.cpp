@@ -7,7 +7,9 @@
 #include <Eigen/SparseCholesky>
 #include <algorithm>
 #include <random>
+#include <stdexcept>
 #include <unordered_map>
+#include <utility>
 
 #include "rrr_graphslam/core/graph_io.h"
 #include "rrr_graphslam/core/lago.h"
@@ -17,6 +19,37 @@ namespace rrr_graphslam::core {
 namespace {
 
 const std::string kData = RRR_TEST_DATA_DIR;
+
+// J covariance(J's nodes) J': projectedCovariance's slow, obvious version.
+Eigen::MatrixXd denseProjection(const Optimizer& opt,
+                                const std::vector<Optimizer::JacobianBlock>& J, int rows) {
+  std::vector<int> nodes;
+  for (const auto& b : J) nodes.push_back(b.node);
+  std::sort(nodes.begin(), nodes.end());
+  nodes.erase(std::unique(nodes.begin(), nodes.end()), nodes.end());
+  Eigen::MatrixXd dense =
+      Eigen::MatrixXd::Zero(3 * rows, 3 * static_cast<Eigen::Index>(nodes.size()));
+  for (const auto& b : J) {
+    const auto at = std::lower_bound(nodes.begin(), nodes.end(), b.node) - nodes.begin();
+    dense.block<3, 3>(3 * b.row, 3 * at) += b.value;
+  }
+  return dense * opt.covariance(nodes) * dense.transpose();
+}
+
+// Loop-link Jacobians at the optimizer's poses between the pairs given, one block row each.
+std::vector<Optimizer::JacobianBlock> linkJacobians(const Optimizer& opt,
+                                                    const std::vector<std::pair<int, int>>& pairs) {
+  std::vector<Optimizer::JacobianBlock> J;
+  for (std::size_t i = 0; i < pairs.size(); ++i) {
+    const auto [a, b] = pairs[i];
+    const Pose2& pa = opt.poses()[static_cast<std::size_t>(a)];
+    const Pose2& pb = opt.poses()[static_cast<std::size_t>(b)];
+    const EdgeLinearization lin = linearizeEdge(pa, pb, between(pa, pb));
+    J.push_back({static_cast<int>(i), a, lin.J_from});
+    J.push_back({static_cast<int>(i), b, lin.J_to});
+  }
+  return J;
+}
 
 // A square loop of `n` poses per side with odometry and a few loop closures; returns the
 // optimizer with ground truth in `truth` and a perturbed start.
@@ -309,6 +342,10 @@ TEST(Optimizer, CovarianceCoversNodesAddedByOdometryAfterTheFactorization) {
   const std::vector<int> new_only{942, 800};
   EXPECT_LT((grown.covariance(new_only) - fresh.covariance(new_only)).norm(),
             1e-4 * reference.norm());
+  // A link to a node added since goes through the propagated joint covariance.
+  const std::vector<Optimizer::JacobianBlock> J = linkJacobians(grown, {{100, 942}, {699, 820}});
+  EXPECT_LT((grown.projectedCovariance(J, 2) - denseProjection(fresh, J, 2)).norm(),
+            1e-4 * denseProjection(fresh, J, 2).norm());
 
   // A loop switched on among the new nodes changes the marginals: no longer available.
   ASSERT_FALSE(loops.empty());
@@ -567,6 +604,30 @@ TEST(Optimizer, InformationMatrixInvertsToTheMarginalCovariance) {
       EXPECT_LT((got - slow).cwiseAbs().maxCoeff(), 2e-3 * scale) << nodes[i] << " " << nodes[j];
     }
   }
+}
+
+// The covariance of loop links' relative poses read from the factor, one forward solve per
+// link row, against the links' Jacobians times the nodes' joint covariance; a link on the fixed
+// node 0 and one repeated; nothing without a factorization, out of range for unknown nodes.
+TEST(Optimizer, ProjectedCovarianceMatchesTheNodesCovarianceProjected) {
+  const PoseGraph graph = readPoseGraph(kData + "/intel.g2o.gz");
+  Optimizer opt = makeOptimizer(graph);
+  const std::vector<std::pair<int, int>> pairs{{10, 700}, {11, 702}, {0, 300}, {10, 700}, {942, 5}};
+  const std::vector<Optimizer::JacobianBlock> J = linkJacobians(opt, pairs);
+  const int rows = static_cast<int>(pairs.size());
+  EXPECT_EQ(opt.projectedCovariance(J, rows).norm(), 0.0) << "no factorization yet";
+  ASSERT_TRUE(opt.optimize().converged());
+  ASSERT_TRUE(opt.covarianceAvailable());
+  const Eigen::MatrixXd expected = denseProjection(opt, J, rows);
+  const Eigen::MatrixXd got = opt.projectedCovariance(J, rows);
+  ASSERT_EQ(got.rows(), 3 * rows);
+  EXPECT_LT((got - expected).norm(), 1e-9 * expected.norm());
+  EXPECT_GT(expected.norm(), 0.0);
+  EXPECT_EQ(opt.projectedCovariance({}, 2).norm(), 0.0);
+  EXPECT_THROW(opt.projectedCovariance({{0, 943, Eigen::Matrix3d::Identity()}}, 1),
+               std::out_of_range);
+  EXPECT_THROW(opt.projectedCovariance({{1, 5, Eigen::Matrix3d::Identity()}}, 1),
+               std::out_of_range);
 }
 
 TEST(Optimizer, AFactorizationWhereLevenbergMarquardtStoppedGivesItsCovariance) {

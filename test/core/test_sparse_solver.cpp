@@ -5,6 +5,7 @@
 
 #include <Eigen/Dense>
 #include <random>
+#include <stdexcept>
 #include <tuple>
 
 #include "rrr_graphslam/core/sparse_solver.h"
@@ -112,6 +113,42 @@ TEST_P(RankUpdates, UpdateAndDowndateMatchDenseSolves) {
   EXPECT_FALSE(solver.update(big, false));
   ASSERT_TRUE(solver.factorize(upper(A)));
   EXPECT_LT((solver.solve(b) - A.llt().solve(b)).norm(), 1e-9 * b.norm());
+}
+
+// B' A^-1 B by path-restricted forward solves, against the dense inverse (the slow, obvious
+// version): columns with several entries whose paths meet only near the root, a column of one
+// entry, an empty column, a column that repeats another; on the factorization and after a rank
+// update (simplicial LDL' then, whatever it was before).
+TEST_P(RankUpdates, InverseProjectionMatchesTheDenseInverse) {
+  const auto [n, preordered, kind] = GetParam();
+  const Eigen::MatrixXd A = randomSpd(n, n > 100 ? 40 : 3, n, 7);
+  Eigen::MatrixXd Bd = Eigen::MatrixXd(randomColumns(n, 12, 8));
+  Bd.col(3).setZero();
+  Bd.col(4).setZero();
+  Bd(n - 1, 4) = 2.0;
+  Bd.col(5) = Bd.col(0);
+  Bd(0, 6) = 1.0;  // the two ends of the order
+  Bd(n - 1, 6) = -1.0;
+  const Matrix B = Matrix(Bd.sparseView());
+  SparseSolver solver;
+  EXPECT_EQ(solver.inverseProjection(B).norm(), 0.0) << "no factorization yet";
+  solver.analyze(upper(A), preordered, kind);
+  ASSERT_TRUE(solver.factorize(upper(A)));
+  EXPECT_EQ(solver.dimension(), n);
+  const Eigen::MatrixXd expected = Bd.transpose() * A.inverse() * Bd;
+  const Eigen::MatrixXd got = solver.inverseProjection(B);
+  ASSERT_EQ(got.rows(), B.cols());
+  EXPECT_LT((got - expected).norm(), 1e-9 * expected.norm());
+  EXPECT_EQ((got - got.transpose()).norm(), 0.0);
+  EXPECT_EQ(got.row(3).norm(), 0.0);
+  EXPECT_EQ(solver.inverseProjection(Matrix(n, 0)).size(), 0);
+  EXPECT_THROW(solver.inverseProjection(Matrix(n + 1, 2)), std::invalid_argument);
+
+  const Matrix C = randomColumns(n, 5, 9);
+  ASSERT_TRUE(solver.update(C, true));
+  const Eigen::MatrixXd A_plus = A + Eigen::MatrixXd(C) * Eigen::MatrixXd(C).transpose();
+  const Eigen::MatrixXd expected_plus = Bd.transpose() * A_plus.inverse() * Bd;
+  EXPECT_LT((solver.inverseProjection(B) - expected_plus).norm(), 1e-9 * expected_plus.norm());
 }
 
 INSTANTIATE_TEST_SUITE_P(SimplicialAndSupernodal, RankUpdates,

@@ -204,6 +204,20 @@ class Optimizer {
   /// first order, as the tree adds no information about the rest). Zero unless
   /// covarianceAvailable(); std::out_of_range for a node that does not exist.
   Eigen::MatrixXd covariance(const std::vector<int>& nodes) const;
+  /// A 3x3 block of a linear function J of the poses: J's rows 3 row .. 3 row + 2, its columns
+  /// of `node`.
+  struct JacobianBlock {
+    int row;
+    int node;
+    Eigen::Matrix3d value;
+  };
+  /// J Sigma J' (3 rows x 3 rows): the covariance of J dx for J given by its blocks (repeated
+  /// blocks add up), as J covariance(J's nodes) J' gives it. With every node of J factored it is
+  /// read from the factor directly (SparseSolver::inverseProjection): one forward solve per row
+  /// of J, not per row of the nodes' joint covariance (a loop link's relative pose: 3 rows for
+  /// two nodes' 6). Zero unless covarianceAvailable(); std::out_of_range for a node that does not
+  /// exist or a block outside J's rows.
+  Eigen::MatrixXd projectedCovariance(const std::vector<JacobianBlock>& J, int rows) const;
 
   /// The information matrix H = sum_k J_k^T (w_k Omega_k) J_k of the active constraints at the
   /// current poses, 3 rows and columns per node in node order (fixed nodes included, anchors'

@@ -58,16 +58,24 @@ class SparseSolver {
   /// Solves A x = rhs with the last successful factorization.
   Eigen::VectorXd solve(const Eigen::VectorXd& rhs) const;
   Eigen::MatrixXd solve(const Eigen::MatrixXd& rhs) const;
-  /// The rows and columns `indices` of A^-1 (marginal covariances), from the last successful
-  /// factorization P A P' = L D L': (A^-1)_II = Y' D^-1 Y with Y = L^-1 P E_I. A forward solve of
-  /// a unit vector fills only the rows on its path to the root of the elimination tree, so Y
-  /// costs those paths, not full solves: a simplicial factor is walked column by column, a
-  /// supernodal one supernode by supernode for all columns at once (its dense separators near
-  /// the root are where the paths meet). Incremental City10000 + 1000 random: 6.3 s of
-  /// covariances per run with full solves, 0.44 s with paths; its batch leave-one-out check of
-  /// ~190 large clusters: 1.1 s column by column, 0.1-0.2 s blocked.
-  /// solve(identity columns) is the slow, obvious version (test_sparse_solver compares them).
+  /// B' A^-1 B (k x k for k columns of B, which has A's rows in their natural order) from the
+  /// last successful factorization P A P' = L D L': Y' D^-1 Y with Y = L^-1 P B. A forward solve
+  /// of a sparse column fills only the rows on the paths from its entries to the root of the
+  /// elimination tree, so Y costs those paths, not full solves: a simplicial factor is walked
+  /// column by column, a supernodal one supernode by supernode for all columns at once (its
+  /// dense separators near the root are where the paths meet), each supernode for the range of
+  /// columns whose paths reach it. The covariance of a linear function of the variables (the
+  /// relative poses of loop links: RRR's linearized tests) needs no covariance of the variables
+  /// themselves: one column per row of the function, not per variable. Zero without a usable
+  /// factorization; std::invalid_argument when B's rows are not A's.
+  /// solve(B) then B' times it is the slow, obvious version (test_sparse_solver compares them).
+  Eigen::MatrixXd inverseProjection(const Matrix& B) const;
+  /// The rows and columns `indices` of A^-1 (marginal covariances): inverseProjection of the
+  /// unit columns.
   Eigen::MatrixXd inverseSubmatrix(const std::vector<int>& indices) const;
+
+  /// The order of the matrix last factored (0 before any).
+  int dimension() const;
 
   /// Number of symbolic analyses so far (tests check that the ordering is reused).
   int analysisCount() const { return analysis_count_; }
