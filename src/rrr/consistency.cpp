@@ -165,13 +165,18 @@ std::optional<Conflict> mostConflicting(VerificationGraph& graph,
     ++optimizations;
     if (!opt.covarianceAvailable() && !opt.factorAtCurrentPoses()) return std::nullopt;
   }
-  const std::vector<core::Pose2> poses = opt.poses();
-  std::optional<Conflict> most;
+  std::vector<std::size_t> examined;  // in `active`
+  std::vector<const std::vector<int>*> links;
   for (std::size_t i = 0; i < active.size(); ++i) {
     if (!removable(active[i])) continue;
-    const double index =
-        leaveOneOutIndex(graph, cluster_links[static_cast<std::size_t>(active[i])], poses, alpha);
-    if (index >= 1.0 && (!most || index > most->index)) most = Conflict{i, index};
+    examined.push_back(i);
+    links.push_back(&cluster_links[static_cast<std::size_t>(active[i])]);
+  }
+  const std::vector<double> index = leaveOneOutIndices(graph, links, opt.poses(), alpha);
+  std::optional<Conflict> most;
+  for (std::size_t k = 0; k < examined.size(); ++k) {
+    if (index[k] >= 1.0 && (!most || index[k] > most->index))
+      most = Conflict{examined[k], index[k]};
   }
   return most;
 }

@@ -1,5 +1,7 @@
 #include "rrr_graphslam/rrr/linearized_tests.h"
 
+#include <exception>
+
 #include <Eigen/Dense>
 
 #include "rrr_graphslam/core/chi2.h"
@@ -61,6 +63,27 @@ double leaveOneOutIndex(const VerificationGraph& graph, const std::vector<int>& 
   if (ldlt.info() != Eigen::Success || (ldlt.vectorD().array() <= 0.0).any()) return 0.0;
   const double d2 = lin.residual.dot(ldlt.solve(lin.residual));
   return failIfNotFinite(d2 / core::chi2Quantile(alpha, static_cast<int>(lin.residual.size())));
+}
+
+std::vector<double> leaveOneOutIndices(const VerificationGraph& graph,
+                                       const std::vector<const std::vector<int>*>& link_sets,
+                                       const std::vector<core::Pose2>& poses, double alpha) {
+  std::vector<double> index(link_sets.size(), 0.0);
+  // An exception may not leave a parallel region: the first one is rethrown after it.
+  std::exception_ptr failure;
+  const auto n = static_cast<long>(link_sets.size());
+#pragma omp parallel for schedule(dynamic) if (n > 1)
+  for (long i = 0; i < n; ++i) {
+    try {
+      index[static_cast<std::size_t>(i)] =
+          leaveOneOutIndex(graph, *link_sets[static_cast<std::size_t>(i)], poses, alpha);
+    } catch (...) {
+#pragma omp critical(rrr_leave_one_out_failure)
+      if (!failure) failure = std::current_exception();
+    }
+  }
+  if (failure) std::rethrow_exception(failure);
+  return index;
 }
 
 }  // namespace rrr_graphslam::rrr

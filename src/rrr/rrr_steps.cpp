@@ -294,14 +294,20 @@ bool Rrr::recoverFar(std::vector<char>& tried) {
 
 bool Rrr::leaveOneOutCheck() {
   factorGoodMap();
-  std::vector<int> conflicting;
-  std::vector<double> conflicting_index;
+  std::vector<int> examined;
+  std::vector<const std::vector<int>*> links;
   for (int c : clustersWith(Status::kGood)) {
     if (!largeCluster(c) && indexAt(c, base_) < params_.loo_min_index) continue;
-    const double index = leaveOneOutIndex(c);
-    if (index >= 1.0) {
-      conflicting.push_back(c);
-      conflicting_index.push_back(index);
+    examined.push_back(c);
+    links.push_back(&kept_links_[static_cast<std::size_t>(c)]);
+  }
+  const std::vector<double> index = leaveOneOutIndices(graph_, links, base_, params_.alpha);
+  std::vector<int> conflicting;
+  std::vector<double> conflicting_index;
+  for (std::size_t i = 0; i < examined.size(); ++i) {
+    if (index[i] >= 1.0) {
+      conflicting.push_back(examined[i]);
+      conflicting_index.push_back(index[i]);
     }
   }
   if (conflicting.empty()) return false;
@@ -431,11 +437,6 @@ void Rrr::factorGoodMap() {
 std::optional<double> Rrr::predictedIndex(int cluster) const {
   return rrr::predictedIndex(graph_, kept_links_[static_cast<std::size_t>(cluster)], base_,
                              params_.alpha);
-}
-
-double Rrr::leaveOneOutIndex(int cluster) const {
-  return rrr::leaveOneOutIndex(graph_, kept_links_[static_cast<std::size_t>(cluster)], base_,
-                               params_.alpha);
 }
 
 }  // namespace rrr_graphslam::rrr

@@ -85,7 +85,17 @@ TEST(Consistency, LeaveOneOutIndexIsTheChi2DropOfRemovingTheLinks) {
   }
   // The false link stands out; it would not by its own residual at the joint solution.
   graph.optimize(all, core::startFrom(graph.initialPoses()));
-  EXPECT_GT(leaveOneOutIndex(graph, {false_link}, graph.optimizer().poses(), alpha), 10.0);
+  const std::vector<core::Pose2> solution = graph.optimizer().poses();
+  EXPECT_GT(leaveOneOutIndex(graph, {false_link}, solution, alpha), 10.0);
+  // Every set at once (in parallel): each index as alone, in the sets' order.
+  std::vector<const std::vector<int>*> sets;
+  for (const std::vector<int>& links : tested) sets.push_back(&links);
+  const std::vector<double> indices = leaveOneOutIndices(graph, sets, solution, alpha);
+  ASSERT_EQ(indices.size(), tested.size());
+  for (std::size_t i = 0; i < tested.size(); ++i)
+    EXPECT_EQ(indices[i], leaveOneOutIndex(graph, tested[i], solution, alpha)) << i;
+  EXPECT_GT(indices[0], 10.0);
+  EXPECT_TRUE(leaveOneOutIndices(graph, {}, solution, alpha).empty());
 }
 
 TEST(Consistency, IntraDropsTheFalseLinkOfAMixedCluster) {

@@ -214,8 +214,6 @@ class Rrr {
   /// the last factorization is of something else), so covariance() and predictedIndex() describe
   /// the good map.
   void factorGoodMap();
-  /// rrr::leaveOneOutIndex of a good cluster's kept links at base_.
-  double leaveOneOutIndex(int cluster) const;
   /// rrr::predictedIndex of a cluster's kept links at base_.
   std::optional<double> predictedIndex(int cluster) const;
   /// At least far_retry_min_links kept links (the far retry and the leave-one-out check).
