@@ -153,6 +153,9 @@ Eigen::MatrixXd Optimizer::covariance(const std::vector<int>& nodes) const {
 
 Eigen::MatrixXd Optimizer::projectedCovariance(const std::vector<JacobianBlock>& J,
                                                int rows) const {
+  if (rows < 0) {
+    throw std::out_of_range("Optimizer::projectedCovariance: " + std::to_string(rows) + " rows");
+  }
   std::vector<int> nodes;
   for (const JacobianBlock& b : J) {
     if (b.row < 0 || b.row >= rows) {

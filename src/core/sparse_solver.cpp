@@ -216,8 +216,9 @@ Eigen::MatrixXd simplicialInverseProjection(const cholmod_factor& L,
 // parents: per supernode a triangular solve and a product for its rows below, then its rows'
 // share of Y' Y. The paths meet near the root, where the separators are dense blocks, so all
 // columns go through them together. Lower down a supernode is on the paths of only some
-// columns: with the columns sorted by the first supernode they reach, those are a range, and the
-// solve works on that range alone (a loop's two ends climb separate subtrees until they meet).
+// columns: with the columns sorted by the first supernode they reach, a range [lo, hi] covers
+// them, and the solve works on that range alone (a loop's two ends climb separate subtrees until
+// they meet; columns in the range whose paths miss the supernode are zero there and stay zero).
 // Y is kept transposed (a column of Yt per row of L), so each scattered row is contiguous.
 Eigen::MatrixXd supernodalInverseProjection(const cholmod_factor& L,
                                             const std::vector<SparseColumn>& columns) {
@@ -323,6 +324,11 @@ Eigen::MatrixXd supernodalInverseProjection(const cholmod_factor& L,
 int SparseSolver::dimension() const {
   const cholmod_factor* L = cholmod_->llt.factor();
   return L == nullptr ? 0 : static_cast<int>(L->n);
+}
+
+bool SparseSolver::supernodal() const {
+  const cholmod_factor* L = cholmod_->llt.factor();
+  return L != nullptr && L->is_super;
 }
 
 Eigen::MatrixXd SparseSolver::inverseProjection(const Matrix& B) const {

@@ -69,20 +69,25 @@ std::vector<double> leaveOneOutIndices(const VerificationGraph& graph,
                                        const std::vector<const std::vector<int>*>& link_sets,
                                        const std::vector<core::Pose2>& poses, double alpha) {
   std::vector<double> index(link_sets.size(), 0.0);
-  // An exception may not leave a parallel region: the first one is rethrown after it.
-  std::exception_ptr failure;
+  // An exception may not leave a parallel region: the first set's (as in a serial loop) is
+  // rethrown after it.
+  std::vector<std::exception_ptr> failure(link_sets.size());
   const auto n = static_cast<long>(link_sets.size());
-#pragma omp parallel for schedule(dynamic) if (n > 1)
+  // A few sets are done on this thread: waking the team (and, with the other cores busy,
+  // waiting for it at the barrier) would cost more than it saves.
+  constexpr long kParallelFrom = 16;
+#pragma omp parallel for schedule(dynamic) if (n >= kParallelFrom)
   for (long i = 0; i < n; ++i) {
+    const auto k = static_cast<std::size_t>(i);
     try {
-      index[static_cast<std::size_t>(i)] =
-          leaveOneOutIndex(graph, *link_sets[static_cast<std::size_t>(i)], poses, alpha);
+      index[k] = leaveOneOutIndex(graph, *link_sets[k], poses, alpha);
     } catch (...) {
-#pragma omp critical(rrr_leave_one_out_failure)
-      if (!failure) failure = std::current_exception();
+      failure[k] = std::current_exception();
     }
   }
-  if (failure) std::rethrow_exception(failure);
+  for (const std::exception_ptr& f : failure) {
+    if (f) std::rethrow_exception(f);
+  }
   return index;
 }
 

@@ -628,6 +628,14 @@ TEST(Optimizer, ProjectedCovarianceMatchesTheNodesCovarianceProjected) {
                std::out_of_range);
   EXPECT_THROW(opt.projectedCovariance({{1, 5, Eigen::Matrix3d::Identity()}}, 1),
                std::out_of_range);
+  EXPECT_THROW(opt.projectedCovariance({{0, -1, Eigen::Matrix3d::Identity()}}, 1),
+               std::out_of_range);
+  EXPECT_THROW(opt.projectedCovariance({}, -1), std::out_of_range);
+  // Blocks repeated in the same row and node add up.
+  std::vector<Optimizer::JacobianBlock> halves = J;
+  for (auto& b : halves) b.value *= 0.5;
+  halves.insert(halves.end(), halves.begin(), halves.end());
+  EXPECT_LT((opt.projectedCovariance(halves, rows) - expected).norm(), 1e-9 * expected.norm());
 }
 
 TEST(Optimizer, AFactorizationWhereLevenbergMarquardtStoppedGivesItsCovariance) {

@@ -151,6 +151,61 @@ TEST_P(RankUpdates, InverseProjectionMatchesTheDenseInverse) {
   EXPECT_LT((solver.inverseProjection(B) - expected_plus).norm(), 1e-9 * expected_plus.norm());
 }
 
+// A 2-D grid (a pose graph of many loops looks like one after ordering): a supernodal factor
+// whose elimination tree branches, and columns whose entries sit in leaves far apart (a loop
+// link's two ends), so each supernode is solved for a different range of columns.
+TEST(InverseProjection, ColumnsWhosePathsMeetOnlyNearTheRootOfASupernodalFactor) {
+  const int side = 30, n = side * side;
+  Eigen::MatrixXd A = Eigen::MatrixXd::Zero(n, n);
+  auto at = [&](int r, int c) { return r * side + c; };
+  // Each point coupled to those within 2 rows and columns: dense enough for supernodes.
+  for (int r = 0; r < side; ++r) {
+    for (int c = 0; c < side; ++c) {
+      for (int dr = 0; dr <= 2 && r + dr < side; ++dr) {
+        for (int dc = -2; dc <= 2; ++dc) {
+          if ((dr == 0 && dc <= 0) || c + dc < 0 || c + dc >= side) continue;
+          A(at(r, c), at(r + dr, c + dc)) = A(at(r + dr, c + dc), at(r, c)) =
+              -1.0 / (dr + std::abs(dc));
+        }
+      }
+    }
+  }
+  for (int i = 0; i < n; ++i) A(i, i) = A.row(i).cwiseAbs().sum() + 0.1;
+  Eigen::MatrixXd Bd = Eigen::MatrixXd::Zero(n, 8);
+  Bd(at(0, 0), 0) = 1.0;  // opposite corners
+  Bd(at(29, 29), 0) = -1.0;
+  Bd(at(0, 29), 1) = 0.5;  // the other two
+  Bd(at(29, 0), 1) = 2.0;
+  Bd(at(1, 1), 2) = 1.0;    // beside column 0's first end
+  Bd(at(15, 15), 3) = 1.0;  // the middle, alone
+  Bd(at(3, 27), 4) = 1.0;   // three places
+  Bd(at(27, 3), 4) = -1.0;
+  Bd(at(14, 2), 4) = 0.7;
+  Bd(at(28, 28), 5) = 1.0;  // beside column 0's second end
+  Bd(at(0, 0), 6) = 1.0;    // column 0 again, one end only
+  Bd(at(5, 9), 7) = 1.0;
+  Bd(at(6, 9), 7) = 1.0;
+  SparseSolver solver;
+  solver.analyze(upper(A));
+  ASSERT_TRUE(solver.factorize(upper(A)));
+  ASSERT_TRUE(solver.supernodal()) << "the grid should factor supernodally";
+  const Eigen::MatrixXd expected = Bd.transpose() * A.inverse() * Bd;
+  const Eigen::MatrixXd got = solver.inverseProjection(Matrix(Bd.sparseView()));
+  EXPECT_LT((got - expected).norm(), 1e-9 * expected.norm());
+  // The same through unit columns, one at a time and all at once.
+  const std::vector<int> picked = {at(0, 0), at(29, 29), at(15, 15), at(0, 29)};
+  const Eigen::MatrixXd inverse = A.inverse();
+  const Eigen::MatrixXd together = solver.inverseSubmatrix(picked);
+  for (std::size_t a = 0; a < picked.size(); ++a) {
+    for (std::size_t b = 0; b < picked.size(); ++b) {
+      EXPECT_NEAR(together(static_cast<Eigen::Index>(a), static_cast<Eigen::Index>(b)),
+                  inverse(picked[a], picked[b]), 1e-9 * inverse.norm());
+    }
+    EXPECT_NEAR(solver.inverseSubmatrix({picked[a]})(0, 0), inverse(picked[a], picked[a]),
+                1e-9 * inverse.norm());
+  }
+}
+
 INSTANTIATE_TEST_SUITE_P(SimplicialAndSupernodal, RankUpdates,
                          ::testing::Combine(::testing::Values(30, 600), ::testing::Bool(),
                                             ::testing::Values(SparseSolver::Kind::kAuto,

@@ -74,8 +74,12 @@ class SparseSolver {
   /// unit columns.
   Eigen::MatrixXd inverseSubmatrix(const std::vector<int>& indices) const;
 
-  /// The order of the matrix last factored (0 before any).
+  /// The order of the matrix of the last analysis (0 before any): the rows inverseProjection's B
+  /// must have.
   int dimension() const;
+  /// Whether the current factor is supernodal (CHOLMOD's choice for the pattern; an update()
+  /// makes it simplicial).
+  bool supernodal() const;
 
   /// Number of symbolic analyses so far (tests check that the ordering is reused).
   int analysisCount() const { return analysis_count_; }

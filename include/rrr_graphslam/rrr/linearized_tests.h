@@ -23,8 +23,8 @@ std::optional<double> predictedIndex(const VerificationGraph& graph, const std::
                                      const std::vector<core::Pose2>& poses, double alpha);
 double leaveOneOutIndex(const VerificationGraph& graph, const std::vector<int>& links,
                         const std::vector<core::Pose2>& poses, double alpha);
-/// leaveOneOutIndex of each set of links, in parallel over the machine's cores (each reads the
-/// same factor; the results do not depend on the threads).
+/// leaveOneOutIndex of each set of links; 16 sets and more in parallel over the machine's cores
+/// (each reads the same factor; the results do not depend on the threads).
 std::vector<double> leaveOneOutIndices(const VerificationGraph& graph,
                                        const std::vector<const std::vector<int>*>& link_sets,
                                        const std::vector<core::Pose2>& poses, double alpha);
