@@ -3,7 +3,8 @@ Kümmerle et al. 2009 where a relations file exists (ACES), the ATE against the 
 ple_corrected where a corrected log of the run exists (ACES, Intel, FR079, MIT CSAIL), the
 scan-consistency check of evaluate_slam on every log (inconsistent revisits; with a corrected log,
 the revisits off the reference where the scans side with it), speed against real time, the
-branch-and-bound time per node-submap pair, RRR's verdicts and their agreement with the final map,
+branch-and-bound time per node-submap pair, the front end's candidates labelled true or false by
+the corrected poses and RRR's precision and recall on them (candidate_truth; with --map-info),
 and MRPT's ICP-SLAM (CMetricMapBuilderICP, rrr_bench_icp_slam) on the same logs as the baseline.
 Prints a Markdown table; maps go to --maps as PNG."""
 
@@ -15,9 +16,12 @@ import subprocess
 import sys
 import time
 
+from .bench_sessions import GroundTruth, local_from_trajectory, read_corrected, read_raw_scans
+from .candidate_truth import REFERENCE_SIGMA, node_references, score_candidates
+from .carmen import read_carmen
 from .evaluate_slam import CheckParams, evaluate
 from .evaluation import read_decisions
-from .graph_io import between, read_graph
+from .graph_io import inverse, read_graph
 from .relations import read_relations, read_tum, relation_error
 
 # name: (file, relations file or None, ple_corrected log or None)
@@ -36,21 +40,6 @@ def find(name, dirs):
         if os.path.exists(path):
             return path
     return None
-
-
-def agreement(graph_path, decisions_path, max_m=0.3, max_deg=3.0):
-    """(accepted that agree with the final map, accepted, rejected that agree, rejected): a
-    candidate agrees when its measurement matches the optimized poses of its ends."""
-    graph = read_graph(graph_path)
-    verdicts = [d.verdict for d in read_decisions(decisions_path)]
-    counts = [0, 0, 0, 0]
-    for edge, verdict in zip(graph.loops(), verdicts):
-        e = between(edge.measurement, between(graph.poses[edge.source], graph.poses[edge.target]))
-        agrees = math.hypot(e[0], e[1]) < max_m and abs(math.degrees(e[2])) < max_deg
-        k = 0 if verdict == "accepted" else 2
-        counts[k] += agrees
-        counts[k + 1] += 1
-    return counts
 
 
 def run_ours(binary, log, out, extra):
@@ -73,12 +62,30 @@ def run_ours(binary, log, out, extra):
         nodes=number(r"nodes\s+([0-9]+)"))
 
 
+def label_candidates(map_info, log, corrected, files, saved_map):
+    """score_candidates of the run's candidates and verdicts against the corrected log: the
+    nodes' scans from the saved map (rrr_map_info --trajectory: each node's scan timestamp)."""
+    nodes_path = os.path.join(os.path.dirname(saved_map), "nodes.txt")
+    subprocess.run([map_info, saved_map, "--trajectory", nodes_path], check=True,
+                   capture_output=True)
+    raw = read_raw_scans(log)
+    truth = GroundTruth(raw, read_corrected(corrected),
+                        local_from_trajectory(raw, *read_tum(files["trajectory"])))
+    graph = read_graph(files["graph"])
+    reference = node_references(sorted(graph.poses), read_tum(nodes_path)[0], truth,
+                                inverse(read_carmen(log).laser_offset()))
+    verdicts = [d.verdict for d in read_decisions(files["decisions"])]
+    return score_candidates(graph.loops(), verdicts, reference)
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--slam-offline", required=True)
     parser.add_argument("--icp-slam", help="rrr_bench_icp_slam (MRPT baseline); omitted: not run")
     parser.add_argument("--align-scans", help="rrr_align_scans (scan-consistency check); omitted: "
                         "not run")
+    parser.add_argument("--map-info", help="rrr_map_info (the nodes' scans, to label the "
+                        "candidates by a corrected log); omitted: not labelled")
     parser.add_argument("--data", action="append", required=True, help="folders holding the logs")
     parser.add_argument("--cache", required=True, help="working folder")
     parser.add_argument("--maps", help="copy the map PNGs here")
@@ -97,12 +104,15 @@ def main(argv=None):
         out = os.path.join(args.cache, name)
         os.makedirs(out, exist_ok=True)
         print(f"{name}: rrr_slam_offline ...", file=sys.stderr)
-        files, r = run_ours(args.slam_offline, log, out, extra)
-        acc_ok, acc, rej_ok, rej = agreement(files["graph"], files["decisions"])
-        row = dict(name=name, **r, acc_ok=acc_ok, acc_n=acc, rej_ok=rej_ok, rej_n=rej,
-                   ours=None, icp=None, icp_time=math.nan, check=None)
+        corrected_path = find(corrected, args.data) if corrected else None
+        label = bool(args.map_info and corrected_path)
+        saved_map = os.path.join(out, "map.rrrmap")
+        files, r = run_ours(args.slam_offline, log, out,
+                            extra + (["--save-map", saved_map] if label else []))
+        row = dict(name=name, **r, ours=None, icp=None, icp_time=math.nan, check=None, truth=None)
+        if label:
+            row["truth"] = label_candidates(args.map_info, log, corrected_path, files, saved_map)
         if args.align_scans:
-            corrected_path = find(corrected, args.data) if corrected else None
             row["check"] = evaluate(log, files["trajectory"], args.align_scans, corrected_path)
         rel_path = find(relations, args.data) if relations else None
         if rel_path:
@@ -145,19 +155,36 @@ def main(argv=None):
         worst = f", worst {off[0].error(off[0].reference)[0]:.2f} m" if off else ""
         return f"{len(off)}{worst}"
 
-    print("| log | nodes | time (s) | × real time | B&B ms / pair | candidates | accepted (agree) | "
-          "rejected (agree) | relation error, ours | ATE vs corrected | inconsistent revisits | "
+    def by_reference(t):
+        return "–" if t is None else f"{t.true} / {t.false}" + (
+            f" ({t.unlabelled} unlabelled)" if t.unlabelled else "")
+
+    def precision_recall(t):
+        if t is None:
+            return "–"
+        text = f"{t.precision:.3f} / {t.recall:.3f}"
+        if not t.false_accepted:
+            return text
+        _, _, m, deg, _ = t.false_accepted[0]
+        return f"{text}; worst false accepted {m:.2f} m / {deg:.1f}°"
+
+    print("| log | nodes | time (s) | × real time | B&B ms / pair | candidates | accepted | "
+          "by the reference: true / false | RRR precision / recall (reference) | "
+          "relation error, ours | ATE vs corrected | inconsistent revisits | "
           "off the reference | MRPT ICP-SLAM | ICP time (s) |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for r in rows:
         print(f"| {r['name']} | {r['nodes']:.0f} | {r['time']:.1f} | {r['duration'] / r['time']:.1f} | "
-              f"{r['bnb_ms']:.2f} | {r['candidates']:.0f} | {r['acc_n']} ({r['acc_ok']}) | "
-              f"{r['rej_n']} ({r['rej_ok']}) | {rel(r['ours'])} | {ate(r['check'])} | "
-              f"{inconsistent(r['check'])} | {off_reference(r['check'])} | {rel(r['icp'])} | "
-              f"{r['icp_time']:.1f} |")
-    print("\nagree: the candidate's measurement matches the final map within 0.3 m and 3° "
-          "(accepted that disagree would be false positives; rejected that agree, missed true loops); "
-          "recall estimate = accepted agreeing / all agreeing.\n"
+              f"{r['bnb_ms']:.2f} | {r['candidates']:.0f} | {r['accepted']:.0f} | "
+              f"{by_reference(r['truth'])} | {precision_recall(r['truth'])} | {rel(r['ours'])} | "
+              f"{ate(r['check'])} | {inconsistent(r['check'])} | {off_reference(r['check'])} | "
+              f"{rel(r['icp'])} | {r['icp_time']:.1f} |")
+    sx, sy, st = REFERENCE_SIGMA
+    print("\nby the reference: a candidate is true when its measurement agrees with the corrected "
+          "poses' relative pose of its two scans within chi2(0.99, 3), under its own covariance "
+          f"plus the reference's ({sx:g} m, {sy:g} m, {math.degrees(st):g}°); precision and "
+          "recall of RRR's accepted candidates against those labels (worst: the accepted false "
+          "candidate of the largest chi2).\n"
           "ATE: RMSE of the positions at the corrected scans after SE(2) alignment; inconsistent "
           "revisits: of the revisits whose scans aligned, those whose relative pose in the map is "
           f"more than {params.max_m} m or {params.max_deg}° from the scans' own and fits them worse "

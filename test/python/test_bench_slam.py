@@ -1,6 +1,8 @@
-"""scripts/bench_slam's table: the ATE against a corrected log and the scan-consistency columns,
-with a stand-in for rrr_slam_offline that maps the synthetic two-lap room (test_evaluate_slam)
-with its second lap shifted by 0.6 m. Needs rrr_align_scans (RRR_ALIGN_SCANS)."""
+"""scripts/bench_slam's table: the ATE against a corrected log, the scan-consistency columns and the
+candidates labelled by the corrected log, with a stand-in for rrr_slam_offline that maps the
+synthetic two-lap room (test_evaluate_slam) with its second lap shifted by 0.6 m and proposes three
+loops between the laps (two true, one 0.6 m off), and one for rrr_map_info. Needs rrr_align_scans
+(RRR_ALIGN_SCANS)."""
 import contextlib
 import gzip
 import io
@@ -11,7 +13,7 @@ import sys
 
 import pytest
 from rrr_graphslam.bench_slam import main
-from rrr_graphslam.graph_io import compose
+from rrr_graphslam.graph_io import between, compose
 from test_evaluate_slam import ALIGN, cast, flaser, two_laps, write_tum
 
 STAND_IN = """#!{python}
@@ -19,17 +21,53 @@ import shutil, sys
 args = sys.argv
 out = {{k: args[args.index(k) + 1] for k in ("--output", "--decisions", "--trajectory")}}
 shutil.copy("{trajectory}", out["--trajectory"])
-open(out["--output"], "w").write("VERTEX_SE2 0 0 0 0\\nVERTEX_SE2 1 1 0 0\\n"
-                                 "EDGE_SE2 0 1 1 0 0 1 0 0 1 0 1\\n")
-open(out["--decisions"], "w").write("from\\tto\\tcluster\\tverdict\\treason\\n")
+shutil.copy("{graph}", out["--output"])
+shutil.copy("{decisions}", out["--decisions"])
+if "--save-map" in args:
+    open(args[args.index("--save-map") + 1], "w").write("a saved map")
 print("log            x: {scans} scans, 290.0 s")
-print("nodes          {scans} in 1 submaps")
+print("nodes          6 in 1 submaps")
 print("loop search    10 node-submap pairs, 1.00 ms each (0.01 s on 2 threads)")
-print("candidates     0 in 0 clusters")
-print("accepted       0")
-print("rejected       0")
+print("candidates     3 in 3 clusters")
+print("accepted       2")
+print("rejected       1")
 print("time           2.00 s (local SLAM 1.00, loop search 0.50, RRR 0.50), 145.0x real time")
 """
+
+MAP_INFO = """#!{python}
+import shutil, sys
+assert open(sys.argv[1]).read() == "a saved map"
+shutil.copy("{nodes}", sys.argv[sys.argv.index("--trajectory") + 1])
+"""
+
+
+def executable(path, text):
+    path.write_text(text)
+    path.chmod(path.stat().st_mode | stat.S_IEXEC)
+    return str(path)
+
+
+def write_run(tmp_path, poses):
+    """The stand-in's graph (nodes at six scans, three loops between the laps), decisions
+    (accepted, rejected, accepted) and the nodes' scan timestamps."""
+    half = len(poses) // 2
+    scans = [0, 4, 8, half, half + 4, half + 8]
+    graph = "".join(f"VERTEX_SE2 {k} {poses[i][0]} {poses[i][1]} {poses[i][2]}\n"
+                    for k, i in enumerate(scans))
+    info = "100 0 0 100 0 1000"
+    for k in range(len(scans) - 1):
+        m = between(poses[scans[k]], poses[scans[k + 1]])
+        graph += f"EDGE_SE2 {k} {k + 1} {m[0]} {m[1]} {m[2]} {info}\n"
+    for a, b, offset in ((0, 3, 0.0), (1, 4, 0.0), (2, 5, 0.6)):
+        m = compose(between(poses[scans[a]], poses[scans[b]]), (offset, 0.0, 0.0))
+        graph += f"EDGE_SE2 {a} {b} {m[0]} {m[1]} {m[2]} {info}\n"
+    (tmp_path / "graph.g2o").write_text(graph)
+    (tmp_path / "decisions.tsv").write_text(
+        "from\tto\tcluster\tverdict\treason\n0\t3\t0\taccepted\tx\n"
+        "1\t4\t1\trejected\tx\n2\t5\t2\taccepted\tx\n")
+    write_tum(tmp_path / "all_nodes.txt", poses)
+    lines = (tmp_path / "all_nodes.txt").read_text().splitlines()
+    (tmp_path / "nodes.txt").write_text("".join(lines[i] + "\n" for i in scans))
 
 
 @pytest.mark.skipif(not ALIGN, reason="rrr_align_scans not given")
@@ -44,13 +82,17 @@ def test_the_table_reports_ate_and_inconsistent_revisits(tmp_path):
             f.write(text)
     bent = tmp_path / "bent.txt"
     write_tum(bent, poses[:half] + [compose((0.6, 0.0, 0.0), p) for p in poses[half:]])
-    slam = tmp_path / "slam_offline"
-    slam.write_text(STAND_IN.format(python=sys.executable, trajectory=bent, scans=len(poses)))
-    slam.chmod(slam.stat().st_mode | stat.S_IEXEC)
+    write_run(tmp_path, poses)
+    slam = executable(tmp_path / "slam_offline", STAND_IN.format(
+        python=sys.executable, trajectory=bent, scans=len(poses), graph=tmp_path / "graph.g2o",
+        decisions=tmp_path / "decisions.tsv"))
+    map_info = executable(tmp_path / "map_info", MAP_INFO.format(python=sys.executable,
+                                                                  nodes=tmp_path / "nodes.txt"))
     out = io.StringIO()
     with contextlib.redirect_stdout(out):
-        assert main(["--slam-offline", str(slam), "--align-scans", ALIGN, "--data", str(data),
-                     "--cache", str(tmp_path / "cache"), "--logs", "fr079", "fr-clinic"]) == 0
+        assert main(["--slam-offline", slam, "--align-scans", ALIGN, "--map-info", map_info,
+                     "--data", str(data), "--cache", str(tmp_path / "cache"),
+                     "--logs", "fr079", "fr-clinic"]) == 0
     rows = {line.split("|")[1].strip(): [c.strip() for c in line.split("|")[1:-1]]
             for line in out.getvalue().splitlines() if line.startswith("| fr")}
     header = [c.strip() for c in out.getvalue().splitlines()[0].split("|")[1:-1]]
@@ -62,7 +104,13 @@ def test_the_table_reports_ate_and_inconsistent_revisits(tmp_path):
     assert count >= 0.8 * aligned >= 4
     assert int(fr079["off the reference"].split(",")[0]) >= count
     assert fr079["× real time"] == "145.0"
+    # The loops labelled by the corrected log (the true poses), not by the bent map.
+    assert fr079["candidates"] == "3" and fr079["accepted"] == "2"
+    assert fr079["by the reference: true / false"] == "2 / 1"
+    assert fr079["RRR precision / recall (reference)"] == \
+        "0.500 / 0.500; worst false accepted 0.60 m / 0.0°"
     # Without a corrected log: the check still runs, the reference columns stay empty.
     assert clinic["ATE vs corrected"] == "–" and clinic["off the reference"] == "–"
+    assert clinic["by the reference: true / false"] == "–"
     assert clinic["inconsistent revisits"].startswith(f"{count} of {aligned}")
     assert os.path.exists(tmp_path / "cache" / "fr079" / "traj.txt")

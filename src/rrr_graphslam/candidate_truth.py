@@ -1,0 +1,106 @@
+"""The front end's loop candidates scored against a reference the product did not make
+(scripts/bench_slam): the corrected poses of a ple_corrected log, associated with the raw log's
+scans by identical range readings (bench_sessions.GroundTruth).
+
+A candidate joins two nodes, each made from one scan of the log. It is true when its measured
+relative pose agrees with the reference's relative pose between those two scans within the
+chi-square gate chi2(0.99, 3): the error weighted by the candidate's own covariance plus the
+reference's (REFERENCE_SIGMA per relative pose: the corrected logs are themselves a SLAM
+estimate, good to a few centimetres, and a scan matcher's information alone would call a true
+loop false for the reference's own error). RRR's verdicts on the labelled candidates give its
+precision and recall on real candidates, which the map it built cannot tell."""
+
+import math
+from dataclasses import dataclass, field
+from typing import Dict, List, Mapping, Optional, Sequence, Tuple
+
+import numpy as np
+
+from .graph_io import Edge, Pose, between, compose, information_matrix
+from .outliers import gate
+
+# Standard deviation of a reference relative pose: x, y (m), heading (rad).
+REFERENCE_SIGMA = (0.05, 0.05, math.radians(1.0))
+ALPHA = 0.99
+
+
+def reference_chi2(edge: Edge, reference: Mapping[int, Optional[Pose]],
+                   sigma: Tuple[float, float, float] = REFERENCE_SIGMA) -> Optional[float]:
+    """Squared Mahalanobis distance of the candidate's measurement from the reference's relative
+    pose of its two nodes (g2o's error), under the candidate's covariance plus the reference's;
+    None when a node has no reference pose."""
+    a, b = reference.get(edge.source), reference.get(edge.target)
+    if a is None or b is None:
+        return None
+    e = np.array(between(edge.measurement, between(a, b)))
+    covariance = np.linalg.inv(information_matrix(edge.information)) + np.diag(np.square(sigma))
+    return float(e @ np.linalg.solve(covariance, e))
+
+
+@dataclass
+class CandidateScore:
+    """RRR's verdicts on the candidates the reference labels (those it cannot are `unlabelled`)."""
+    candidates: int = 0
+    true: int = 0
+    false: int = 0
+    unlabelled: int = 0
+    accepted_true: int = 0
+    accepted_false: int = 0
+    # (from, to, m, deg, chi2) of every accepted false candidate, the largest chi2 first.
+    false_accepted: List[Tuple[int, int, float, float, float]] = field(default_factory=list)
+
+    @property
+    def precision(self) -> float:
+        accepted = self.accepted_true + self.accepted_false
+        return self.accepted_true / accepted if accepted else 1.0
+
+    @property
+    def recall(self) -> float:
+        return self.accepted_true / self.true if self.true else 1.0
+
+
+def score_candidates(loops: Sequence[Edge], verdicts: Sequence[str],
+                     reference: Mapping[int, Optional[Pose]],
+                     sigma: Tuple[float, float, float] = REFERENCE_SIGMA,
+                     alpha: float = ALPHA) -> CandidateScore:
+    """Labels each candidate by the reference (reference_chi2 below gate(alpha)) and counts
+    RRR's accepted ones among the true and the false. `loops` and `verdicts` in the same order
+    (the graph's loop edges and the decisions' rows)."""
+    if len(loops) != len(verdicts):
+        raise ValueError(f"{len(loops)} loop candidates but {len(verdicts)} decisions")
+    threshold = gate(alpha)
+    s = CandidateScore(candidates=len(loops))
+    for edge, verdict in zip(loops, verdicts):
+        d2 = reference_chi2(edge, reference, sigma)
+        if d2 is None:
+            s.unlabelled += 1
+            continue
+        accepted = verdict == "accepted"
+        if d2 < threshold:
+            s.true += 1
+            s.accepted_true += accepted
+            continue
+        s.false += 1
+        if accepted:
+            s.accepted_false += 1
+            e = between(edge.measurement,
+                        between(reference[edge.source], reference[edge.target]))
+            s.false_accepted.append((edge.source, edge.target, math.hypot(e[0], e[1]),
+                                     abs(math.degrees(e[2])), d2))
+    s.false_accepted.sort(key=lambda f: -f[4])
+    return s
+
+
+def node_references(node_ids: Sequence[int], node_stamps: Sequence[float], truth,
+                    to_robot: Pose) -> Dict[int, Optional[Pose]]:
+    """The reference robot pose of each node (None where its scan has none), from its scan's ipc
+    timestamp; ids and stamps in the same (node) order. `truth`: a bench_sessions.GroundTruth of
+    the log, whose poses are the laser's; `to_robot`: the laser's pose in the robot frame,
+    inverted."""
+    if len(node_ids) != len(node_stamps):
+        raise ValueError(f"{len(node_ids)} nodes but {len(node_stamps)} node timestamps")
+    out = {}
+    for node, t in zip(node_ids, node_stamps):
+        pose = truth.pose(t)
+        out[node] = None if pose is None else compose(pose, to_robot)
+    return out
