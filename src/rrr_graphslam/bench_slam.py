@@ -17,7 +17,8 @@ import sys
 import time
 
 from .bench_sessions import GroundTruth, local_from_trajectory, read_corrected, read_raw_scans
-from .candidate_truth import REFERENCE_SIGMA, node_references, score_candidates
+from .candidate_truth import (REFERENCE_SIGMA, candidate_labels, node_references,
+                              score_candidates, write_labels)
 from .carmen import read_carmen
 from .evaluate_slam import CheckParams, evaluate
 from .evaluation import read_decisions
@@ -32,6 +33,11 @@ LOGS = {
     "mit-csail": ("mit-csail.clf.gz", None, "csail-corrected.log.gz"),
     "fr-clinic": ("fr-clinic_robotlaser.clf.gz", None, None),
 }
+
+
+# rrr_slam_offline's default cluster gap (OnlineRrrParams): the verifiers table decides the same
+# clusters again.
+CLUSTER_GAP = 10
 
 
 def find(name, dirs):
@@ -64,8 +70,10 @@ def run_ours(binary, log, out, extra):
 
 def label_candidates(map_info, log, corrected, files, saved_map):
     """score_candidates of the run's candidates and verdicts against the corrected log: the
-    nodes' scans from the saved map (rrr_map_info --trajectory: each node's scan timestamp)."""
-    nodes_path = os.path.join(os.path.dirname(saved_map), "nodes.txt")
+    nodes' scans from the saved map (rrr_map_info --trajectory: each node's scan timestamp). The
+    labels also go to candidates.labels beside the graph (the truth file format)."""
+    out = os.path.dirname(saved_map)
+    nodes_path = os.path.join(out, "nodes.txt")
     subprocess.run([map_info, saved_map, "--trajectory", nodes_path], check=True,
                    capture_output=True)
     raw = read_raw_scans(log)
@@ -74,8 +82,33 @@ def label_candidates(map_info, log, corrected, files, saved_map):
     graph = read_graph(files["graph"])
     reference = node_references(sorted(graph.poses), read_tum(nodes_path)[0], truth,
                                 inverse(read_carmen(log).laser_offset()))
+    write_labels(os.path.join(out, "candidates.labels"), graph.loops(),
+                 candidate_labels(graph.loops(), reference))
     verdicts = [d.verdict for d in read_decisions(files["decisions"])]
     return score_candidates(graph.loops(), verdicts, reference)
+
+
+def verifiers_table(rrr_offline, rows, cache):
+    """Every verifier of rrr_offline (bench_verifiers.VERIFIERS) decides each labelled log's
+    candidates again, offline and in batch, with the cluster gap the online run used; scored
+    against the same labels."""
+    from .bench import scored_run
+    from .bench_verifiers import VERIFIERS
+    lines = ["| log | verifier | precision | recall | accepted false | rejected true | time s |",
+             "|---|---|---|---|---|---|---|"]
+    for r in rows:
+        if r["truth"] is None:
+            continue
+        out = os.path.join(cache, r["name"])
+        graph, labels = os.path.join(out, "graph.g2o"), os.path.join(out, "candidates.labels")
+        for verifier, extra in VERIFIERS:
+            slug = verifier.replace(" ", "-")
+            s, run = scored_run(rrr_offline, graph, labels,
+                                os.path.join(out, f"verifier-{slug}.tsv"),
+                                [*extra, "--cluster-gap", str(CLUSTER_GAP)])
+            lines.append(f"| {r['name']} | {verifier} | {s.precision:.3f} | {s.recall:.3f} | "
+                         f"{s.fp} | {s.fn} | {run['time']:.2f} |")
+    return lines
 
 
 def main(argv=None):
@@ -86,6 +119,9 @@ def main(argv=None):
                         "not run")
     parser.add_argument("--map-info", help="rrr_map_info (the nodes' scans, to label the "
                         "candidates by a corrected log); omitted: not labelled")
+    parser.add_argument("--verifiers", metavar="RRR_OFFLINE",
+                        help="rrr_offline: every verifier (rrr, pcm, scgp, gnc) decides the "
+                        "labelled logs' candidates again, a second table; omitted: not run")
     parser.add_argument("--data", action="append", required=True, help="folders holding the logs")
     parser.add_argument("--cache", required=True, help="working folder")
     parser.add_argument("--maps", help="copy the map PNGs here")
@@ -191,6 +227,11 @@ def main(argv=None):
           "(scripts/evaluate_slam); off the reference: revisits more than "
           f"{params.max_m} m or {params.max_deg}° from the corrected poses' relative pose where the "
           "scans overlap better at the reference's.")
+    if args.verifiers:
+        print("\nThe labelled candidates decided again by each verifier of rrr_offline (batch, "
+              f"cluster gap {CLUSTER_GAP}):\n")
+        for line in verifiers_table(args.verifiers, rows, args.cache):
+            print(line)
     return 0
 
 

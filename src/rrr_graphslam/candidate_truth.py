@@ -59,6 +59,27 @@ class CandidateScore:
         return self.accepted_true / self.true if self.true else 1.0
 
 
+def candidate_labels(loops: Sequence[Edge], reference: Mapping[int, Optional[Pose]],
+                     sigma: Tuple[float, float, float] = REFERENCE_SIGMA,
+                     alpha: float = ALPHA) -> List[Optional[bool]]:
+    """Per candidate: true (reference_chi2 below gate(alpha)), false, or None (no reference)."""
+    threshold = gate(alpha)
+    out = []
+    for edge in loops:
+        d2 = reference_chi2(edge, reference, sigma)
+        out.append(None if d2 is None else d2 < threshold)
+    return out
+
+
+def write_labels(path: str, loops: Sequence[Edge], labels: Sequence[Optional[bool]]) -> None:
+    """A truth file of the labels format (evaluation.py: 'from to label' per loop edge, in the
+    graph's order; -1 unknown), so that scripts/evaluate and rrr_offline's other verifiers are
+    scored against the same labels."""
+    with open(path, "w") as f:
+        for edge, label in zip(loops, labels):
+            f.write(f"{edge.source} {edge.target} {-1 if label is None else int(label)}\n")
+
+
 def score_candidates(loops: Sequence[Edge], verdicts: Sequence[str],
                      reference: Mapping[int, Optional[Pose]],
                      sigma: Tuple[float, float, float] = REFERENCE_SIGMA,
@@ -68,15 +89,14 @@ def score_candidates(loops: Sequence[Edge], verdicts: Sequence[str],
     (the graph's loop edges and the decisions' rows)."""
     if len(loops) != len(verdicts):
         raise ValueError(f"{len(loops)} loop candidates but {len(verdicts)} decisions")
-    threshold = gate(alpha)
     s = CandidateScore(candidates=len(loops))
-    for edge, verdict in zip(loops, verdicts):
-        d2 = reference_chi2(edge, reference, sigma)
-        if d2 is None:
+    for edge, verdict, label in zip(loops, verdicts,
+                                    candidate_labels(loops, reference, sigma, alpha)):
+        if label is None:
             s.unlabelled += 1
             continue
         accepted = verdict == "accepted"
-        if d2 < threshold:
+        if label:
             s.true += 1
             s.accepted_true += accepted
             continue
@@ -86,7 +106,7 @@ def score_candidates(loops: Sequence[Edge], verdicts: Sequence[str],
             e = between(edge.measurement,
                         between(reference[edge.source], reference[edge.target]))
             s.false_accepted.append((edge.source, edge.target, math.hypot(e[0], e[1]),
-                                     abs(math.degrees(e[2])), d2))
+                                     abs(math.degrees(e[2])), reference_chi2(edge, reference, sigma)))
     s.false_accepted.sort(key=lambda f: -f[4])
     return s
 

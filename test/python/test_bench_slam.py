@@ -34,6 +34,20 @@ print("rejected       1")
 print("time           2.00 s (local SLAM 1.00, loop search 0.50, RRR 0.50), 145.0x real time")
 """
 
+# rrr_offline: every verifier accepts the first and the third loop (the true one and the one 0.6 m
+# off), but pcm accepts the second as well.
+OFFLINE = """#!{python}
+import sys
+args = sys.argv
+rows = ["0\\t3\\t0\\taccepted", "1\\t4\\t1\\t" + ("accepted" if "pcm" in args else "rejected"),
+        "2\\t5\\t2\\taccepted"]
+assert args[args.index("--cluster-gap") + 1] == "10"
+open(args[args.index("--decisions") + 1], "w").write(
+    "from\\tto\\tcluster\\tverdict\\n" + "".join(r + "\\n" for r in rows))
+print("time           0.25 s")
+print("optimizations  3")
+"""
+
 MAP_INFO = """#!{python}
 import shutil, sys
 assert open(sys.argv[1]).read() == "a saved map"
@@ -88,13 +102,15 @@ def test_the_table_reports_ate_and_inconsistent_revisits(tmp_path):
         decisions=tmp_path / "decisions.tsv"))
     map_info = executable(tmp_path / "map_info", MAP_INFO.format(python=sys.executable,
                                                                   nodes=tmp_path / "nodes.txt"))
+    offline = executable(tmp_path / "offline", OFFLINE.format(python=sys.executable))
     out = io.StringIO()
     with contextlib.redirect_stdout(out):
         assert main(["--slam-offline", slam, "--align-scans", ALIGN, "--map-info", map_info,
-                     "--data", str(data), "--cache", str(tmp_path / "cache"),
-                     "--logs", "fr079", "fr-clinic"]) == 0
+                     "--verifiers", offline, "--data", str(data), "--cache",
+                     str(tmp_path / "cache"), "--logs", "fr079", "fr-clinic"]) == 0
+    main_table = out.getvalue().split("\n\n")[0]
     rows = {line.split("|")[1].strip(): [c.strip() for c in line.split("|")[1:-1]]
-            for line in out.getvalue().splitlines() if line.startswith("| fr")}
+            for line in main_table.splitlines() if line.startswith("| fr")}
     header = [c.strip() for c in out.getvalue().splitlines()[0].split("|")[1:-1]]
     fr079 = dict(zip(header, rows["fr079"]))
     clinic = dict(zip(header, rows["fr-clinic"]))
@@ -112,5 +128,15 @@ def test_the_table_reports_ate_and_inconsistent_revisits(tmp_path):
     # Without a corrected log: the check still runs, the reference columns stay empty.
     assert clinic["ATE vs corrected"] == "–" and clinic["off the reference"] == "–"
     assert clinic["by the reference: true / false"] == "–"
+    # The verifiers table: the labelled log only, each verifier scored on the same labels.
+    labels = (tmp_path / "cache" / "fr079" / "candidates.labels").read_text()
+    assert labels == "0 3 1\n1 4 1\n2 5 0\n"
+    verifiers = {line.split("|")[2].strip(): [c.strip() for c in line.split("|")[3:-1]]
+                 for line in out.getvalue().split("each verifier")[1].splitlines()
+                 if line.startswith("| fr079 | ")}
+    assert set(verifiers) == {"rrr", "pcm", "scgp", "gnc tls", "gnc gm"}
+    assert verifiers["rrr"] == ["0.500", "0.500", "1", "1", "0.25"]
+    assert verifiers["pcm"] == ["0.667", "1.000", "1", "0", "0.25"]
+    assert not any(line.startswith("| fr-clinic | rrr") for line in out.getvalue().splitlines())
     assert clinic["inconsistent revisits"].startswith(f"{count} of {aligned}")
     assert os.path.exists(tmp_path / "cache" / "fr079" / "traj.txt")

@@ -3,8 +3,9 @@ precision and recall on them."""
 import math
 
 import pytest
-from rrr_graphslam.candidate_truth import (REFERENCE_SIGMA, node_references, reference_chi2,
-                                           score_candidates)
+from rrr_graphslam.candidate_truth import (REFERENCE_SIGMA, candidate_labels, node_references,
+                                           reference_chi2, score_candidates, write_labels)
+from rrr_graphslam.evaluation import read_decisions, read_truth
 from rrr_graphslam.graph_io import Edge, between, compose
 
 TIGHT = (1e4, 0.0, 0.0, 1e4, 0.0, 1e5)  # a scan matcher's information: 1 cm, 0.2 degrees
@@ -60,3 +61,16 @@ def test_node_references_turn_the_laser_pose_of_each_nodes_scan_into_the_robots(
     with pytest.raises(ValueError, match="3 nodes but 2 node timestamps"):
         node_references([4, 7, 9], [1.0, 2.0], Truth(), to_robot)
     assert REFERENCE_SIGMA[0] > 0.0
+
+
+def test_the_labels_file_scores_other_decisions_as_the_evaluation_reads_it(tmp_path):
+    reference = {0: (0.0, 0.0, 0.0), 1: (1.0, 0.0, 0.0), 2: (2.0, 0.0, 0.0)}
+    loops = [loop(0, 2, (2.0, 0.0, 0.0)), loop(0, 2, (2.5, 0.0, 0.0)), loop(1, 7, (1.0, 0.0, 0.0))]
+    labels = candidate_labels(loops, reference)
+    assert labels == [True, False, None]
+    write_labels(str(tmp_path / "c.labels"), loops, labels)
+    assert (tmp_path / "c.labels").read_text() == "0 2 1\n0 2 0\n1 7 -1\n"
+    (tmp_path / "d.tsv").write_text("from\tto\tcluster\tverdict\n0\t2\t0\taccepted\n"
+                                    "0\t2\t0\trejected\n1\t7\t1\taccepted\n")
+    decisions = read_decisions(str(tmp_path / "d.tsv"))
+    assert read_truth(str(tmp_path / "c.labels"), decisions) == [True, False, None]
