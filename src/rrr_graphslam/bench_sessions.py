@@ -233,6 +233,14 @@ class GroundTruth:
         i = self.ipc.find(ipc)
         return None if i is None else self.pose_of_scan(i)
 
+    def bridge(self, i: int) -> float:
+        """The motion (m, plus 0.5 m per radian of turn) between scan i and the nearest corrected
+        scan: how far pose_of_scan(i) rests on `local` (or the odometry) rather than the
+        corrected poses; 0 at a corrected scan."""
+        k = bisect.bisect_left(self.anchor_index, i)
+        return min(abs(self.progress[i] - self.progress[self.anchor_index[j]])
+                   for j in (k - 1, k) if 0 <= j < len(self.anchor_index))
+
 
 def local_from_trajectory(raw: Sequence[RawScan], stamps: Sequence[float],
                           poses: Sequence[Pose]) -> List[Optional[Pose]]:

@@ -17,8 +17,8 @@ import sys
 import time
 
 from .bench_sessions import GroundTruth, local_from_trajectory, read_corrected, read_raw_scans
-from .candidate_truth import (REFERENCE_SIGMA, candidate_labels, node_references,
-                              score_candidates, write_labels)
+from .candidate_truth import (BRIDGE_SIGMA_PER_M, MAX_BRIDGE_M, REFERENCE_SIGMA,
+                              candidate_labels, node_references, score_candidates, write_labels)
 from .carmen import read_carmen
 from .evaluate_slam import CheckParams, evaluate
 from .evaluation import read_decisions
@@ -35,6 +35,8 @@ LOGS = {
 }
 
 
+# rrr_slam_offline options under which the map's nodes are not the run's own, one per node.
+SESSION_OPTIONS = {"--load-map", "--lifelong", "--trim-every-n-nodes"}
 # rrr_slam_offline's default cluster gap (OnlineRrrParams): the verifiers table decides the same
 # clusters again.
 CLUSTER_GAP = 10
@@ -74,8 +76,10 @@ def label_candidates(map_info, log, corrected, files, saved_map):
     labels also go to candidates.labels beside the graph (the truth file format)."""
     out = os.path.dirname(saved_map)
     nodes_path = os.path.join(out, "nodes.txt")
-    subprocess.run([map_info, saved_map, "--trajectory", nodes_path], check=True,
-                   capture_output=True)
+    result = subprocess.run([map_info, saved_map, "--trajectory", nodes_path],
+                            capture_output=True, text=True)
+    if result.returncode != 0:
+        raise RuntimeError(f"{map_info} {saved_map} --trajectory failed:\n{result.stderr}")
     raw = read_raw_scans(log)
     truth = GroundTruth(raw, read_corrected(corrected),
                         local_from_trajectory(raw, *read_tum(files["trajectory"])))
@@ -84,8 +88,12 @@ def label_candidates(map_info, log, corrected, files, saved_map):
                                 inverse(read_carmen(log).laser_offset()))
     write_labels(os.path.join(out, "candidates.labels"), graph.loops(),
                  candidate_labels(graph.loops(), reference))
-    verdicts = [d.verdict for d in read_decisions(files["decisions"])]
-    return score_candidates(graph.loops(), verdicts, reference)
+    decisions = read_decisions(files["decisions"])
+    for k, (edge, d) in enumerate(zip(graph.loops(), decisions)):
+        if (edge.source, edge.target) != (d.source, d.target):
+            raise RuntimeError(f"{files['decisions']}: row {k + 1} decides {d.source}->{d.target}, "
+                               f"but loop {k + 1} of {files['graph']} is {edge.source}->{edge.target}")
+    return score_candidates(graph.loops(), [d.verdict for d in decisions], reference)
 
 
 def verifiers_table(rrr_offline, rows, cache):
@@ -141,7 +149,8 @@ def main(argv=None):
         os.makedirs(out, exist_ok=True)
         print(f"{name}: rrr_slam_offline ...", file=sys.stderr)
         corrected_path = find(corrected, args.data) if corrected else None
-        label = bool(args.map_info and corrected_path)
+        # One session of the log, every node kept: node k is the k-th node of the saved map.
+        label = bool(args.map_info and corrected_path) and not set(extra) & SESSION_OPTIONS
         saved_map = os.path.join(out, "map.rrrmap")
         files, r = run_ours(args.slam_offline, log, out,
                             extra + (["--save-map", saved_map] if label else []))
@@ -193,7 +202,7 @@ def main(argv=None):
 
     def by_reference(t):
         return "–" if t is None else f"{t.true} / {t.false}" + (
-            f" ({t.unlabelled} unlabelled)" if t.unlabelled else "")
+            f" ({t.unlabelled} not labelled)" if t.unlabelled else "")
 
     def precision_recall(t):
         if t is None:
@@ -215,12 +224,15 @@ def main(argv=None):
               f"{by_reference(r['truth'])} | {precision_recall(r['truth'])} | {rel(r['ours'])} | "
               f"{ate(r['check'])} | {inconsistent(r['check'])} | {off_reference(r['check'])} | "
               f"{rel(r['icp'])} | {r['icp_time']:.1f} |")
-    sx, sy, st = REFERENCE_SIGMA
+    sx, _, st = REFERENCE_SIGMA
+    bx, _, bt = BRIDGE_SIGMA_PER_M
     print("\nby the reference: a candidate is true when its measurement agrees with the corrected "
           "poses' relative pose of its two scans within chi2(0.99, 3), under its own covariance "
-          f"plus the reference's ({sx:g} m, {sy:g} m, {math.degrees(st):g}°); precision and "
-          "recall of RRR's accepted candidates against those labels (worst: the accepted false "
-          "candidate of the largest chi2).\n"
+          f"plus the reference's ({sx:g} m and {math.degrees(st):g}°, plus {bx:g} m and "
+          f"{math.degrees(bt):g}° per metre of bridge); not labelled when a scan lies more than "
+          f"{MAX_BRIDGE_M:g} m from a corrected one; precision and recall of RRR's accepted "
+          "candidates against those labels (worst: the accepted false candidate of the largest "
+          "chi2).\n"
           "ATE: RMSE of the positions at the corrected scans after SE(2) alignment; inconsistent "
           "revisits: of the revisits whose scans aligned, those whose relative pose in the map is "
           f"more than {params.max_m} m or {params.max_deg}° from the scans' own and fits them worse "

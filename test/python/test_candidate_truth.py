@@ -3,8 +3,10 @@ precision and recall on them."""
 import math
 
 import pytest
-from rrr_graphslam.candidate_truth import (REFERENCE_SIGMA, candidate_labels, node_references,
-                                           reference_chi2, score_candidates, write_labels)
+from rrr_graphslam.bench_sessions import GroundTruth, RawScan
+from rrr_graphslam.candidate_truth import (MAX_BRIDGE_M, NodeReference, candidate_labels,
+                                           node_references, reference_chi2, score_candidates,
+                                           write_labels)
 from rrr_graphslam.evaluation import read_decisions, read_truth
 from rrr_graphslam.graph_io import Edge, between, compose
 
@@ -15,9 +17,13 @@ def loop(source, target, measurement, information=TIGHT):
     return Edge(source, target, measurement, information, 0)
 
 
+def at(*poses, bridge=0.0):
+    return {k: NodeReference(p, bridge) for k, p in enumerate(poses)}
+
+
 def test_the_reference_noise_keeps_a_tight_true_candidate_true_and_a_far_one_false():
-    reference = {0: (0.0, 0.0, 0.0), 1: (2.0, 1.0, 0.5)}
-    truth = between(reference[0], reference[1])
+    reference = at((0.0, 0.0, 0.0), (2.0, 1.0, 0.5))
+    truth = between(reference[0].pose, reference[1].pose)
     assert reference_chi2(loop(0, 1, truth), reference) == pytest.approx(0.0, abs=1e-12)
     # 4 cm and 0.5 degrees off: beyond the candidate's own 1 cm, within the reference's 5 cm.
     near = compose(truth, (0.04, 0.0, math.radians(0.5)))
@@ -26,13 +32,25 @@ def test_the_reference_noise_keeps_a_tight_true_candidate_true_and_a_far_one_fal
     far = compose(truth, (0.5, 0.0, 0.0))
     assert reference_chi2(loop(0, 1, far), reference) > 11.34
     assert reference_chi2(loop(0, 2, truth), reference) is None
-    assert reference_chi2(loop(0, 1, truth), {0: (0.0, 0.0, 0.0), 1: None}) is None
+    assert reference_chi2(loop(0, 1, truth), {0: reference[0], 1: None}) is None
+
+
+def test_a_bridge_widens_the_reference_and_a_long_one_leaves_the_candidate_unlabelled():
+    poses = ((0.0, 0.0, 0.0), (2.0, 1.0, 0.5))
+    truth = between(*poses)
+    off = loop(0, 1, compose(truth, (0.15, 0.0, math.radians(2.5))))
+    # 15 cm and 2.5 degrees off: false between two corrected scans.
+    assert reference_chi2(off, at(*poses)) > 11.34
+    assert reference_chi2(off, at(*poses, bridge=0.4)) < 11.34  # within 0.8 m of bridges: no call
+    assert reference_chi2(off, at(*poses, bridge=MAX_BRIDGE_M + 0.01)) is None
+    assert candidate_labels([off], at(*poses, bridge=1.0)) == [None]
 
 
 def test_score_counts_accepted_true_and_false_and_lists_the_false_accepted_worst_first():
-    reference = {k: (float(k), 0.0, 0.0) for k in range(6)}
-    true = lambda a, b: loop(a, b, between(reference[a], reference[b]))
-    off = lambda a, b, m: loop(a, b, compose(between(reference[a], reference[b]), (m, 0.0, 0.0)))
+    reference = at(*[(float(k), 0.0, 0.0) for k in range(6)])
+    true = lambda a, b: loop(a, b, between(reference[a].pose, reference[b].pose))
+    off = lambda a, b, m: loop(a, b, compose(between(reference[a].pose, reference[b].pose),
+                                             (m, 0.0, 0.0)))
     loops = [true(0, 3), true(1, 4), true(2, 5), off(0, 4, 0.8), off(1, 5, 1.5), off(2, 4, 0.7),
              loop(0, 9, (0.0, 0.0, 0.0))]
     verdicts = ["accepted", "accepted", "rejected", "accepted", "accepted", "rejected", "accepted"]
@@ -48,23 +66,25 @@ def test_score_counts_accepted_true_and_false_and_lists_the_false_accepted_worst
     assert empty.precision == 1.0 and empty.recall == 1.0
 
 
-def test_node_references_turn_the_laser_pose_of_each_nodes_scan_into_the_robots():
-    class Truth:
-        def pose(self, t):
-            return None if t > 10 else (t, 0.0, math.pi / 2)
-
-    to_robot = (-0.1, 0.0, 0.0)  # the laser 0.1 m ahead of the robot
-    out = node_references([4, 7, 9], [1.0, 2.0, 11.0], Truth(), to_robot)
-    assert out[4] == pytest.approx((1.0, -0.1, math.pi / 2))
-    assert out[7] == pytest.approx((2.0, -0.1, math.pi / 2))
-    assert out[9] is None
+def test_node_references_place_each_nodes_scan_from_the_corrected_ones_and_measure_the_bridge():
+    # Ten scans 0.2 m apart along x; the corrected log holds scans 0 and 9, 0.1 m to the left of
+    # the odometry; the laser 0.1 m ahead of the robot.
+    raw = [RawScan(100.0 + k, float(k), (0.2 * k, 0.0, 0.0), (float(k),)) for k in range(10)]
+    corrected = [(0.0, (0.1, 0.1, 0.0), (0.0,)), (9.0, (1.9, 0.1, 0.0), (9.0,))]
+    truth = GroundTruth(raw, corrected)
+    to_robot = (-0.1, 0.0, 0.0)
+    out = node_references([4, 7, 9, 11], [100.0, 102.0, 109.0, 250.0], truth, to_robot)
+    assert out[4].pose == pytest.approx((0.0, 0.1, 0.0)) and out[4].bridge == 0.0
+    assert out[7].pose == pytest.approx((0.4, 0.1, 0.0))
+    assert out[7].bridge == pytest.approx(0.4)  # two scans from the first corrected one
+    assert out[9].bridge == 0.0
+    assert out[11] is None  # no scan at that time
     with pytest.raises(ValueError, match="3 nodes but 2 node timestamps"):
-        node_references([4, 7, 9], [1.0, 2.0], Truth(), to_robot)
-    assert REFERENCE_SIGMA[0] > 0.0
+        node_references([4, 7, 9], [1.0, 2.0], truth, to_robot)
 
 
 def test_the_labels_file_scores_other_decisions_as_the_evaluation_reads_it(tmp_path):
-    reference = {0: (0.0, 0.0, 0.0), 1: (1.0, 0.0, 0.0), 2: (2.0, 0.0, 0.0)}
+    reference = at((0.0, 0.0, 0.0), (1.0, 0.0, 0.0), (2.0, 0.0, 0.0))
     loops = [loop(0, 2, (2.0, 0.0, 0.0)), loop(0, 2, (2.5, 0.0, 0.0)), loop(1, 7, (1.0, 0.0, 0.0))]
     labels = candidate_labels(loops, reference)
     assert labels == [True, False, None]
