@@ -460,6 +460,7 @@ void GraphSlamRos::publishStatus() {
   RrrStatus msg;
   msg.header.stamp = ros::Time::now();
   msg.input_mode = ownerName(static_cast<int>(owner_));
+  msg.verifier = rrr::toString(params_.rrr.verifier.verifier);
   msg.nodes = static_cast<std::uint32_t>(s.nodes);
   msg.sessions = static_cast<std::uint32_t>(s.sessions);
   msg.candidates = static_cast<std::uint32_t>(s.candidates);

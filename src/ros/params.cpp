@@ -130,6 +130,22 @@ NodeParams loadParams(const ros::NodeHandle& private_nh) {
   rrr::applyPreset(preset, rrr);
   rrr::forEachParam(rrr, [&](const core::ParamInfo& info, auto& value) { r.read(info, value); });
   r.read(core::ParamInfo{"max_waiting_candidates", 0, 1e9, ""}, p.rrr.max_waiting_candidates);
+  // Another verifier to compare with RRR (rrr_offline --verifier): decided again whenever a
+  // time cluster closes.
+  rrr::VerifierChoice& verifier = p.rrr.verifier;
+  std::string verifier_name = rrr::toString(verifier.verifier);
+  r.read<std::string>(
+      "verifier", verifier_name,
+      [](const std::string& v) { return v == "rrr" || v == "pcm" || v == "scgp" || v == "gnc"; },
+      "rrr, pcm, scgp or gnc");
+  verifier.verifier = rrr::parseVerifier(verifier_name);
+  std::string gnc_loss = rrr::toString(verifier.gnc_loss);
+  r.read<std::string>(
+      "gnc_loss", gnc_loss, [](const std::string& v) { return v == "tls" || v == "gm"; },
+      "tls or gm");
+  verifier.gnc_loss = rrr::parseGncLoss(gnc_loss);
+  r.read<double>(
+      "scgp_ratio", verifier.scgp_ratio, [](const double& v) { return v >= 1.0; }, "at least 1");
 
   // Front end (slam mode): every parameter of laser_slam_params.h under its own name.
   frontend::forEachSlamParam(

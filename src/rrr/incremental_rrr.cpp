@@ -10,64 +10,27 @@ namespace rrr_graphslam::rrr {
 namespace {
 
 int newestEnd(const LoopCandidate& c) { return std::max(c.from, c.to); }
-int oldestEnd(const LoopCandidate& c) { return std::min(c.from, c.to); }
 
 }  // namespace
 
 IncrementalRrr::IncrementalRrr(VerificationGraph& graph, const RrrParams& params, int cluster_gap)
     : graph_(graph),
       rrr_(graph, params),
-      gap_(cluster_gap),
+      open_(graph, cluster_gap),
       next_rebatch_(params.incremental_rebatch_every > 0 ? params.incremental_rebatch_every
                                                          : std::numeric_limits<int>::max()) {}
 
 bool IncrementalRrr::addCandidate(int candidate) {
-  const LoopCandidate& c = graph_.candidate(candidate);
-  const int newest = newestEnd(c);
-  bool closed = advanceTo(newest);
-  // Join (and merge) every open cluster with a member whose both ends are within the gap, in
-  // the same session (clustering.h).
-  const OdometryChain& chain = graph_.chain();
-  auto near = [&](int a, int b) { return std::abs(a - b) <= gap_ && chain.sameSession(a, b); };
-  OpenCluster joined;
-  joined.members.push_back(candidate);
-  joined.newest = newest;
-  std::vector<OpenCluster> still_open;
-  for (OpenCluster& open : open_) {
-    const bool related = std::any_of(open.members.begin(), open.members.end(), [&](int m) {
-      const LoopCandidate& o = graph_.candidate(m);
-      return near(oldestEnd(o), oldestEnd(c)) && near(newestEnd(o), newest);
-    });
-    if (related) {
-      joined.members.insert(joined.members.end(), open.members.begin(), open.members.end());
-      joined.newest = std::max(joined.newest, open.newest);
-    } else {
-      still_open.push_back(std::move(open));
-    }
-  }
-  std::sort(joined.members.begin(), joined.members.end());
-  const bool behind = current_node_ > joined.newest + gap_;
-  still_open.push_back(std::move(joined));
-  open_.swap(still_open);
-  if (behind) closed = advanceTo(current_node_) || closed;
+  bool closed = advanceTo(newestEnd(graph_.candidate(candidate)));
+  if (open_.add(candidate)) closed = advanceTo(open_.currentNode()) || closed;
   return closed;
 }
 
 bool IncrementalRrr::advanceTo(int node) {
-  current_node_ = std::max(current_node_, node);
-  bool closed = false;
-  std::vector<OpenCluster> still_open;
-  for (OpenCluster& open : open_) {
-    if (current_node_ > open.newest + gap_) {
-      rrr_.addCluster(open.members);
-      closed = true;
-    } else {
-      still_open.push_back(std::move(open));
-    }
-  }
-  open_.swap(still_open);
-  if (!closed) return false;
-  if (current_node_ >= next_rebatch_) {
+  const std::vector<std::vector<int>> closed = open_.advanceTo(node);
+  if (closed.empty()) return false;
+  for (const std::vector<int>& members : closed) rrr_.addCluster(members);
+  if (open_.currentNode() >= next_rebatch_) {
     scheduleNextRebatch();
     if (!defer_) rrr_.decideFromScratch();
   } else if (!defer_) {
@@ -77,8 +40,7 @@ bool IncrementalRrr::advanceTo(int node) {
 }
 
 void IncrementalRrr::finish() {
-  for (const OpenCluster& open : open_) rrr_.addCluster(open.members);
-  open_.clear();
+  for (const std::vector<int>& members : open_.closeAll()) rrr_.addCluster(members);
   rrr_.decideFromScratch();
   // A loaded graph goes on from its own end, not from a schedule its replay left behind.
   scheduleNextRebatch();
@@ -91,7 +53,7 @@ void IncrementalRrr::finishReplayKeepingOpen() {
 
 void IncrementalRrr::scheduleNextRebatch() {
   const int every = rrr_.params().incremental_rebatch_every;
-  if (every > 0) next_rebatch_ = (current_node_ / every + 1) * every;
+  if (every > 0) next_rebatch_ = (open_.currentNode() / every + 1) * every;
 }
 
 RrrSummary runIncrementalRrr(VerificationGraph& graph, const RrrParams& params,

@@ -5,6 +5,7 @@
 #include <string>
 
 #include "rrr_graphslam/core/constraint_check.h"
+#include "rrr_graphslam/rrr/replay_plan.h"
 
 namespace rrr_graphslam::rrr {
 namespace {
@@ -29,10 +30,9 @@ bool sameMeasurement(const core::Pose2& a, const core::Pose2& b) {
 }  // namespace
 
 OnlineRrr::OnlineRrr(const OnlineRrrParams& params)
-    : params_(params),
-      graph_(params.rrr.optimizer),
-      incremental_(graph_, params.rrr, params.rrr.cluster_gap) {
+    : params_(params), graph_(params.rrr.optimizer) {
   validate(params_);
+  decider_ = makeOnlineDecider(graph_, params_.verifier, params_.rrr, params_.rrr.cluster_gap);
 }
 
 void validate(const OnlineRrrParams& params) {
@@ -43,6 +43,7 @@ void validate(const OnlineRrrParams& params) {
         " is out of range online: must be a positive number of nodes (online the loop candidates "
         "arrive one by one, so it cannot be derived from them)");
   }
+  validate(params.verifier);
   if (params.max_waiting_candidates < 0) {
     throw std::invalid_argument(
         "max_waiting_candidates = " + std::to_string(params.max_waiting_candidates) +
@@ -78,7 +79,7 @@ void OnlineRrr::startSession(NodeId node, const core::Pose2& odom_pose) {
     throw std::invalid_argument("pose: " + p);
   }
   const int k = appendNode(node, odom_pose);
-  if (incremental_.advanceTo(k)) collectChanges();
+  if (decider_->advanceTo(k)) collectChanges();
   admitWaitingCandidates();
 }
 
@@ -99,7 +100,7 @@ void OnlineRrr::addOdometry(NodeId from, NodeId to, const core::Pose2& measureme
   const int k = appendNode(to, core::compose(odomPoses().back(), measurement));
   graph_.addOdometry(k - 1, k, measurement, information);
   odometry_.push_back({k - 1, k, measurement, information});
-  if (incremental_.advanceTo(k)) collectChanges();
+  if (decider_->advanceTo(k)) collectChanges();
   admitWaitingCandidates();
 }
 
@@ -164,7 +165,7 @@ void OnlineRrr::insertCandidate(int from, int to, const core::Pose2& measurement
   candidates_by_ends_[{from_id, to_id}].push_back(k);
   changes_.push_back({k, from_id, to_id, -1, Verdict::kPending, Verdict::kPending,
                       "candidate received; its cluster is open"});
-  if (incremental_.addCandidate(k)) collectChanges();
+  if (decider_->addCandidate(k)) collectChanges();
 }
 
 void OnlineRrr::admitWaitingCandidates() {
@@ -189,26 +190,25 @@ void OnlineRrr::admitWaitingCandidates() {
 }
 
 void OnlineRrr::finish() {
-  incremental_.finish();
-  incremental_.rrr().rejectUnplaced();  // the run ends: what still waits stays unjoined
+  decider_->finish();
+  decider_->endRun();  // what still waits (RRR: an unplaced session) stays unjoined
   collectChanges();
 }
 
 void OnlineRrr::decideClosedFromScratch() {
-  incremental_.decideClosedFromScratch();
+  decider_->decideClosedFromScratch();
   collectChanges();
 }
 
 void OnlineRrr::collectChanges() {
-  const Rrr& rrr = incremental_.rrr();
   for (int k = 0; k < numCandidates(); ++k) {
-    const Verdict now = rrr.verdict(k);
+    const Verdict now = decider_->verdict(k);
     Verdict& before = reported_[static_cast<std::size_t>(k)];
     if (now == before) continue;
     const LoopCandidate& c = candidate(k);
     changes_.push_back({k, nodeIds()[static_cast<std::size_t>(c.from)],
-                        nodeIds()[static_cast<std::size_t>(c.to)], rrr.clusterOf(k), now, before,
-                        rrr.reason(k)});
+                        nodeIds()[static_cast<std::size_t>(c.to)], decider_->clusterOf(k), now,
+                        before, decider_->reason(k)});
     before = now;
   }
 }
@@ -232,12 +232,12 @@ OnlineRrrStatus OnlineRrr::status() const {
   s.candidates = numCandidates();
   s.marginal_edges = static_cast<int>(graph_.marginalLinks().size());
   s.waiting_candidates = static_cast<int>(waiting_.size());
-  s.clusters = incremental_.rrr().numClusters();
-  s.open_clusters = incremental_.numOpenClusters();
+  s.clusters = decider_->numClusters();
+  s.open_clusters = decider_->numOpenClusters();
   for (Verdict v : reported_) {
     (v == Verdict::kAccepted ? s.accepted : v == Verdict::kRejected ? s.rejected : s.pending)++;
   }
-  s.optimizations = incremental_.rrr().optimizations();
+  s.optimizations = decider_->optimizations();
   return s;
 }
 
@@ -284,7 +284,7 @@ std::vector<DecisionRow> OnlineRrr::decisionRows() const {
   for (int k = 0; k < numCandidates(); ++k) {
     const LoopCandidate& c = candidate(k);
     rows.push_back({ids[static_cast<std::size_t>(c.from)], ids[static_cast<std::size_t>(c.to)],
-                    incremental_.rrr().clusterOf(k), verdict(k), incremental_.rrr().reason(k)});
+                    decider_->clusterOf(k), verdict(k), decider_->reason(k)});
   }
   return rows;
 }
@@ -303,7 +303,7 @@ std::unique_ptr<OnlineRrr> OnlineRrr::fromPoseGraph(const core::PoseGraph& graph
     }
   }
   const std::vector<NodeArrivals> arrivals = arrivalsByNode(static_cast<int>(ids.size()), edges);
-  online->incremental_.deferDecisions(true);  // finish() decides the whole graph once
+  online->decider_->deferDecisions(true);  // finish() decides the whole graph once
   for (std::size_t k = 0; k < ids.size(); ++k) {
     const int n = online->appendNode(ids[k], graph.pose(ids[k]));
     for (int i : arrivals[k].odometry) {
@@ -317,20 +317,20 @@ std::unique_ptr<OnlineRrr> OnlineRrr::fromPoseGraph(const core::PoseGraph& graph
       const ReplayEdge& edge = edges[e];
       online->graph_.addMarginal(edge.from, edge.to, graph.measurement(e), graph.information(e));
     }
-    online->incremental_.advanceTo(n);
+    online->decider_->advanceTo(n);
     for (int i : arrivals[k].candidates) {
       const auto e = static_cast<std::size_t>(i);
       online->insertCandidate(edges[e].from, edges[e].to, graph.measurement(e),
                               graph.information(e));
     }
   }
-  online->incremental_.deferDecisions(false);
+  online->decider_->deferDecisions(false);
   // Decided once, as a run's end would, but a loaded map goes on: clusters waiting for their
   // session to be placed keep waiting.
   if (keep_open_clusters) {
-    online->incremental_.finishReplayKeepingOpen();
+    online->decider_->finishReplayKeepingOpen();
   } else {
-    online->incremental_.finish();
+    online->decider_->finish();
   }
   online->collectChanges();
   return online;

@@ -362,25 +362,15 @@ bool Rrr::jointLinkCheck() {
 
 // --- Shared pieces
 
-void Rrr::extendByOdometry(std::vector<core::Pose2>& poses) const {
-  const OdometryChain& chain = graph_.chain();
-  while (poses.size() < static_cast<std::size_t>(graph_.numNodes())) {
-    const int k = static_cast<int>(poses.size());
-    poses.push_back(k > 0 && chain.sameSession(k - 1, k)
-                        ? core::compose(poses.back(), chain.relativePose(k - 1, k))
-                        : graph_.initialPoses()[static_cast<std::size_t>(k)]);
-  }
-}
-
 void Rrr::syncWithGraph() {
   cluster_of_.resize(static_cast<std::size_t>(graph_.numCandidates()), -1);
   link_reason_.resize(static_cast<std::size_t>(graph_.numCandidates()));
-  extendByOdometry(base_);
+  graph_.extendByOdometry(base_);
 }
 
 std::vector<core::Pose2> Rrr::mapEstimate() const {
   std::vector<core::Pose2> poses = base_;
-  extendByOdometry(poses);
+  graph_.extendByOdometry(poses);
   return poses;
 }
 

@@ -145,6 +145,36 @@ int VerificationGraph::addCandidate(int from, int to, const core::Pose2& measure
   return numCandidates() - 1;
 }
 
+core::PoseGraph VerificationGraph::poseGraphWith(const std::vector<int>& candidates) const {
+  core::PoseGraph graph;
+  for (int k = 0; k < numNodes(); ++k) {
+    graph.addNode(node_ids_[static_cast<std::size_t>(k)],
+                  initial_poses_[static_cast<std::size_t>(k)]);
+  }
+  std::vector<bool> marginal(static_cast<std::size_t>(optimizer_.numConstraints()), false);
+  for (const MarginalLink& m : marginal_) marginal[static_cast<std::size_t>(m.constraint)] = true;
+  auto add = [&](int c, core::EdgeKind kind) {
+    graph.addEdge(node_ids_[static_cast<std::size_t>(optimizer_.from(c))],
+                  node_ids_[static_cast<std::size_t>(optimizer_.to(c))], optimizer_.measurement(c),
+                  optimizer_.information(c), kind);
+  };
+  for (int c : trustedConstraints()) {
+    add(c, marginal[static_cast<std::size_t>(c)] ? core::EdgeKind::kMarginal
+                                                 : core::EdgeKind::kOdometry);
+  }
+  for (int k : candidates) add(candidate(k).constraint, core::EdgeKind::kLoopCandidate);
+  return graph;
+}
+
+void VerificationGraph::extendByOdometry(std::vector<core::Pose2>& poses) const {
+  while (poses.size() < static_cast<std::size_t>(numNodes())) {
+    const int k = static_cast<int>(poses.size());
+    poses.push_back(k > 0 && chain_.sameSession(k - 1, k)
+                        ? core::compose(poses.back(), chain_.relativePose(k - 1, k))
+                        : initial_poses_[static_cast<std::size_t>(k)]);
+  }
+}
+
 std::vector<int> VerificationGraph::touchedNodes(const std::vector<int>& candidates) const {
   std::vector<int> nodes;
   nodes.reserve(2 * candidates.size());

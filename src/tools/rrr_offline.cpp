@@ -13,17 +13,15 @@
 #include <exception>
 #include <iostream>
 #include <string>
+#include <utility>
 
 #include "command_line.h"
 #include "decision_stream.h"
 #include "rrr_graphslam/core/graph_io.h"
 #include "rrr_graphslam/rrr/decisions_io.h"
-#include "rrr_graphslam/rrr/gnc.h"
 #include "rrr_graphslam/rrr/incremental_rrr.h"
-#include "rrr_graphslam/rrr/pcm.h"
 #include "rrr_graphslam/rrr/rrr.h"
-#include "rrr_graphslam/rrr/scgp.h"
-#include "rrr_graphslam/rrr/verifier.h"
+#include "rrr_graphslam/rrr/verifier_choice.h"
 #include "rrr_params_cli.h"
 
 namespace {
@@ -42,16 +40,11 @@ const std::string& usage() {
       "  --decisions      TSV with header 'from to cluster verdict reason', one row per candidate\n"
       "  --output         the graph with odometry and accepted loops, optimized\n"
       "  --mode           batch (default) or incremental (candidates fed in node order)\n"
-      "  --verifier       rrr (default); pcm (pairwise consistency maximization), scgp\n"
-      "                   (Olson's single-cluster graph partitioning per time cluster) or gnc\n"
-      "                   (graduated non-convexity) to compare: batch only; pcm and gnc use\n"
-      "                   --alpha for their chi-square bound, scgp --cluster-gap for its clusters\n"
-      "  --gnc-loss       tls (truncated least squares, default) or gm (Geman-McClure)\n"
       "  --decision-stream  with --mode incremental: TSV of every arrival and verdict change as\n"
       "                   the replay made them (rrr_slam_offline's format; scan = nodes arrived,\n"
       "                   stamp = seconds since the replay started)\n"
-      "  --scgp-ratio     scgp's local uniqueness: l1/l2 at least this (default 2)\n"
-      "  --quiet          no progress line\n"
+      "  --quiet          no progress line\n" +
+      tools::verifierUsage(false) +
       "RRR's parameters (the same names as the ROS parameters, with dashes):\n" +
       tools::rrrParamsUsage() +
       "Shorthands: --full-intra (--reduced-intra-graph false), --keep-mixed-clusters\n"
@@ -68,16 +61,13 @@ struct Arguments {
   std::string decision_stream;
   bool incremental = false;
   bool quiet = false;
-  rrr::Verifier verifier = rrr::Verifier::kRrr;
-  rrr::GncParams::Loss gnc_loss = rrr::GncParams::Loss::kTruncatedLeastSquares;
-  double scgp_ratio = rrr::ScgpParams{}.ratio;
+  tools::VerifierArguments verifier;
   rrr::RrrParams params;
 };
 
 Arguments parseArguments(int argc, char** argv) {
   const tools::CommandLine cli(argc, argv, "rrr_offline", usage().c_str());
   Arguments args;
-  bool gnc_loss_given = false, scgp_ratio_given = false;
   tools::applyPresetArgument(cli, argc, argv, args.params);
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
@@ -91,23 +81,8 @@ Arguments parseArguments(int argc, char** argv) {
       args.incremental = m == "incremental";
     } else if (a == "--decision-stream") {
       args.decision_stream = cli.value(i, a);
-    } else if (a == "--verifier") {
-      try {
-        args.verifier = rrr::parseVerifier(cli.value(i, a));
-      } catch (const std::invalid_argument& e) {
-        cli.fail(e.what());
-      }
-    } else if (a == "--gnc-loss") {
-      gnc_loss_given = true;
-      try {
-        args.gnc_loss = rrr::parseGncLoss(cli.value(i, a));
-      } catch (const std::invalid_argument& e) {
-        cli.fail(e.what());
-      }
-    } else if (a == "--scgp-ratio") {
-      scgp_ratio_given = true;
-      args.scgp_ratio = cli.number(a, cli.value(i, a), 1.0, 1e9);
-    } else if (tools::readRrrParam(cli, i, argv, args.params)) {
+    } else if (tools::readVerifierArgument(cli, i, argv, args.verifier) ||
+               tools::readRrrParam(cli, i, argv, args.params)) {
       continue;
     } else if (a == "--full-intra") {
       args.params.reduced_intra_graph = false;
@@ -127,17 +102,13 @@ Arguments parseArguments(int argc, char** argv) {
     }
   }
   if (args.input.empty()) cli.fail("no input file given");
-  if (gnc_loss_given && args.verifier != rrr::Verifier::kGnc)
-    cli.fail("--gnc-loss needs --verifier gnc");
-  if (scgp_ratio_given && args.verifier != rrr::Verifier::kScgp) {
-    cli.fail("--scgp-ratio needs --verifier scgp");
-  }
+  tools::checkVerifierArguments(cli, args.verifier);
   if (!args.decision_stream.empty() && !args.incremental) {
     cli.fail("--decision-stream needs --mode incremental (a batch decision has no stream)");
   }
-  if (args.incremental && args.verifier != rrr::Verifier::kRrr) {
-    cli.fail("--mode incremental is RRR's: --verifier " + rrr::toString(args.verifier) +
-             " decides in batch");
+  if (args.incremental && args.verifier.choice.verifier != rrr::Verifier::kRrr) {
+    cli.fail("--mode incremental is RRR's: --verifier " +
+             rrr::toString(args.verifier.choice.verifier) + " decides in batch");
   }
   return args;
 }
@@ -181,41 +152,24 @@ int main(int argc, char** argv) {
     std::vector<double> latencies;
     std::vector<std::string> reasons;
     std::vector<rrr::ReplayEvent> events;
-    if (args.verifier != rrr::Verifier::kRrr) {
-      rrr::VerifierDecisions decided;
-      if (args.verifier == rrr::Verifier::kPcm) {
-        rrr::PcmParams pcm;
-        pcm.alpha = args.params.alpha;
-        decided = rrr::decidePcm(verification, pcm);
-      } else if (args.verifier == rrr::Verifier::kScgp) {
-        rrr::ScgpParams scgp;
-        scgp.ratio = args.scgp_ratio;
-        scgp.cluster_gap = args.params.cluster_gap;
-        decided = rrr::decideScgp(verification, scgp);
-      } else {
-        rrr::GncParams gnc;
-        gnc.alpha = args.params.alpha;
-        gnc.loss = args.gnc_loss;
-        decided = rrr::decideGnc(verification, gnc);
-      }
-      verdicts = std::move(decided.verdicts);
-      cluster_of = std::move(decided.cluster_of);
-      reasons = std::move(decided.reasons);
-      summary = decided.summary;
-    } else if (args.incremental) {
+    if (args.incremental) {
       summary = rrr::runIncrementalRrr(verification, args.params, verdicts, cluster_of,
                                        terminalProgress(args.quiet), &latencies, &reasons,
                                        args.decision_stream.empty() ? nullptr : &events);
     } else {
-      summary = rrr::runBatchRrr(verification, args.params, verdicts, cluster_of,
-                                 terminalProgress(args.quiet), &reasons);
+      rrr::VerifierDecisions decided = rrr::decideBatch(verification, args.verifier.choice,
+                                                        args.params, terminalProgress(args.quiet));
+      verdicts = std::move(decided.verdicts);
+      cluster_of = std::move(decided.cluster_of);
+      reasons = std::move(decided.reasons);
+      summary = decided.summary;
     }
 
     std::printf("input          %s: %zu nodes, %zu edges\n", args.input.c_str(), graph.numNodes(),
                 graph.numEdges());
     std::printf("mode           %s\n", args.incremental ? "incremental" : "batch");
-    if (args.verifier != rrr::Verifier::kRrr) {
-      std::printf("verifier       %s\n", rrr::toString(args.verifier).c_str());
+    if (args.verifier.choice.verifier != rrr::Verifier::kRrr) {
+      std::printf("verifier       %s\n", rrr::toString(args.verifier.choice.verifier).c_str());
     }
     std::printf("candidates     %d\n", summary.candidates);
     std::printf("clusters       %d (gap %d nodes)\n", summary.clusters, summary.cluster_gap);

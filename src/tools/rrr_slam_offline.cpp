@@ -147,7 +147,8 @@ const std::string& usage() {
       "                    is tied to the map, unless it is the map's first session; the\n"
       "                    submaps its undecided loops touch wait); an 'online_trim' line per\n"
       "                    trim (without it: only before the map is saved)\n"
-      "  --quiet           no progress line\n"
+      "  --quiet           no progress line\n" +
+      tools::verifierUsage(true) +
       "The front end's parameters (the same names and units as the ROS parameters, with "
       "dashes):\n" +
       tools::tableUsage(frontend::LaserSlamParams{}, slamTable) +
@@ -227,6 +228,7 @@ Arguments parseArguments(int argc, char** argv) {
   Arguments args;
   auto& p = args.params;
   std::vector<std::string> trim_flags;
+  tools::VerifierArguments verifier;
   tools::applyPresetArgument(cli, argc, argv, p.rrr.rrr);
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
@@ -300,12 +302,15 @@ Arguments parseArguments(int argc, char** argv) {
                         pose);
       args.initial_pose = core::Pose2(pose[0], pose[1], core::normalizeAngle(pose[2]));
     } else if (tools::readTableParam(cli, i, argv, p, slamTable) ||
-               tools::readRrrParam(cli, i, argv, p.rrr.rrr) || readAlias(cli, i, argv, p)) {
+               tools::readRrrParam(cli, i, argv, p.rrr.rrr) || readAlias(cli, i, argv, p) ||
+               tools::readVerifierArgument(cli, i, argv, verifier)) {
       continue;
     } else {
       cli.positional(a, args.log);
     }
   }
+  tools::checkVerifierArguments(cli, verifier);
+  p.rrr.verifier = verifier.choice;
   if (args.log.empty()) cli.fail("no log file given");
   if (args.initial_pose && args.load_map.empty()) cli.fail("--initial-pose needs --load-map");
   if (args.localization_only && args.load_map.empty()) {
@@ -500,6 +505,9 @@ int main(int argc, char** argv) {
                                               static_cast<double>(stats.loop_searches)
                                         : 0.0,
                 stats.loop_search_seconds, args.params.loops.threads);
+    if (args.params.rrr.verifier.verifier != rrr::Verifier::kRrr) {
+      std::printf("verifier       %s\n", rrr::toString(args.params.rrr.verifier.verifier).c_str());
+    }
     std::printf("candidates     %d in %d clusters\n", status.candidates, status.clusters);
     if (stats.contradicted_matches > 0) {
       std::printf(

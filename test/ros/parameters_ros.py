@@ -37,6 +37,9 @@ BAD = [
     ({"lifelong": True, "trim_every_n_nodes": 10, "sparsification": "delete"},
      "online trimming needs sparsification clt"),
     ({"map_layering": "newest"}, "map_layering must be all or newest-session"),
+    ({"verifier": "ransac"}, "verifier must be rrr, pcm, scgp or gnc, got ransac"),
+    ({"gnc_loss": "huber"}, "gnc_loss must be tls or gm, got huber"),
+    ({"scgp_ratio": 0.5}, "scgp_ratio must be at least 1, got 0.5"),
 ]
 
 
@@ -67,7 +70,8 @@ class Parameters(unittest.TestCase):
                                    "scan_max_range": 20, "scan_refinement": "icp",
                                    "joint_link_check": False, "preset": "paper",
                                    "loop_search_threads": 1, "lifelong": True,
-                                   "trim_every_n_nodes": 50, "map_layering": "newest-session"}, 3)
+                                   "trim_every_n_nodes": 50, "map_layering": "newest-session",
+                                   "verifier": "gnc", "gnc_loss": "gm", "scgp_ratio": 3}, 3)
         self.assertIsNone(code, output)
 
 

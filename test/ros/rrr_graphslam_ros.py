@@ -56,8 +56,14 @@ class RrrGraphSlamRos(unittest.TestCase):
 
     def test_1_rejects_every_outlier_and_keeps_true_loops(self):
         decisions = self.rows
-        # Every decided candidate says which step of RRR decided it.
+        # Every decided candidate says which step of RRR (or which verifier) decided it.
         self.assertFalse([d for d in decisions if d.verdict != "pending" and not d.reason])
+        verifier = rospy.get_param(NODE + "/verifier", "rrr")
+        self.assertEqual(self.status().verifier, verifier)
+        if verifier != "rrr":
+            # (a duplicate in the file reports the decision of the candidate it duplicates)
+            self.assertFalse([d for d in decisions
+                              if not d.reason.split("(not sent): ")[-1].startswith(verifier)])
         truth = [label == 1 for _, _, label in self.labels]
         s = score(decisions, truth)
         print(f"precision {s.precision:.4f} recall {s.recall:.4f} (tp {s.tp} fp {s.fp} fn {s.fn})")
@@ -98,8 +104,9 @@ class RrrGraphSlamRos(unittest.TestCase):
         offline = roslib.packages.find_node("rrr_graphslam", "rrr_offline")[0]
         out = os.path.join(folder, "offline.tsv")
         gap = rospy.get_param(NODE + "/cluster_gap", 10)
-        run = subprocess.run([offline, path, "--decisions", out, "--cluster-gap", str(gap), "--quiet"],
-                             capture_output=True, text=True)
+        verifier = rospy.get_param(NODE + "/verifier", "rrr")
+        run = subprocess.run([offline, path, "--decisions", out, "--cluster-gap", str(gap),
+                              "--verifier", verifier, "--quiet"], capture_output=True, text=True)
         self.assertEqual(run.returncode, 0, run.stderr)
         offline_rows = read_decisions(out)
         self.assertEqual([(d.source, d.target, d.verdict) for d in offline_rows],

@@ -20,6 +20,7 @@
 #include "rrr_graphslam/rrr/online_rrr.h"
 #include "rrr_graphslam/rrr/rrr.h"
 
+#include "streaming.h"
 #include "synthetic.h"
 
 namespace rrr_graphslam::rrr {
@@ -27,30 +28,15 @@ namespace {
 
 const std::string kData = RRR_TEST_DATA_DIR;
 using NodeId = core::PoseGraph::NodeId;
-using Key = std::tuple<NodeId, NodeId, double, double, double>;
-
-Key keyOf(NodeId from, NodeId to, const core::Pose2& z) { return {from, to, z[0], z[1], z[2]}; }
+using testing::Key;
+using testing::keyOf;
+using testing::stream;
+using testing::withoutDuplicateCandidates;
 
 OnlineRrrParams paramsWithGap(int gap) {
   OnlineRrrParams p;
   p.rrr.cluster_gap = gap;
   return p;
-}
-
-// Intel holds a few exact duplicate loop edges, which OnlineRrr refuses as re-sent messages.
-core::PoseGraph withoutDuplicateCandidates(const core::PoseGraph& g) {
-  core::PoseGraph out;
-  for (NodeId id : g.nodeIds()) out.addNode(id, g.pose(id));
-  std::set<Key> seen;
-  for (std::size_t e = 0; e < g.numEdges(); ++e) {
-    const auto& edge = g.edge(e);
-    if (edge.kind == core::EdgeKind::kLoopCandidate &&
-        !seen.insert(keyOf(edge.from, edge.to, g.measurement(e))).second) {
-      continue;
-    }
-    out.addEdge(edge.from, edge.to, g.measurement(e), g.information(e), edge.kind);
-  }
-  return out;
 }
 
 core::PoseGraph intelWithOutliers(int count, int group, unsigned seed) {
@@ -73,34 +59,6 @@ std::map<Key, Verdict> batchVerdicts(const core::PoseGraph& g, int gap) {
         verdicts[static_cast<std::size_t>(k)];
   }
   return out;
-}
-
-// Streams `g` as a robot would: odometry node by node, each candidate once both ends exist, or
-// (early) as soon as its older end exists.
-void stream(const core::PoseGraph& g, OnlineRrr& online, bool early) {
-  std::map<NodeId, std::vector<std::size_t>> odometry_into, candidates_at;
-  for (std::size_t e = 0; e < g.numEdges(); ++e) {
-    const auto& edge = g.edge(e);
-    ASSERT_LT(edge.from, edge.to) << "the test streams forward edges only";
-    if (edge.kind == core::EdgeKind::kOdometry) {
-      odometry_into[edge.to].push_back(e);
-    } else {
-      candidates_at[early ? edge.from : edge.to].push_back(e);
-    }
-  }
-  const auto ids = g.nodeIds();
-  online.startSession(ids[0], g.pose(ids[0]));
-  for (NodeId id : ids) {
-    if (id != ids[0]) {
-      ASSERT_EQ(odometry_into[id].size(), 1u) << "node " << id;
-      const std::size_t e = odometry_into[id][0];
-      online.addOdometry(g.edge(e).from, id, g.measurement(e), g.information(e));
-    }
-    for (std::size_t e : candidates_at[id]) {
-      online.addCandidate(g.edge(e).from, g.edge(e).to, g.measurement(e), g.information(e));
-    }
-  }
-  online.finish();
 }
 
 void expectBatchVerdicts(const OnlineRrr& online, const std::map<Key, Verdict>& batch) {

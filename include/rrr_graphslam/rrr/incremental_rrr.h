@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "rrr_graphslam/rrr/open_clusters.h"
 #include "rrr_graphslam/rrr/replay_plan.h"
 #include "rrr_graphslam/rrr/rrr.h"
 
@@ -45,26 +46,19 @@ class IncrementalRrr {
 
   const Rrr& rrr() const { return rrr_; }
   Rrr& rrr() { return rrr_; }
-  int numOpenClusters() const { return static_cast<int>(open_.size()); }
-  int currentNode() const { return current_node_; }
-  int clusterGap() const { return gap_; }
+  int numOpenClusters() const { return open_.size(); }
+  int currentNode() const { return open_.currentNode(); }
+  int clusterGap() const { return open_.gap(); }
 
  private:
-  struct OpenCluster {
-    std::vector<int> members;
-    int newest = -1;  // largest node index among the members' ends
-  };
-
   /// The next decision from scratch: at the next multiple of incremental_rebatch_every past the
   /// current node.
   void scheduleNextRebatch();
 
   VerificationGraph& graph_;
   Rrr rrr_;
-  int gap_;
-  int current_node_ = 0;
+  OpenClusters open_;
   int next_rebatch_;  // node at which the next decision is made from scratch
-  std::vector<OpenCluster> open_;
   bool defer_ = false;
 };
 

@@ -24,9 +24,10 @@
 
 #include "rrr_graphslam/core/pose_graph.h"
 #include "rrr_graphslam/rrr/decisions_io.h"
-#include "rrr_graphslam/rrr/incremental_rrr.h"
+#include "rrr_graphslam/rrr/online_decider.h"
 #include "rrr_graphslam/rrr/rrr.h"
 #include "rrr_graphslam/rrr/verification_graph.h"
+#include "rrr_graphslam/rrr/verifier_choice.h"
 
 namespace rrr_graphslam::rrr {
 
@@ -40,9 +41,13 @@ struct OnlineRrrParams {
   }();
   /// Loop candidates waiting for nodes that have not arrived, at most; default 10000.
   int max_waiting_candidates = 10000;
+  /// Who decides (online_decider.h): RRR (default), or PCM, SCGP or GNC to compare, each
+  /// deciding the closed clusters' candidates again whenever a cluster closes.
+  VerifierChoice verifier;
 };
 
-/// rrr::validate, and cluster_gap > 0 and max_waiting_candidates >= 0 (std::invalid_argument).
+/// rrr::validate, and cluster_gap > 0, max_waiting_candidates >= 0 and the verifier's settings
+/// (std::invalid_argument).
 void validate(const OnlineRrrParams& params);
 
 /// One verdict that changed (or a candidate that arrived: previous == verdict == kPending).
@@ -142,7 +147,7 @@ class OnlineRrr {
   /// Poses in the odometry frame (as the nodes arrived).
   const std::vector<core::Pose2>& odomPoses() const { return graph_.initialPoses(); }
   /// Poses in the map frame: the good set's solution, continued by odometry.
-  std::vector<core::Pose2> mapPoses() const { return incremental_.rrr().mapEstimate(); }
+  std::vector<core::Pose2> mapPoses() const { return decider_->mapEstimate(); }
   /// map -> odom at the newest node (identity for an empty graph).
   core::Pose2 mapToOdom() const;
   /// True if nodes k - 1 and k are joined by odometry.
@@ -151,8 +156,8 @@ class OnlineRrr {
   /// The marginal constraints, by dense node index.
   const std::vector<MarginalLink>& marginalLinks() const { return graph_.marginalLinks(); }
   Verdict verdict(int candidate) const { return reported_[static_cast<std::size_t>(candidate)]; }
-  /// Why the candidate has its verdict (Rrr::reason).
-  std::string reason(int candidate) const { return incremental_.rrr().reason(candidate); }
+  /// Why the candidate has its verdict (Rrr::reason, or the other verifier's).
+  std::string reason(int candidate) const { return decider_->reason(candidate); }
   /// The graph RRR decides on (dense node indices).
   const VerificationGraph& verificationGraph() const { return graph_; }
 
@@ -191,7 +196,7 @@ class OnlineRrr {
 
   OnlineRrrParams params_;
   VerificationGraph graph_;
-  IncrementalRrr incremental_;
+  std::unique_ptr<OnlineDecider> decider_;
   std::vector<Odometry> odometry_;
   std::map<std::pair<NodeId, NodeId>, std::vector<int>> candidates_by_ends_;
   std::deque<Waiting> waiting_;

@@ -203,8 +203,6 @@ class Rrr {
   /// Extends the per-candidate and per-node state to what the graph holds now (online growth):
   /// a new node's map pose follows odometry from the last estimate.
   void syncWithGraph();
-  /// Appends to `poses` the nodes of the graph it lacks, following odometry.
-  void extendByOdometry(std::vector<core::Pose2>& poses) const;
   std::vector<int> clustersWith(Status status) const;
   void setStatus(int cluster, Status status, std::string reason);
   /// The good set optimized from base_, which becomes its solution (after a cluster or link

@@ -82,6 +82,14 @@ class VerificationGraph {
   const core::Optimizer& optimizer() const { return optimizer_; }
   const OdometryChain& chain() const { return chain_; }
 
+  /// The graph as a batch verifier reads it: the nodes at their initial poses, the odometry and
+  /// marginal constraints, then `candidates` (ascending) as loop candidates, so that candidate i
+  /// of a VerificationGraph made from it is candidates[i] here.
+  core::PoseGraph poseGraphWith(const std::vector<int>& candidates) const;
+  /// Appends to `poses` (map poses of the first nodes) the nodes it lacks, following odometry
+  /// from the node before, or at its initial pose where a session starts.
+  void extendByOdometry(std::vector<core::Pose2>& poses) const;
+
   /// The nodes the given candidates touch, sorted, each once.
   std::vector<int> touchedNodes(const std::vector<int>& candidates) const;
 

@@ -1,0 +1,46 @@
+#pragma once
+// The time clusters of loop candidates that arrive while the robot moves (iRRR, Latif et al.,
+// IROS 2012): a candidate joins, and merges, every open cluster holding a member whose both ends
+// lie within `gap` nodes of its own, in the same session (clustering.h's rule); a cluster closes
+// once the robot is more than `gap` nodes past its newest end, when no later candidate can join
+// it, so the closed clusters equal the batch clustering of the same candidates. Shared by every
+// online decision (IncrementalRrr, OnlineVerifier): it only groups, it decides nothing.
+
+#include <vector>
+
+#include "rrr_graphslam/rrr/verification_graph.h"
+
+namespace rrr_graphslam::rrr {
+
+class OpenClusters {
+ public:
+  /// `graph` must outlive this object; gap > 0 nodes.
+  OpenClusters(const VerificationGraph& graph, int gap) : graph_(graph), gap_(gap) {}
+
+  /// Candidate `candidate` of the graph joins the open clusters (it does not move the robot:
+  /// call advanceTo(its newest end) first). Returns true if the cluster it is in now is already
+  /// behind the robot (a late candidate), so that advanceTo(currentNode()) closes it.
+  bool add(int candidate);
+  /// The robot reached `node` (never moves back). Returns the clusters it left behind, closed,
+  /// each as its sorted candidate indices, in the order they were opened.
+  std::vector<std::vector<int>> advanceTo(int node);
+  /// Closes every open cluster (the end of a run), in the order they were opened.
+  std::vector<std::vector<int>> closeAll();
+
+  int size() const { return static_cast<int>(open_.size()); }
+  int currentNode() const { return current_node_; }
+  int gap() const { return gap_; }
+
+ private:
+  struct Cluster {
+    std::vector<int> members;
+    int newest = -1;  // largest node index among the members' ends
+  };
+
+  const VerificationGraph& graph_;
+  int gap_;
+  int current_node_ = 0;
+  std::vector<Cluster> open_;
+};
+
+}  // namespace rrr_graphslam::rrr
