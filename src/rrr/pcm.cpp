@@ -12,7 +12,9 @@
 
 namespace rrr_graphslam::rrr {
 
-VerifierDecisions decidePcm(VerificationGraph& graph, const PcmParams& params) {
+namespace {
+
+void validate(const PcmParams& params) {
   if (!(params.alpha > 0.0 && params.alpha < 1.0)) {
     throw std::invalid_argument("pcm: alpha = " + std::to_string(params.alpha) +
                                 " is out of range: must be in (0, 1)");
@@ -22,23 +24,50 @@ VerifierDecisions decidePcm(VerificationGraph& graph, const PcmParams& params) {
   if (params.max_exact_candidates < 0) {
     throw std::invalid_argument("pcm: max_exact_candidates must be >= 0");
   }
+}
+
+}  // namespace
+
+bool pairwiseConsistent(const VerificationGraph& graph, int i, int j, double threshold) {
+  const std::optional<double> d2 = pairwiseCycleChi2(graph, i, j);
+  return !d2 || *d2 < threshold;
+}
+
+VerifierDecisions decidePcm(VerificationGraph& graph, const PcmParams& params) {
+  validate(params);
   const auto start = std::chrono::steady_clock::now();
   const int m = graph.numCandidates();
   const double threshold = core::chi2Quantile(params.alpha, 3);
-
   // 1. Consistency graph.
   // Rows tested in parallel (the tests only read the graph), joined in order.
   std::vector<std::vector<int>> partners(static_cast<std::size_t>(m));
 #pragma omp parallel for schedule(dynamic, 16) num_threads(params.threads) if (m > 64)
   for (int i = 0; i < m; ++i) {
     for (int j = i + 1; j < m; ++j) {
-      const std::optional<double> d2 = pairwiseCycleChi2(graph, i, j);
-      if (!d2 || *d2 < threshold) partners[static_cast<std::size_t>(i)].push_back(j);
+      if (pairwiseConsistent(graph, i, j, threshold)) {
+        partners[static_cast<std::size_t>(i)].push_back(j);
+      }
     }
   }
   core::AdjacencyMatrix consistent(m);
   for (int i = 0; i < m; ++i) {
     for (int j : partners[static_cast<std::size_t>(i)]) consistent.connect(i, j);
+  }
+  VerifierDecisions out = decidePcm(graph, consistent, params);
+  out.summary.time_sec =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return out;
+}
+
+VerifierDecisions decidePcm(VerificationGraph& graph, const core::AdjacencyMatrix& consistent,
+                            const PcmParams& params) {
+  validate(params);
+  const auto start = std::chrono::steady_clock::now();
+  const int m = graph.numCandidates();
+  if (consistent.size() != m) {
+    throw std::invalid_argument("pcm: the consistency graph has " +
+                                std::to_string(consistent.size()) + " vertices for " +
+                                std::to_string(m) + " candidates");
   }
   // 2. Maximum clique.
   const bool exact = m <= params.max_exact_candidates;

@@ -12,15 +12,18 @@ void validate(const VerifierChoice& choice) {
   }
 }
 
+PcmParams pcmParamsFor(const RrrParams& params) {
+  PcmParams pcm;
+  pcm.alpha = params.alpha;
+  return pcm;
+}
+
 VerifierDecisions decideBatch(VerificationGraph& graph, const VerifierChoice& choice,
                               const RrrParams& params, const ProgressFunction& progress) {
   validate(choice);
   switch (choice.verifier) {
-    case Verifier::kPcm: {
-      PcmParams pcm;
-      pcm.alpha = params.alpha;
-      return decidePcm(graph, pcm);
-    }
+    case Verifier::kPcm:
+      return decidePcm(graph, pcmParamsFor(params));
     case Verifier::kScgp: {
       ScgpParams scgp;
       scgp.ratio = choice.scgp_ratio;

@@ -13,6 +13,7 @@
 //   3. Accepted: the clique; rejected: every other candidate.
 // Every pair is tested: m candidates cost m(m-1)/2 cycle tests.
 
+#include "rrr_graphslam/core/max_clique.h"
 #include "rrr_graphslam/rrr/verification_graph.h"
 #include "rrr_graphslam/rrr/verifier.h"
 
@@ -32,6 +33,14 @@ struct PcmParams {
 /// Decides every candidate of `graph` by PCM; leaves the clique switched on and optimized.
 /// Throws std::invalid_argument for alpha outside (0, 1), max_branches < 1, threads < 1 or a
 /// negative max_exact_candidates.
+/// Step 1 for one pair: whether candidates i < j are consistent, `threshold` being
+/// chi2Quantile(alpha, 3).
+bool pairwiseConsistent(const VerificationGraph& graph, int i, int j, double threshold);
+/// Steps 2 and 3 on a consistency graph over the graph's candidates (vertex k: candidate k),
+/// built by pairwiseConsistent; OnlineVerifier keeps the pairs it tested before.
+VerifierDecisions decidePcm(VerificationGraph& graph, const core::AdjacencyMatrix& consistent,
+                            const PcmParams& params = {});
+/// Steps 1 to 3.
 VerifierDecisions decidePcm(VerificationGraph& graph, const PcmParams& params = {});
 
 }  // namespace rrr_graphslam::rrr

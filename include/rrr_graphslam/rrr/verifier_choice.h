@@ -22,6 +22,9 @@ struct VerifierChoice {
 /// std::invalid_argument naming the setting that is out of range.
 void validate(const VerifierChoice& choice);
 
+/// The settings decideBatch gives PCM: RrrParams' alpha.
+PcmParams pcmParamsFor(const RrrParams& params);
+
 /// Decides every candidate of `graph` in batch: RRR with `params`; PCM and GNC at its alpha;
 /// SCGP with its cluster_gap. The graph's optimizer is left at the accepted candidates' optimum.
 VerifierDecisions decideBatch(VerificationGraph& graph, const VerifierChoice& choice,
