@@ -1,12 +1,11 @@
 #include "rrr_graphslam/rrr/online_verifier.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cstddef>
-#include <iterator>
+#include <optional>
 #include <stdexcept>
 #include <utility>
-
-#include "rrr_graphslam/core/chi2.h"
 
 namespace rrr_graphslam::rrr {
 
@@ -60,15 +59,25 @@ void OnlineVerifier::close(const std::vector<std::vector<int>>& clusters) {
 }
 
 void OnlineVerifier::decideClosed() {
-  if (closed_.empty()) return;  // odometry alone: mapEstimate() follows it
+  // Odometry alone: mapEstimate() follows it. A raised cancel flag: the graph is thrown away.
+  const std::atomic<bool>* cancel = graph_.optimizer().cancelFlag();
+  if (closed_.empty() || (cancel != nullptr && cancel->load())) return;
   VerificationGraph closed(graph_.poseGraphWith(closed_), params_.optimizer);
+  closed.optimizer().setCancelFlag(cancel);
   // Nodes a localization run holds where they are stay held (OnlineRrr::fixNodes).
   for (int k = 0; k < graph_.numNodes(); ++k) {
     if (graph_.optimizer().isFixed(k)) closed.optimizer().setFixed(k, true);
   }
-  const VerifierDecisions decided = choice_.verifier == Verifier::kPcm
-                                        ? decidePcm(closed, pcmConsistency(), pcmParamsFor(params_))
-                                        : decideBatch(closed, choice_, params_);
+  VerifierDecisions decided;
+  if (choice_.verifier == Verifier::kPcm) {
+    const PcmParams pcm = pcmParamsFor(params_);
+    const std::optional<core::AdjacencyMatrix> consistent =
+        pcm_pairs_.consistency(graph_, closed_, pcm, cancel);
+    if (!consistent) return;
+    decided = decidePcm(closed, *consistent, pcm);
+  } else {
+    decided = decideBatch(closed, choice_, params_);
+  }
   for (std::size_t i = 0; i < closed_.size(); ++i) {
     const auto k = static_cast<std::size_t>(closed_[i]);
     verdicts_[k] = decided.verdicts[i];
@@ -76,46 +85,6 @@ void OnlineVerifier::decideClosed() {
   }
   optimizations_ += decided.summary.optimizations;
   solution_ = closed.optimizer().poses();
-}
-
-core::AdjacencyMatrix OnlineVerifier::pcmConsistency() {
-  const PcmParams pcm = pcmParamsFor(params_);
-  const double threshold = core::chi2Quantile(pcm.alpha, 3);
-  std::vector<int> fresh;
-  std::set_difference(closed_.begin(), closed_.end(), pcm_tested_.begin(), pcm_tested_.end(),
-                      std::back_inserter(fresh));
-  std::vector<std::pair<int, int>> pairs;  // (i, j), i < j: as decidePcm tests them
-  for (std::size_t f = 0; f < fresh.size(); ++f) {
-    for (int t : pcm_tested_) pairs.emplace_back(std::min(fresh[f], t), std::max(fresh[f], t));
-    for (std::size_t g = f + 1; g < fresh.size(); ++g) pairs.emplace_back(fresh[f], fresh[g]);
-  }
-  std::vector<char> consistent(pairs.size(), 0);
-  const auto n = static_cast<std::ptrdiff_t>(pairs.size());
-#pragma omp parallel for schedule(dynamic, 256) num_threads(pcm.threads) if (n > 4096)
-  for (std::ptrdiff_t p = 0; p < n; ++p) {
-    const auto& [i, j] = pairs[static_cast<std::size_t>(p)];
-    consistent[static_cast<std::size_t>(p)] = pairwiseConsistent(graph_, i, j, threshold) ? 1 : 0;
-  }
-  pcm_partners_.resize(static_cast<std::size_t>(graph_.numCandidates()));
-  for (std::size_t p = 0; p < pairs.size(); ++p) {
-    if (!consistent[p]) continue;
-    pcm_partners_[static_cast<std::size_t>(pairs[p].first)].push_back(pairs[p].second);
-    pcm_partners_[static_cast<std::size_t>(pairs[p].second)].push_back(pairs[p].first);
-  }
-  pcm_tested_ = closed_;
-
-  std::vector<int> vertex(static_cast<std::size_t>(graph_.numCandidates()), -1);
-  for (std::size_t v = 0; v < closed_.size(); ++v) {
-    vertex[static_cast<std::size_t>(closed_[v])] = static_cast<int>(v);
-  }
-  core::AdjacencyMatrix adjacency(static_cast<int>(closed_.size()));
-  for (int i : closed_) {
-    for (int j : pcm_partners_[static_cast<std::size_t>(i)]) {
-      if (i < j)
-        adjacency.connect(vertex[static_cast<std::size_t>(i)], vertex[static_cast<std::size_t>(j)]);
-    }
-  }
-  return adjacency;
 }
 
 Verdict OnlineVerifier::verdict(int candidate) const {

@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <map>
 #include <string>
 #include <vector>
@@ -73,7 +74,7 @@ TEST(OnlineVerifier, DecidesAsClustersCloseAndEndsAsTheBatchVerifier) {
   for (const VerifierChoice& choice : otherVerifiers()) {
     SCOPED_TRACE(nameOf(choice));
     OnlineRrr online(paramsFor(choice));
-    testing::stream(input, online, /*early=*/false, /*finish=*/false);
+    ASSERT_NO_FATAL_FAILURE(testing::stream(input, online, /*early=*/false, /*finish=*/false));
 
     // Before the end: the closed clusters are decided, the open ones pending, and every verdict
     // came with a change naming the verifier.
@@ -118,7 +119,7 @@ TEST(OnlineVerifier, TheMapIsTheAcceptedLoopsOptimum) {
   VerifierChoice gnc;
   gnc.verifier = Verifier::kGnc;
   OnlineRrr online(paramsFor(gnc));
-  testing::stream(input, online, false);
+  ASSERT_NO_FATAL_FAILURE(testing::stream(input, online, false));
   const core::PoseGraph saved = online.toPoseGraph();
   VerificationGraph batch(saved, {});
   RrrParams params;
@@ -156,8 +157,35 @@ TEST(OnlineVerifier, BadSettingsAreRefused) {
   EXPECT_THROW(OnlineRrr{p}, std::invalid_argument);
   try {
     validate(p);
+    ADD_FAILURE() << "scgp_ratio 0.5 was accepted";
   } catch (const std::invalid_argument& e) {
     EXPECT_NE(std::string(e.what()).find("scgp_ratio"), std::string::npos) << e.what();
+  }
+}
+
+// What ~reset does before it throws a graph away: with the cancel flag raised no decision runs
+// (a batch verifier's decision can take seconds on a large map), and nothing it skipped is kept
+// as if decided: PCM's kept pairs included, the end decides as the batch verifier.
+TEST(OnlineVerifier, ARaisedCancelFlagStopsEveryDecision) {
+  const core::PoseGraph& input = csailWithOutliers().graph;
+  for (const VerifierChoice& choice : otherVerifiers()) {
+    SCOPED_TRACE(nameOf(choice));
+    OnlineRrr online(paramsFor(choice));
+    std::atomic<bool> cancel{true};
+    online.setCancelFlag(&cancel);
+    ASSERT_NO_FATAL_FAILURE(testing::stream(input, online, false, /*finish=*/false));
+    EXPECT_EQ(online.status().pending, online.numCandidates());
+    EXPECT_EQ(online.status().optimizations, 0);
+    cancel = false;
+    online.finish();
+    const std::map<Key, Verdict> batch = batchVerdicts(input, choice);
+    for (int k = 0; k < online.numCandidates(); ++k) {
+      const auto& c = online.candidate(k);
+      EXPECT_EQ(online.verdict(k),
+                batch.at(keyOf(online.nodeIds()[static_cast<std::size_t>(c.from)],
+                               online.nodeIds()[static_cast<std::size_t>(c.to)], c.measurement)))
+          << "candidate " << k;
+    }
   }
 }
 

@@ -183,6 +183,7 @@ class Optimizer {
   /// optimize() checks `*flag` before each step and stops with kCancelled when it is set (from
   /// another thread); nullptr (default) disables. The flag must outlive its use.
   void setCancelFlag(const std::atomic<bool>* flag) { cancel_ = flag; }
+  const std::atomic<bool>* cancelFlag() const { return cancel_; }
 
   /// True when the last factorization was an undamped Gauss-Newton one of the current active
   /// set, so that covariance() describes the current estimate (to first order). Nodes added since

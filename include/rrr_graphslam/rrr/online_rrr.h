@@ -158,7 +158,8 @@ class OnlineRrr {
   Verdict verdict(int candidate) const { return reported_[static_cast<std::size_t>(candidate)]; }
   /// Why the candidate has its verdict (Rrr::reason, or the other verifier's).
   std::string reason(int candidate) const { return decider_->reason(candidate); }
-  /// The graph RRR decides on (dense node indices).
+  /// The graph RRR decides on (dense node indices). With another verifier its optimizer is
+  /// left as built: each decision runs on a copy of the graph (OnlineVerifier).
   const VerificationGraph& verificationGraph() const { return graph_; }
 
   /// Nodes at their odometry-frame poses, the odometry, the marginal constraints, then every

@@ -3,18 +3,19 @@
 // into time clusters as they arrive (open_clusters.h); each time clusters close, the verifier
 // decides every candidate of the closed clusters again from scratch, on the graph as it is then
 // with the open clusters' candidates left out, so that the decision at the end of a run equals
-// `rrr_offline --verifier` on the same graph. Its cost is one batch decision per closing, which
-// grows with the candidates: for comparing verifiers on replays and runs of an hour, not for a
-// robot that runs for days (RRR, IncrementalRrr, is the online decider for that). PCM keeps the
-// pairs it tested (a pair's test depends on its two candidates and the odometry between them,
-// which never change), so each closing tests only the new candidates' pairs.
+// `rrr_offline --verifier` on the same graph with the same --cluster-gap. Its cost is one batch
+// decision per closing, which grows with the candidates: for comparing verifiers on replays and
+// runs of an hour, not for a robot that runs for days (RRR, IncrementalRrr, is the online decider
+// for that). PCM keeps the pairs it tested (pcm_pair_cache.h), so each closing tests only the new
+// candidates' pairs; a graph rebuilt by lifelong trimming starts a new cache. A candidate's cluster
+// is its time cluster (rrr_offline --verifier writes the verifier's own: PCM's clique 0 or -1).
 
 #include <string>
 #include <vector>
 
-#include "rrr_graphslam/core/max_clique.h"
 #include "rrr_graphslam/rrr/online_decider.h"
 #include "rrr_graphslam/rrr/open_clusters.h"
+#include "rrr_graphslam/rrr/pcm_pair_cache.h"
 
 namespace rrr_graphslam::rrr {
 
@@ -45,9 +46,6 @@ class OnlineVerifier final : public OnlineDecider {
   void close(const std::vector<std::vector<int>>& clusters);
   /// The verifier on the odometry, the marginal constraints and the closed clusters' candidates.
   void decideClosed();
-  /// PCM's consistency graph over closed_ (vertex i: closed_[i]), testing only the pairs with a
-  /// candidate not tested before.
-  core::AdjacencyMatrix pcmConsistency();
 
   VerificationGraph& graph_;
   VerifierChoice choice_;
@@ -62,10 +60,7 @@ class OnlineVerifier final : public OnlineDecider {
   std::vector<Verdict> verdicts_;
   std::vector<std::string> reasons_;
   std::vector<core::Pose2> solution_;  ///< the last decision's poses, of the nodes it had
-  // PCM: the candidates whose pairs with each other are tested (ascending), and each one's
-  // consistent partners among them.
-  std::vector<int> pcm_tested_;
-  std::vector<std::vector<int>> pcm_partners_;
+  PcmPairCache pcm_pairs_;             ///< PCM: the pairs tested by earlier decisions
 };
 
 }  // namespace rrr_graphslam::rrr

@@ -30,17 +30,18 @@ struct PcmParams {
   int threads = 2;
 };
 
-/// Decides every candidate of `graph` by PCM; leaves the clique switched on and optimized.
-/// Throws std::invalid_argument for alpha outside (0, 1), max_branches < 1, threads < 1 or a
-/// negative max_exact_candidates.
 /// Step 1 for one pair: whether candidates i < j are consistent, `threshold` being
 /// chi2Quantile(alpha, 3).
 bool pairwiseConsistent(const VerificationGraph& graph, int i, int j, double threshold);
-/// Steps 2 and 3 on a consistency graph over the graph's candidates (vertex k: candidate k),
-/// built by pairwiseConsistent; OnlineVerifier keeps the pairs it tested before.
+
+/// Decides every candidate of `graph` by PCM (steps 1 to 3); leaves the clique switched on and
+/// optimized. Throws std::invalid_argument for alpha outside (0, 1), max_branches < 1,
+/// threads < 1 or a negative max_exact_candidates.
+VerifierDecisions decidePcm(VerificationGraph& graph, const PcmParams& params = {});
+/// Steps 2 and 3 on a consistency graph over the graph's candidates (vertex k: candidate k)
+/// built with pairwiseConsistent (PcmPairCache keeps the pairs tested before); throws as above,
+/// and when the consistency graph has another size than the candidates.
 VerifierDecisions decidePcm(VerificationGraph& graph, const core::AdjacencyMatrix& consistent,
                             const PcmParams& params = {});
-/// Steps 1 to 3.
-VerifierDecisions decidePcm(VerificationGraph& graph, const PcmParams& params = {});
 
 }  // namespace rrr_graphslam::rrr
