@@ -253,6 +253,29 @@ def test_slam_offline_builds_graph_trajectory_and_map_from_a_log(tmp_path):
 
 
 @needs_slam
+def test_slam_offline_decides_with_another_verifier_as_rrr_offline_would(tmp_path):
+    # --verifier pcm decides the front end's candidates online; the run ends with the verdicts
+    # rrr_offline --verifier pcm gives its saved graph with the same cluster gap (PCM's clique
+    # does not depend on the poses the graph is saved at).
+    graph, decisions = tmp_path / "g.g2o", tmp_path / "d.tsv"
+    result = run(SLAM_OFFLINE, ACES_HEAD, "--output", graph, "--decisions", decisions,
+                 "--scans-per-submap", 10, "--min-node-separation", 15, "--refine-resolution", 0,
+                 "--verifier", "pcm", "--quiet")
+    assert result.returncode == 0, result.stderr
+    assert "verifier       pcm" in result.stdout
+    online = read_decisions(str(decisions))
+    assert online and all(d.reason.startswith("pcm:") for d in online)
+    offline_path = tmp_path / "offline.tsv"
+    offline = run(OFFLINE, graph, "--verifier", "pcm", "--cluster-gap", 10, "--decisions",
+                  offline_path, "--quiet")
+    assert offline.returncode == 0, offline.stderr
+    assert [(d.source, d.target, d.verdict) for d in read_decisions(str(offline_path))] == \
+        [(d.source, d.target, d.verdict) for d in online]
+    refused = run(SLAM_OFFLINE, ACES_HEAD, "--verifier", "pcm", "--gnc-loss", "gm")
+    assert refused.returncode == 2 and "--gnc-loss needs --verifier gnc" in refused.stderr
+
+
+@needs_slam
 def test_slam_offline_decision_stream_holds_every_arrival_and_ends_in_the_final_verdicts(tmp_path):
     import csv
     stream, decisions = tmp_path / "stream.tsv", tmp_path / "d.tsv"
