@@ -71,7 +71,11 @@ std::string nameOf(const VerifierChoice& c) {
 
 TEST(OnlineVerifier, DecidesAsClustersCloseAndEndsAsTheBatchVerifier) {
   const core::PoseGraph& input = csailWithOutliers().graph;
-  for (const VerifierChoice& choice : otherVerifiers()) {
+  // Geman-McClure left out here (each closing runs a whole GNC, twice TLS's time; under the
+  // sanitizers minutes): the cancel test below checks its end against the batch decision.
+  std::vector<VerifierChoice> choices = otherVerifiers();
+  choices.pop_back();
+  for (const VerifierChoice& choice : choices) {
     SCOPED_TRACE(nameOf(choice));
     OnlineRrr online(paramsFor(choice));
     ASSERT_NO_FATAL_FAILURE(testing::stream(input, online, /*early=*/false, /*finish=*/false));
