@@ -197,9 +197,18 @@ void LaserSlam::load(const MapSnapshot& map, std::size_t finished_submaps, bool 
   const int n = static_cast<int>(map.nodes.size());
   const bool localizing = mode_ == SessionMode::kLocalization;
   if (n > 0) {
-    rrr_ = rrr::OnlineRrr::fromPoseGraph(localizing ? graphToLocalizeIn(map) : graphToContinue(map),
-                                         params_.rrr, continuing);
-    if (localizing) rrr_->fixNodes();
+    if (localizing) {
+      rrr_ = rrr::OnlineRrr::fromPoseGraph(graphToLocalizeIn(map), params_.rrr, continuing);
+      rrr_->fixNodes();
+    } else {
+      // The replay starts from the sessions' odometry frames; the saved map is where the
+      // decisions that made it put the nodes, and the decision starts from it where it can.
+      std::vector<core::Pose2> saved_map;
+      saved_map.reserve(map.nodes.size());
+      for (const MapSnapshot::Node& node : map.nodes) saved_map.push_back(node.map_pose);
+      rrr_ = rrr::OnlineRrr::fromPoseGraph(graphToContinue(map), params_.rrr, continuing,
+                                           std::move(saved_map));
+    }
   }
   if (!continuing) rrr_->takeChanges();  // the loaded decisions are the starting point, not news
 

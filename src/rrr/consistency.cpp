@@ -276,7 +276,8 @@ namespace rrr_graphslam::rrr {
 
 std::vector<core::Pose2> robustMap(VerificationGraph& graph, const std::vector<int>& links,
                                    const std::vector<core::Pose2>& start, double phi,
-                                   int& optimizations, const std::vector<double>& prior_weights) {
+                                   int& optimizations, const std::vector<double>& prior_weights,
+                                   bool graduated) {
   auto prior = [&](std::size_t i) { return prior_weights.empty() ? 1.0 : prior_weights[i]; };
   constexpr int kMaxRounds = 40;
   constexpr double kAnnealing = 4.0;  // phi shrinks by this factor per round
@@ -288,7 +289,7 @@ std::vector<core::Pose2> robustMap(VerificationGraph& graph, const std::vector<i
   // start), LAGO's linear estimate of it is where Gauss-Newton would have to go, without the
   // local minima on the way (ringCity + 100 random-grouped: recall 0.94 -> 1.00; City10000 +
   // 1000 random-grouped: 40 -> 25 s).
-  if (core::farFromMinimum(opt)) opt.setPoses(core::lagoInitialization(opt));
+  if (graduated && core::farFromMinimum(opt)) opt.setPoses(core::lagoInitialization(opt));
   core::OptimizationRequest few_steps;
   few_steps.max_iterations = 3;  // a few steps per reweighting, so the map keeps up with phi
   // Graduated non-convexity: begin with phi above every residual (all weights ~1, plain least
@@ -296,7 +297,7 @@ std::vector<core::Pose2> robustMap(VerificationGraph& graph, const std::vector<i
   double largest = 0.0;
   for (int k : links)
     largest = std::max(largest, opt.constraintChi2(graph.candidate(k).constraint));
-  double current_phi = std::max(phi, largest);
+  double current_phi = graduated ? std::max(phi, largest) : phi;
   double previous_chi2 = -1.0;
   for (int round = 0; round < kMaxRounds; ++round) {
     for (std::size_t i = 0; i < links.size(); ++i) {

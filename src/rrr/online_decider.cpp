@@ -19,6 +19,9 @@ class IncrementalRrrDecider final : public OnlineDecider {
   void finishReplayKeepingOpen() override { incremental_.finishReplayKeepingOpen(); }
   void deferDecisions(bool defer) override { incremental_.deferDecisions(defer); }
   void decideClosedFromScratch() override { incremental_.decideClosedFromScratch(); }
+  void seedPreviousMap(std::vector<core::Pose2> map) override {
+    incremental_.rrr().seedPreviousMap(std::move(map));
+  }
 
   Verdict verdict(int candidate) const override { return incremental_.rrr().verdict(candidate); }
   int clusterOf(int candidate) const override { return incremental_.rrr().clusterOf(candidate); }

@@ -291,7 +291,8 @@ std::vector<DecisionRow> OnlineRrr::decisionRows() const {
 
 std::unique_ptr<OnlineRrr> OnlineRrr::fromPoseGraph(const core::PoseGraph& graph,
                                                     const OnlineRrrParams& params,
-                                                    bool keep_open_clusters) {
+                                                    bool keep_open_clusters,
+                                                    std::vector<core::Pose2> previous_map) {
   auto online = std::make_unique<OnlineRrr>(params);
   const std::vector<NodeId> ids = graph.nodeIds();
   const std::vector<ReplayEdge> edges = replayEdges(graph);
@@ -325,6 +326,7 @@ std::unique_ptr<OnlineRrr> OnlineRrr::fromPoseGraph(const core::PoseGraph& graph
     }
   }
   online->decider_->deferDecisions(false);
+  if (!previous_map.empty()) online->decider_->seedPreviousMap(std::move(previous_map));
   // Decided once, as a run's end would, but a loaded map goes on: clusters waiting for their
   // session to be placed keep waiting.
   if (keep_open_clusters) {

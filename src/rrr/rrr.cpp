@@ -94,9 +94,13 @@ void Rrr::addTestedCluster(const std::vector<int>& members, const LinkResiduals*
 // Algorithm 3. Hypotheses are the clusters neither good nor rejected (status kPending).
 void Rrr::decideFromScratch() {
   syncWithGraph();
-  // The last decision's map, which its loops made better than odometry, places sessions.
-  const std::vector<core::Pose2> last_map = base_;
-  const bool have_map = base_is_solution_;
+  // The last decision's map (or a loaded map's), which its loops made better than odometry,
+  // places sessions and is one of the robust ordering's maps.
+  const bool seeded = !base_is_solution_ && !seeded_map_.empty();
+  std::vector<core::Pose2> last_map = seeded ? seeded_map_ : base_;
+  if (seeded) graph_.extendByOdometry(last_map);  // nodes added since it was seeded
+  const bool have_map = base_is_solution_ || seeded;
+  seeded_map_.clear();
   startFromIntraResults();
   std::vector<char> placed_sessions;
   const std::vector<core::Pose2> initial =
@@ -115,7 +119,7 @@ void Rrr::decideFromScratch() {
   std::vector<int> hypotheses = clustersWith(Status::kPending);
   const bool ordered = params_.robust_ordering && hypotheses.size() > 1;
   if (ordered) {
-    hypotheses = orderByRobustMap(hypotheses, start);
+    hypotheses = orderByRobustMap(hypotheses, start, have_map ? &last_map : nullptr);
   } else if (!params_.robust_ordering) {
     hypotheses = preselect(hypotheses);
   }

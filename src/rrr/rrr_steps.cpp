@@ -3,6 +3,8 @@
 
 #include <algorithm>
 #include <map>
+#include <stdexcept>
+#include <string>
 
 #include <Eigen/Dense>
 
@@ -16,11 +18,12 @@ namespace rrr_graphslam::rrr {
 // --- robust_ordering
 
 std::vector<int> Rrr::orderByRobustMap(const std::vector<int>& hypotheses,
-                                       std::vector<core::Pose2>& start) {
+                                       std::vector<core::Pose2>& start,
+                                       const std::vector<core::Pose2>* previous_map) {
   // Many clusters at once: test first those that agree with a map outliers cannot bend; the
   // others are tested in the recover step, against the good set's map.
   const std::vector<core::Pose2> initial = start;
-  start = robustOrderingMap(hypotheses, initial);
+  start = robustOrderingMap(hypotheses, initial, previous_map);
   std::vector<int> agreeing, set_aside;
   std::vector<double> set_aside_index;
   for (int c : hypotheses) {
@@ -73,7 +76,8 @@ std::vector<int> Rrr::robustMapLinks(const std::vector<int>& pending) const {
 }
 
 std::vector<core::Pose2> Rrr::robustOrderingMap(const std::vector<int>& pending,
-                                                const std::vector<core::Pose2>& initial) {
+                                                const std::vector<core::Pose2>& initial,
+                                                const std::vector<core::Pose2>* previous_map) {
   const std::vector<int> links = robustMapLinks(pending);
   std::map<int, int> links_per_time_cluster;
   auto time_cluster = [&](int k) {
@@ -82,7 +86,8 @@ std::vector<core::Pose2> Rrr::robustOrderingMap(const std::vector<int>& pending,
   for (int k : links) ++links_per_time_cluster[time_cluster(k)];
   std::vector<core::Pose2> full_weight =
       robustMap(graph_, links, initial, params_.dcs_phi, optimizations_);
-  if (links_per_time_cluster.size() == links.size()) return full_weight;  // one link each
+  const bool one_link_each = links_per_time_cluster.size() == links.size();
+  if (one_link_each && previous_map == nullptr) return full_weight;
   auto support = [&](const std::vector<core::Pose2>& map, const std::vector<int>& clusters) {
     std::size_t agreeing = 0;
     for (int c : clusters) {
@@ -95,15 +100,28 @@ std::vector<core::Pose2> Rrr::robustOrderingMap(const std::vector<int>& pending,
   for (int k : links) voters.push_back(clusterOf(k));
   std::sort(voters.begin(), voters.end());
   voters.erase(std::unique(voters.begin(), voters.end()), voters.end());
-  const std::size_t full_support = support(full_weight, pending);
   if (support(full_weight, voters) >= links.size() - links.size() / 100) return full_weight;
 
-  std::vector<double> one_vote;
-  one_vote.reserve(links.size());
-  for (int k : links) one_vote.push_back(1.0 / links_per_time_cluster[time_cluster(k)]);
-  std::vector<core::Pose2> voted =
-      robustMap(graph_, links, initial, params_.dcs_phi, optimizations_, one_vote);
-  return support(voted, pending) > full_support ? voted : full_weight;
+  // The contenders in order; a later one wins only with strictly more support.
+  std::vector<core::Pose2> best = std::move(full_weight);
+  std::size_t best_support = support(best, pending);
+  auto contend = [&](std::vector<core::Pose2> map) {
+    const std::size_t agreeing = support(map, pending);
+    if (agreeing <= best_support) return;
+    best = std::move(map);
+    best_support = agreeing;
+  };
+  if (!one_link_each) {
+    std::vector<double> one_vote;
+    one_vote.reserve(links.size());
+    for (int k : links) one_vote.push_back(1.0 / links_per_time_cluster[time_cluster(k)]);
+    contend(robustMap(graph_, links, initial, params_.dcs_phi, optimizations_, one_vote));
+  }
+  if (previous_map != nullptr) {
+    contend(robustMap(graph_, links, *previous_map, params_.dcs_phi, optimizations_, {},
+                      /*graduated=*/false));
+  }
+  return best;
 }
 
 // --- place_sessions
@@ -377,6 +395,15 @@ std::vector<core::Pose2> Rrr::mapEstimate() const {
   std::vector<core::Pose2> poses = base_;
   graph_.extendByOdometry(poses);
   return poses;
+}
+
+void Rrr::seedPreviousMap(std::vector<core::Pose2> map) {
+  if (map.size() != static_cast<std::size_t>(graph_.numNodes())) {
+    throw std::invalid_argument("seedPreviousMap: " + std::to_string(map.size()) +
+                                " poses for a graph of " + std::to_string(graph_.numNodes()) +
+                                " nodes");
+  }
+  seeded_map_ = std::move(map);
 }
 
 std::vector<int> Rrr::clustersWith(Status status) const {

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "rrr_graphslam/core/graph_io.h"
+#include "rrr_graphslam/core/se2.h"
 
 namespace rrr_graphslam::rrr::testing {
 
@@ -49,6 +50,38 @@ inline LabelledGraph withOutliers(const std::string& path, int count, int group,
       used.emplace(ids[a + static_cast<std::size_t>(k)], ids[b + static_cast<std::size_t>(k)]);
       g.addEdge(ids[a + static_cast<std::size_t>(k)], ids[b + static_cast<std::size_t>(k)], z, info,
                 core::EdgeKind::kLoopCandidate);
+      out.candidate_is_true.push_back(false);
+    }
+  }
+  return out;
+}
+
+/// Adds false loops in groups of `group` links until they number `count`: each group joins a run
+/// of consecutive nodes a.. to a later run b.. (at least `group` + 40 nodes on) as if the second
+/// run lay at `offset` from where `map` has it: one wrong rigid offset per group, so a group
+/// agrees with itself and with the odometry on both sides (scripts/add_outliers --kind aliased,
+/// one offset for every group: a place seen again and again that looks like another).
+inline LabelledGraph withAliasedGroups(const core::PoseGraph& original,
+                                       const std::vector<core::Pose2>& map,
+                                       const core::Pose2& offset, int count, int group,
+                                       const Eigen::Matrix3d& information, unsigned seed) {
+  LabelledGraph out{original, {}};
+  for (std::size_t k = 0; k < original.numEdges(); ++k) {
+    if (original.edge(k).kind == core::EdgeKind::kLoopCandidate)
+      out.candidate_is_true.push_back(true);
+  }
+  const auto ids = original.nodeIds();
+  const auto run = static_cast<std::size_t>(group);
+  std::mt19937 rng(seed);
+  std::uniform_int_distribution<std::size_t> pick(0, ids.size() - 1 - run);
+  int added = 0;
+  while (added < count) {
+    const std::size_t a = pick(rng), b = pick(rng);
+    if (a + run + 40 > b) continue;
+    for (std::size_t k = 0; k < run && added < count; ++k, ++added) {
+      out.graph.addEdge(ids[a + k], ids[b + k],
+                        core::between(map[a + k], core::compose(offset, map[b + k])), information,
+                        core::EdgeKind::kLoopCandidate);
       out.candidate_is_true.push_back(false);
     }
   }

@@ -175,5 +175,53 @@ TEST(Consistency, InterRemovesAConsistentButFalseCluster) {
   EXPECT_LE(inter.removed.size(), 3u) << "true clusters stay";
 }
 
+TEST(Consistency, RobustMapWithoutGraduationKeepsTheBasinOfItsStart) {
+  // A building seen again and again: many groups of false loops that share one wrong rigid
+  // offset (an aliased corridor), each consistent with itself and with odometry on both sides,
+  // beside the true loops. Graduated DCS begins with the least squares of every link, which the
+  // aliased groups bend; from a start that is already the map, DCS without graduation stays in
+  // its basin (what Rrr's robust ordering uses the last decision's map for).
+  const core::PoseGraph original = core::readPoseGraph(kData + "/intel.g2o.gz");
+  core::Optimizer clean = core::makeOptimizer(original);
+  clean.optimize();
+  const std::vector<core::Pose2> truth = clean.poses();
+  int true_links = 0;
+  for (std::size_t k = 0; k < original.numEdges(); ++k)
+    true_links += original.edge(k).kind == core::EdgeKind::kLoopCandidate;
+  const core::Pose2 offset(3.0, -2.0, M_PI);  // the alias: the same place turned around
+  const testing::LabelledGraph aliased =
+      testing::withAliasedGroups(original, truth, offset, true_links / 2, 20,
+                                 Eigen::Vector3d(400.0, 400.0, 2500.0).asDiagonal(), 7);
+  VerificationGraph graph(aliased.graph, {});
+  std::vector<int> links(static_cast<std::size_t>(graph.numCandidates()));
+  std::iota(links.begin(), links.end(), 0);
+  // How many true loops agree with a map, and how far it is from the truth.
+  const double gate = core::chi2Quantile(0.95, 3);
+  auto agreeing_true_links = [&](const std::vector<core::Pose2>& map) {
+    graph.optimizer().setPoses(map);
+    int agreeing = 0;
+    for (int k = 0; k < true_links; ++k)
+      agreeing += graph.optimizer().constraintChi2(graph.candidate(k).constraint) < gate;
+    return agreeing;
+  };
+  auto largest_shift = [&](const std::vector<core::Pose2>& map) {
+    double shift = 0.0;
+    for (std::size_t n = 0; n < map.size(); ++n)
+      shift = std::max(shift, (map[n].head<2>() - truth[n].head<2>()).norm());
+    return shift;
+  };
+  int optimizations = 0;
+  const std::vector<core::Pose2> graduated = robustMap(graph, links, truth, 1.0, optimizations);
+  const std::vector<core::Pose2> from_start =
+      robustMap(graph, links, truth, 1.0, optimizations, {}, /*graduated=*/false);
+  const int agreeing_at_truth = agreeing_true_links(truth);
+  // The input is hard: least squares of every link leaves the truth's basin.
+  EXPECT_GT(largest_shift(graduated), 1.0);
+  EXPECT_LT(agreeing_true_links(graduated), agreeing_at_truth * 9 / 10);
+  // Without graduation the start's basin is kept.
+  EXPECT_LT(largest_shift(from_start), 0.2);
+  EXPECT_GE(agreeing_true_links(from_start), agreeing_at_truth * 99 / 100);
+}
+
 }  // namespace
 }  // namespace rrr_graphslam::rrr

@@ -116,9 +116,13 @@ namespace rrr_graphslam::rrr {
 /// decision is still a chi-square test. `prior_weights` (one per link, or empty for all 1) multiply
 /// the DCS weights; links whose weight falls below 1e-4 are switched off until it rises again.
 /// Weights are reset and exactly `links` are switched on on return.
+/// With `graduated` false, phi is `phi` from the first round and `start` is kept however far it
+/// is from the least-squares minimum: DCS as published, for a start that is already a map (the
+/// last decision's), which the outliers' least squares would bend away from.
 std::vector<core::Pose2> robustMap(VerificationGraph& graph, const std::vector<int>& links,
                                    const std::vector<core::Pose2>& start, double phi,
                                    int& optimizations,
-                                   const std::vector<double>& prior_weights = {});
+                                   const std::vector<double>& prior_weights = {},
+                                   bool graduated = true);
 
 }  // namespace rrr_graphslam::rrr

@@ -38,6 +38,10 @@ class OnlineDecider {
   virtual void deferDecisions(bool defer) = 0;
   /// The closed clusters decided again from scratch; open ones stay open.
   virtual void decideClosedFromScratch() = 0;
+  /// A map that earlier decisions made (a loaded map's saved poses, one per node of the graph
+  /// now), for the next decision from scratch to start from (RRR: Rrr::seedPreviousMap).
+  /// Verifiers that keep no map ignore it.
+  virtual void seedPreviousMap(std::vector<core::Pose2> map) { (void)map; }
 
   virtual Verdict verdict(int candidate) const = 0;
   /// The candidate's cluster; -1 while it is open.

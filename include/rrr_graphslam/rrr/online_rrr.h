@@ -92,9 +92,14 @@ class OnlineRrr {
   /// With `keep_open_clusters` (a graph replayed to go on as it was: lifelong online trimming)
   /// the clusters still open at the last node stay open and their candidates pending; the closed
   /// ones are decided from scratch.
+  /// `previous_map` (empty, or one pose per node in the order of graph.nodeIds()): where the
+  /// decisions that made the graph put its nodes (a saved map's poses, while the graph's own poses
+  /// are the odometry frames the replay starts from); the decision starts from it where it can
+  /// (OnlineDecider::seedPreviousMap).
   static std::unique_ptr<OnlineRrr> fromPoseGraph(const core::PoseGraph& graph,
                                                   const OnlineRrrParams& params = {},
-                                                  bool keep_open_clusters = false);
+                                                  bool keep_open_clusters = false,
+                                                  std::vector<core::Pose2> previous_map = {});
 
   /// Holds every node it has now where it is (localization against a loaded map that must not
   /// change): they leave the optimization's variables, and the nodes added later are placed

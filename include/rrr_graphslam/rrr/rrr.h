@@ -82,6 +82,11 @@ class Rrr {
   /// The map: poses of the good set's last solution, continued by odometry over the nodes added
   /// since (a new session's first node at its initial pose).
   std::vector<core::Pose2> mapEstimate() const;
+  /// A map that decisions made before this Rrr existed (a loaded map's saved poses, one per node
+  /// of the graph now): the next decideFromScratch() takes it as its last decision's map, which
+  /// places sessions and is one of the robust ordering's maps. Throws std::invalid_argument for
+  /// a size other than the graph's node count.
+  void seedPreviousMap(std::vector<core::Pose2> map);
 
   void setProgress(ProgressFunction progress) { progress_ = std::move(progress); }
 
@@ -127,15 +132,20 @@ class Rrr {
   /// robust_ordering: the hypotheses that agree with a robust map (robustOrderingMap), which
   /// becomes `start`; the others are rejected and left to the recover step.
   std::vector<int> orderByRobustMap(const std::vector<int>& hypotheses,
-                                    std::vector<core::Pose2>& start);
-  /// The robust map that orders a batch decision. Two are built: one with every link at full
-  /// weight, and one in which each time cluster has one vote (its links share weight 1), so that
-  /// false groups cut into many consistent pieces (random-grouped outliers) cannot outvote the
-  /// true loops; the full-weight map still closes drifted loops that a few strong links carry
-  /// (ringCity, CSAIL), where the one-vote map falls short. The map more pending links agree
+                                    std::vector<core::Pose2>& start,
+                                    const std::vector<core::Pose2>* previous_map);
+  /// The robust map that orders a batch decision. Two are built from `initial`: one with every
+  /// link at full weight, and one in which each time cluster has one vote (its links share
+  /// weight 1), so that false groups cut into many consistent pieces (random-grouped outliers)
+  /// cannot outvote the true loops; the full-weight map still closes drifted loops that a few
+  /// strong links carry (ringCity, CSAIL), where the one-vote map falls short. With a
+  /// `previous_map` (the last decision's), a third: DCS from it without graduation, which keeps
+  /// the basin a decision found when the outliers' least squares would leave it (many sessions
+  /// of one building, each adding the same aliased places). The map more pending links agree
   /// with wins: the larger consensus, as in RANSAC.
   std::vector<core::Pose2> robustOrderingMap(const std::vector<int>& pending,
-                                             const std::vector<core::Pose2>& initial);
+                                             const std::vector<core::Pose2>& initial,
+                                             const std::vector<core::Pose2>* previous_map);
   /// place_sessions: `initial` with each session after the first moved rigidly so that the first
   /// kept link of the largest cluster joining it to the sessions placed so far holds exactly
   /// (sessions no cluster reaches stay where they are). Only a start: every cluster is tested
@@ -232,6 +242,7 @@ class Rrr {
   std::vector<std::string> link_reason_;  // per candidate dropped by a link test: why
   std::vector<core::Pose2> base_;         // solution of the good set
   bool base_is_solution_ = false;         // false until a decision optimized base_
+  std::vector<core::Pose2> seeded_map_;   // seedPreviousMap(), until the next batch decision
   std::vector<int> previous_good_;        // good set before the current joint test
   std::vector<int> last_removed_;         // clusters the last joint test rejected
   int time_clusters_ = 0;                 // addCluster calls so far
