@@ -119,7 +119,13 @@ void Rrr::decideFromScratch() {
   std::vector<int> hypotheses = clustersWith(Status::kPending);
   const bool ordered = params_.robust_ordering && hypotheses.size() > 1;
   if (ordered) {
-    hypotheses = orderByRobustMap(hypotheses, start, have_map ? &last_map : nullptr);
+    // The earlier map is a contender where the initial estimate is poorest: sessions (parts no
+    // trusted constraint joins) each placed rigidly by one cluster. Within one session it would
+    // only repeat an earlier decision made on part of the same candidates.
+    const std::vector<int> parts = graph_.trustedComponents();
+    const bool sessions = !parts.empty() && *std::max_element(parts.begin(), parts.end()) > 0;
+    hypotheses =
+        orderByRobustMap(hypotheses, start, have_map && sessions ? &last_map : nullptr);
   } else if (!params_.robust_ordering) {
     hypotheses = preselect(hypotheses);
   }

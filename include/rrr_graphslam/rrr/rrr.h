@@ -84,8 +84,8 @@ class Rrr {
   std::vector<core::Pose2> mapEstimate() const;
   /// A map that decisions made before this Rrr existed (a loaded map's saved poses, one per node
   /// of the graph now): the next decideFromScratch() takes it as its last decision's map, which
-  /// places sessions and is one of the robust ordering's maps. Throws std::invalid_argument for
-  /// a size other than the graph's node count.
+  /// places sessions and, in a graph of several sessions, is one of the robust ordering's maps.
+  /// Throws std::invalid_argument for a size other than the graph's node count.
   void seedPreviousMap(std::vector<core::Pose2> map);
 
   void setProgress(ProgressFunction progress) { progress_ = std::move(progress); }
@@ -139,10 +139,10 @@ class Rrr {
   /// weight 1), so that false groups cut into many consistent pieces (random-grouped outliers)
   /// cannot outvote the true loops; the full-weight map still closes drifted loops that a few
   /// strong links carry (ringCity, CSAIL), where the one-vote map falls short. With a
-  /// `previous_map` (the last decision's), a third: DCS from it without graduation, which keeps
-  /// the basin a decision found when the outliers' least squares would leave it (many sessions
-  /// of one building, each adding the same aliased places). The map more pending links agree
-  /// with wins: the larger consensus, as in RANSAC.
+  /// `previous_map` (the last decision's, given when the graph holds several sessions), a third:
+  /// DCS from it without graduation, which keeps the basin a decision found when the outliers'
+  /// least squares would leave it (many sessions of one building, each adding the same aliased
+  /// places). The map more pending links agree with wins: the larger consensus, as in RANSAC.
   std::vector<core::Pose2> robustOrderingMap(const std::vector<int>& pending,
                                              const std::vector<core::Pose2>& initial,
                                              const std::vector<core::Pose2>* previous_map);
