@@ -117,16 +117,7 @@ bool GraphSlamRos::load(LoadGraph::Request& req, LoadGraph::Response& res) {
                                         " does not fit the uint32 ids of the node's messages");
           }
         }
-        // A graph ~save wrote holds the map its decisions made: the new decision starts from it
-        // where it can (Rrr::seedPreviousMap).
-        std::vector<core::Pose2> saved_map;
-        if (with_decisions) {
-          for (const core::PoseGraph::NodeId id : loaded.nodeIds()) {
-            saved_map.push_back(loaded.pose(id));
-          }
-        }
-        replaceGraph(
-            rrr::OnlineRrr::fromPoseGraph(loaded, params_.rrr, false, std::move(saved_map)));
+        replaceGraph(rrr::OnlineRrr::fromPoseGraph(loaded, params_.rrr));
         const rrr::OnlineRrrStatus s = graph().status();
         return "loaded " + std::to_string(s.nodes) + " nodes (" + std::to_string(s.sessions) +
                " sessions) and " + std::to_string(s.candidates) + " candidates from " + req.path +

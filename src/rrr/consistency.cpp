@@ -285,19 +285,20 @@ std::vector<core::Pose2> robustMap(VerificationGraph& graph, const std::vector<i
   core::Optimizer& opt = graph.optimizer();
   graph.activateOnly(links);
   opt.setPoses(start);
-  // The first round is plain least squares over every link; far from its minimum (a drifted
-  // start), LAGO's linear estimate of it is where Gauss-Newton would have to go, without the
-  // local minima on the way (ringCity + 100 random-grouped: recall 0.94 -> 1.00; City10000 +
+  // Graduated, the first round is plain least squares over every link; far from its minimum (a
+  // drifted start), LAGO's linear estimate of it is where Gauss-Newton would have to go, without
+  // the local minima on the way (ringCity + 100 random-grouped: recall 0.94 -> 1.00; City10000 +
   // 1000 random-grouped: 40 -> 25 s).
   if (graduated && core::farFromMinimum(opt)) opt.setPoses(core::lagoInitialization(opt));
   core::OptimizationRequest few_steps;
   few_steps.max_iterations = 3;  // a few steps per reweighting, so the map keeps up with phi
   // Graduated non-convexity: begin with phi above every residual (all weights ~1, plain least
   // squares, which closes loops however far odometry drifted), then shrink it to `phi`.
-  double largest = 0.0;
-  for (int k : links)
-    largest = std::max(largest, opt.constraintChi2(graph.candidate(k).constraint));
-  double current_phi = graduated ? std::max(phi, largest) : phi;
+  double current_phi = phi;
+  if (graduated) {
+    for (int k : links)
+      current_phi = std::max(current_phi, opt.constraintChi2(graph.candidate(k).constraint));
+  }
   double previous_chi2 = -1.0;
   for (int round = 0; round < kMaxRounds; ++round) {
     for (std::size_t i = 0; i < links.size(); ++i) {

@@ -94,19 +94,62 @@ void Rrr::addTestedCluster(const std::vector<int>& members, const LinkResiduals*
 // Algorithm 3. Hypotheses are the clusters neither good nor rejected (status kPending).
 void Rrr::decideFromScratch() {
   syncWithGraph();
-  // The last decision's map (or a loaded map's), which its loops made better than odometry,
-  // places sessions and is one of the robust ordering's maps.
-  const bool seeded = !base_is_solution_ && !seeded_map_.empty();
-  std::vector<core::Pose2> last_map = seeded ? seeded_map_ : base_;
-  if (seeded) graph_.extendByOdometry(last_map);  // nodes added since it was seeded
+  // The previous map (a seeded one, or the last decision's solution), which its loops made
+  // better than odometry, places sessions and, with several sessions, is one of the robust
+  // ordering's maps.
+  const bool seeded = !seeded_map_.empty();
+  std::vector<core::Pose2> previous_map = seeded ? seeded_map_ : base_;
+  if (seeded) graph_.extendByOdometry(previous_map);  // nodes added since it was seeded
   const bool have_map = base_is_solution_ || seeded;
   seeded_map_.clear();
+  const std::vector<core::Pose2>* placement_map = have_map ? &previous_map : nullptr;
+  // The previous map is a contender where the initial estimate is poorest: several sessions
+  // (parts no trusted constraint joins), each placed rigidly by one cluster. Within one session
+  // it would only repeat an earlier decision made on part of the same candidates (measured:
+  // doc/rrr_extensions.md#measured-and-not-adopted).
+  if (!have_map || !params_.robust_ordering || graph_.numTrustedComponents() < 2) {
+    decideOnce(placement_map, nullptr);
+    return;
+  }
+  const DecisionState before = decisionState();
+  if (!decideOnce(placement_map, &previous_map)) return;
+  // The previous map ordered the work. A map that more links agree with need not lead to the
+  // decision that keeps more of them (an earlier decision's false groups agree with its map):
+  // the decision is made again as without it, and the one that accepts more links is kept (the
+  // larger consensus; a tie keeps the one without it).
+  const std::size_t accepted_with_previous = acceptedCandidates().size();
+  DecisionState with_previous = decisionState();
+  restoreDecisionState(before);
+  decideOnce(placement_map, nullptr);
+  if (acceptedCandidates().size() >= accepted_with_previous) return;
+  restoreDecisionState(std::move(with_previous));
+  graph_.activateOnly(acceptedCandidates());
+  graph_.optimizer().setPoses(base_);
+}
+
+Rrr::DecisionState Rrr::decisionState() const {
+  return {clusters_,         kept_links_,    link_reason_,  base_,
+          base_is_solution_, previous_good_, last_removed_, unoptimized_accepts_};
+}
+
+void Rrr::restoreDecisionState(DecisionState state) {
+  clusters_ = std::move(state.clusters);
+  kept_links_ = std::move(state.kept_links);
+  link_reason_ = std::move(state.link_reason);
+  base_ = std::move(state.base);
+  base_is_solution_ = state.base_is_solution;
+  previous_good_ = std::move(state.previous_good);
+  last_removed_ = std::move(state.last_removed);
+  unoptimized_accepts_ = state.unoptimized_accepts;
+}
+
+bool Rrr::decideOnce(const std::vector<core::Pose2>* placement_map,
+                     const std::vector<core::Pose2>* ordering_map) {
   startFromIntraResults();
   std::vector<char> placed_sessions;
   const std::vector<core::Pose2> initial =
-      params_.place_sessions
-          ? placeSessions(graph_.initialPoses(), &placed_sessions, have_map ? &last_map : nullptr)
-          : graph_.initialPoses();
+      params_.place_sessions ? placeSessions(graph_.initialPoses(), &placed_sessions, placement_map)
+                             : graph_.initialPoses();
   if (params_.place_sessions && params_.placement_min_spread_m > 0.0) {
     holdUnplacedSessions(placed_sessions);
   }
@@ -118,14 +161,9 @@ void Rrr::decideFromScratch() {
   std::vector<core::Pose2> start = initial;
   std::vector<int> hypotheses = clustersWith(Status::kPending);
   const bool ordered = params_.robust_ordering && hypotheses.size() > 1;
+  bool previous_won = false;
   if (ordered) {
-    // The earlier map is a contender where the initial estimate is poorest: sessions (parts no
-    // trusted constraint joins) each placed rigidly by one cluster. Within one session it would
-    // only repeat an earlier decision made on part of the same candidates.
-    const std::vector<int> parts = graph_.trustedComponents();
-    const bool sessions = !parts.empty() && *std::max_element(parts.begin(), parts.end()) > 0;
-    hypotheses =
-        orderByRobustMap(hypotheses, start, have_map && sessions ? &last_map : nullptr);
+    hypotheses = orderByRobustMap(hypotheses, start, ordering_map, &previous_won);
   } else if (!params_.robust_ordering) {
     hypotheses = preselect(hypotheses);
   }
@@ -161,6 +199,7 @@ void Rrr::decideFromScratch() {
   if (params_.joint_link_check) jointLinkCheck();
   if (params_.placement_min_spread_m > 0.0 && holdLoosePlacements()) optimizeGoodMap();
   if (params_.place_sessions) unplaceLooseSessions();
+  return previous_won;
 }
 
 void Rrr::startFromIntraResults() {

@@ -82,6 +82,11 @@ int VerificationGraph::addMarginal(int from, int to, const core::Pose2& measurem
   return static_cast<int>(marginal_.size()) - 1;
 }
 
+int VerificationGraph::numTrustedComponents() const {
+  const std::vector<int> component = trustedComponents();
+  return component.empty() ? 0 : *std::max_element(component.begin(), component.end()) + 1;
+}
+
 std::vector<int> VerificationGraph::trustedComponents() const {
   core::UnionFind joined(static_cast<std::size_t>(chain_.numSessions()));
   for (const MarginalLink& m : marginal_) {

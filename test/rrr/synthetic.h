@@ -3,6 +3,7 @@
 
 #include <random>
 #include <set>
+#include <stdexcept>
 #include <string>
 #include <utility>
 #include <vector>
@@ -72,6 +73,9 @@ inline LabelledGraph withAliasedGroups(const core::PoseGraph& original,
   }
   const auto ids = original.nodeIds();
   const auto run = static_cast<std::size_t>(group);
+  if (group < 1 || ids.size() < 2 * run + 41) {
+    throw std::invalid_argument("withAliasedGroups: too few nodes for two runs of the group");
+  }
   std::mt19937 rng(seed);
   std::uniform_int_distribution<std::size_t> pick(0, ids.size() - 1 - run);
   int added = 0;

@@ -92,10 +92,10 @@ class OnlineRrr {
   /// With `keep_open_clusters` (a graph replayed to go on as it was: lifelong online trimming)
   /// the clusters still open at the last node stay open and their candidates pending; the closed
   /// ones are decided from scratch.
-  /// `previous_map` (empty, or one pose per node in the order of graph.nodeIds()): where the
-  /// decisions that made the graph put its nodes (a saved map's poses, while the graph's own poses
-  /// are the odometry frames the replay starts from); the decision starts from it where it can
-  /// (OnlineDecider::seedPreviousMap).
+  /// `previous_map` (empty, or one pose per node in the order of graph.nodeIds(), in the graph's
+  /// gauge): where the decisions that made the graph put its nodes (a saved map's poses, while
+  /// the graph's own poses are the odometry frames the replay starts from); the decision starts
+  /// from it where it can (OnlineDecider::seedPreviousMap).
   static std::unique_ptr<OnlineRrr> fromPoseGraph(const core::PoseGraph& graph,
                                                   const OnlineRrrParams& params = {},
                                                   bool keep_open_clusters = false,

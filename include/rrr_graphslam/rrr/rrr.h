@@ -82,8 +82,9 @@ class Rrr {
   /// The map: poses of the good set's last solution, continued by odometry over the nodes added
   /// since (a new session's first node at its initial pose).
   std::vector<core::Pose2> mapEstimate() const;
-  /// A map that decisions made before this Rrr existed (a loaded map's saved poses, one per node
-  /// of the graph now): the next decideFromScratch() takes it as its last decision's map, which
+  /// The previous map for the next decideFromScratch(), instead of the last decision's solution:
+  /// a map that decisions made before this Rrr existed (a loaded map's saved poses), one pose per
+  /// node of the graph now, in the graph's gauge (node 0 where the initial estimate has it). It
   /// places sessions and, in a graph of several sessions, is one of the robust ordering's maps.
   /// Throws std::invalid_argument for a size other than the graph's node count.
   void seedPreviousMap(std::vector<core::Pose2> map);
@@ -104,6 +105,23 @@ class Rrr {
   };
 
   // --- The paper's steps (rrr.cpp).
+  /// Algorithm 3 once: from the intra results to the final checks. `placement_map` is the
+  /// previous map placeSessions() measures agreement on; `ordering_map`, if given, is the robust
+  /// ordering's third contender. Returns true if that contender ordered the work.
+  bool decideOnce(const std::vector<core::Pose2>* placement_map,
+                  const std::vector<core::Pose2>* ordering_map);
+  /// What a decision changes, to run it twice and keep one (decideFromScratch).
+  struct DecisionState {
+    std::vector<Cluster> clusters;
+    std::vector<std::vector<int>> kept_links;
+    std::vector<std::string> link_reason;
+    std::vector<core::Pose2> base;
+    bool base_is_solution = false;
+    std::vector<int> previous_good, last_removed;
+    int unoptimized_accepts = 0;
+  };
+  DecisionState decisionState() const;
+  void restoreDecisionState(DecisionState state);
   /// Algorithm 3's input: every cluster that passed its intra test is a hypothesis again, with
   /// every link that passed it; the good and reject sets are empty; the map is the initial one.
   void startFromIntraResults();
@@ -130,22 +148,26 @@ class Rrr {
 
   // --- Additions (rrr_steps.cpp), each switched by its RrrParams field.
   /// robust_ordering: the hypotheses that agree with a robust map (robustOrderingMap), which
-  /// becomes `start`; the others are rejected and left to the recover step.
+  /// becomes `start`; the others are rejected and left to the recover step. `previous_won` (if
+  /// given) says whether the map built from `previous_map` won.
   std::vector<int> orderByRobustMap(const std::vector<int>& hypotheses,
                                     std::vector<core::Pose2>& start,
-                                    const std::vector<core::Pose2>* previous_map);
+                                    const std::vector<core::Pose2>* previous_map,
+                                    bool* previous_won = nullptr);
   /// The robust map that orders a batch decision. Two are built from `initial`: one with every
   /// link at full weight, and one in which each time cluster has one vote (its links share
   /// weight 1), so that false groups cut into many consistent pieces (random-grouped outliers)
   /// cannot outvote the true loops; the full-weight map still closes drifted loops that a few
   /// strong links carry (ringCity, CSAIL), where the one-vote map falls short. With a
-  /// `previous_map` (the last decision's, given when the graph holds several sessions), a third:
+  /// `previous_map` (seeded or the last decision's, given when the graph holds several
+  /// sessions) and the full-weight map outvoted, a third:
   /// DCS from it without graduation, which keeps the basin a decision found when the outliers'
   /// least squares would leave it (many sessions of one building, each adding the same aliased
   /// places). The map more pending links agree with wins: the larger consensus, as in RANSAC.
   std::vector<core::Pose2> robustOrderingMap(const std::vector<int>& pending,
                                              const std::vector<core::Pose2>& initial,
-                                             const std::vector<core::Pose2>* previous_map);
+                                             const std::vector<core::Pose2>* previous_map,
+                                             bool* previous_won);
   /// place_sessions: `initial` with each session after the first moved rigidly so that the first
   /// kept link of the largest cluster joining it to the sessions placed so far holds exactly
   /// (sessions no cluster reaches stay where they are). Only a start: every cluster is tested

@@ -68,6 +68,8 @@ class VerificationGraph {
   /// in: 0, 1, ... in order of their first nodes. Without marginal constraints these are the
   /// odometry chain's sessions.
   std::vector<int> trustedComponents() const;
+  /// How many parts trustedComponents() finds (the sessions, less those marginals joined).
+  int numTrustedComponents() const;
   /// chi2 of the trusted constraints alone (odometry and marginal constraints, no candidate) at
   /// their own minimum: zero for odometry (a forest), positive once marginal constraints close
   /// cycles with it (they carry loops that bent the chain). RRR's joint tests measure what the
