@@ -163,7 +163,7 @@ bool Rrr::decideOnce(const std::vector<core::Pose2>* placement_map,
   const bool ordered = params_.robust_ordering && hypotheses.size() > 1;
   bool previous_won = false;
   if (ordered) {
-    hypotheses = orderByRobustMap(hypotheses, start, ordering_map, &previous_won);
+    hypotheses = orderByRobustMap(hypotheses, start, ordering_map, previous_won);
   } else if (!params_.robust_ordering) {
     hypotheses = preselect(hypotheses);
   }

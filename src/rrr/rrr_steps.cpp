@@ -20,13 +20,11 @@ namespace rrr_graphslam::rrr {
 std::vector<int> Rrr::orderByRobustMap(const std::vector<int>& hypotheses,
                                        std::vector<core::Pose2>& start,
                                        const std::vector<core::Pose2>* previous_map,
-                                       bool* previous_won) {
+                                       bool& previous_won) {
   // Many clusters at once: test first those that agree with a map outliers cannot bend; the
   // others are tested in the recover step, against the good set's map.
   const std::vector<core::Pose2> initial = start;
-  bool won = false;
-  start = robustOrderingMap(hypotheses, initial, previous_map, &won);
-  if (previous_won != nullptr) *previous_won = won;
+  start = robustOrderingMap(hypotheses, initial, previous_map, previous_won);
   std::vector<int> agreeing, set_aside;
   std::vector<double> set_aside_index;
   for (int c : hypotheses) {
@@ -40,7 +38,7 @@ std::vector<int> Rrr::orderByRobustMap(const std::vector<int>& hypotheses,
   }
   if (agreeing.empty()) {
     // The map agrees with nothing, so it orders nothing: test every cluster, as the paper does.
-    if (previous_won != nullptr) *previous_won = false;
+    previous_won = false;
     start = initial;
     return set_aside;
   }
@@ -82,7 +80,8 @@ std::vector<int> Rrr::robustMapLinks(const std::vector<int>& pending) const {
 std::vector<core::Pose2> Rrr::robustOrderingMap(const std::vector<int>& pending,
                                                 const std::vector<core::Pose2>& initial,
                                                 const std::vector<core::Pose2>* previous_map,
-                                                bool* previous_won) {
+                                                bool& previous_won) {
+  previous_won = false;
   const std::vector<int> links = robustMapLinks(pending);
   std::map<int, int> links_per_time_cluster;
   auto time_cluster = [&](int k) {
@@ -126,7 +125,7 @@ std::vector<core::Pose2> Rrr::robustOrderingMap(const std::vector<int>& pending,
     const std::size_t before = best_support;
     contend(robustMap(graph_, links, *previous_map, params_.dcs_phi, optimizations_, {},
                       /*graduated=*/false));
-    *previous_won = best_support > before;
+    previous_won = best_support > before;
   }
   return best;
 }

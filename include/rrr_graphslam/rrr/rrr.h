@@ -148,12 +148,12 @@ class Rrr {
 
   // --- Additions (rrr_steps.cpp), each switched by its RrrParams field.
   /// robust_ordering: the hypotheses that agree with a robust map (robustOrderingMap), which
-  /// becomes `start`; the others are rejected and left to the recover step. `previous_won` (if
-  /// given) says whether the map built from `previous_map` won.
+  /// becomes `start`; the others are rejected and left to the recover step. `previous_won` says
+  /// whether the map built from `previous_map` won and orders the work.
   std::vector<int> orderByRobustMap(const std::vector<int>& hypotheses,
                                     std::vector<core::Pose2>& start,
                                     const std::vector<core::Pose2>* previous_map,
-                                    bool* previous_won = nullptr);
+                                    bool& previous_won);
   /// The robust map that orders a batch decision. Two are built from `initial`: one with every
   /// link at full weight, and one in which each time cluster has one vote (its links share
   /// weight 1), so that false groups cut into many consistent pieces (random-grouped outliers)
@@ -167,7 +167,7 @@ class Rrr {
   std::vector<core::Pose2> robustOrderingMap(const std::vector<int>& pending,
                                              const std::vector<core::Pose2>& initial,
                                              const std::vector<core::Pose2>* previous_map,
-                                             bool* previous_won);
+                                             bool& previous_won);
   /// place_sessions: `initial` with each session after the first moved rigidly so that the first
   /// kept link of the largest cluster joining it to the sessions placed so far holds exactly
   /// (sessions no cluster reaches stay where they are). Only a start: every cluster is tested
