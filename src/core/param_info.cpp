@@ -11,14 +11,18 @@ std::string outOfRangeMessage(const ParamInfo& info, const std::string& value) {
   return what.str();
 }
 
+std::string choiceList(const std::vector<std::string>& names) {
+  std::string list;
+  for (std::size_t k = 0; k < names.size(); ++k) {
+    if (k > 0) list += k + 1 == names.size() ? " or " : ", ";
+    list += names[k];
+  }
+  return list;
+}
+
 std::string notAChoiceMessage(const ParamInfo& info, const std::string& value,
                               const std::vector<std::string>& names) {
-  std::string what = std::string(info.name) + " must be ";
-  for (std::size_t k = 0; k < names.size(); ++k) {
-    if (k > 0) what += k + 1 == names.size() ? " or " : ", ";
-    what += names[k];
-  }
-  return what + ", not '" + value + "'";
+  return std::string(info.name) + " must be " + choiceList(names) + ", not '" + value + "'";
 }
 
 }  // namespace rrr_graphslam::core

@@ -72,14 +72,10 @@ mrpt::maps::COccupancyGridMap2D renderOccupancyMap(const MapInputs& inputs, doub
   return layered;
 }
 
-std::string toString(MapLayering layering) {
-  return layering == MapLayering::kNewestSession ? "newest-session" : "all";
-}
+std::string toString(MapLayering layering) { return core::choiceName(layering); }
 
 MapLayering parseMapLayering(const std::string& text) {
-  if (text == "all") return MapLayering::kAllScans;
-  if (text == "newest-session") return MapLayering::kNewestSession;
-  throw std::invalid_argument("map layering '" + text + "' is not all or newest-session");
+  return core::parseChoiceOrThrow<MapLayering>(text, "map layering");
 }
 
 }  // namespace rrr_graphslam::frontend

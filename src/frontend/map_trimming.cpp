@@ -21,23 +21,10 @@
 
 namespace rrr_graphslam::frontend {
 
-std::string toString(Sparsification sparsification) {
-  switch (sparsification) {
-    case Sparsification::kClt:
-      return "clt";
-    case Sparsification::kDense:
-      return "dense";
-    case Sparsification::kDelete:
-      return "delete";
-  }
-  return "?";
-}
+std::string toString(Sparsification sparsification) { return core::choiceName(sparsification); }
 
 Sparsification parseSparsification(const std::string& text) {
-  for (Sparsification s : {Sparsification::kClt, Sparsification::kDense, Sparsification::kDelete}) {
-    if (text == toString(s)) return s;
-  }
-  throw std::invalid_argument("sparsification '" + text + "' is not clt, dense or delete");
+  return core::parseChoiceOrThrow<Sparsification>(text, "sparsification");
 }
 
 void validate(const TrimParams& params) {

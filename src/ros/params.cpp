@@ -133,17 +133,8 @@ NodeParams loadParams(const ros::NodeHandle& private_nh) {
   // Another verifier to compare with RRR (rrr_offline --verifier): decided again whenever a
   // time cluster closes.
   rrr::VerifierChoice& verifier = p.rrr.verifier;
-  std::string verifier_name = rrr::toString(verifier.verifier);
-  r.read<std::string>(
-      "verifier", verifier_name,
-      [](const std::string& v) { return v == "rrr" || v == "pcm" || v == "scgp" || v == "gnc"; },
-      "rrr, pcm, scgp or gnc");
-  verifier.verifier = rrr::parseVerifier(verifier_name);
-  std::string gnc_loss = rrr::toString(verifier.gnc_loss);
-  r.read<std::string>(
-      "gnc_loss", gnc_loss, [](const std::string& v) { return v == "tls" || v == "gm"; },
-      "tls or gm");
-  verifier.gnc_loss = rrr::parseGncLoss(gnc_loss);
+  r.read(core::ParamInfo{"verifier", 0, 0, ""}, verifier.verifier);
+  r.read(core::ParamInfo{"gnc_loss", 0, 0, ""}, verifier.gnc_loss);
   r.read<double>(
       "scgp_ratio", verifier.scgp_ratio, [](const double& v) { return v >= 1.0; }, "at least 1");
 
@@ -157,12 +148,7 @@ NodeParams loadParams(const ros::NodeHandle& private_nh) {
     throw std::invalid_argument("parameter " + private_nh.resolveName("") + ": " + e.what());
   }
   r.positive("map_resolution", p.map_resolution);
-  std::string layering = frontend::toString(p.map_layering);
-  r.read<std::string>(
-      "map_layering", layering,
-      [](const std::string& v) { return v == "all" || v == "newest-session"; },
-      "all or newest-session");
-  p.map_layering = frontend::parseMapLayering(layering);
+  r.read(core::ParamInfo{"map_layering", 0, 0, ""}, p.map_layering);
   r.read<std::string>(
       "map_file", p.map_file, [](const std::string&) { return true; }, "a path");
   r.read<std::string>(

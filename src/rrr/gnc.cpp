@@ -12,14 +12,10 @@
 
 namespace rrr_graphslam::rrr {
 
-std::string toString(GncParams::Loss loss) {
-  return loss == GncParams::Loss::kGemanMcClure ? "gm" : "tls";
-}
+std::string toString(GncParams::Loss loss) { return core::choiceName(loss); }
 
 GncParams::Loss parseGncLoss(const std::string& text) {
-  if (text == "tls") return GncParams::Loss::kTruncatedLeastSquares;
-  if (text == "gm") return GncParams::Loss::kGemanMcClure;
-  throw std::invalid_argument("gnc loss '" + text + "' is not tls or gm");
+  return core::parseChoiceOrThrow<GncParams::Loss>(text, "gnc loss");
 }
 
 namespace {

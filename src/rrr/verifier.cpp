@@ -4,25 +4,10 @@
 
 namespace rrr_graphslam::rrr {
 
-std::string toString(Verifier verifier) {
-  switch (verifier) {
-    case Verifier::kRrr:
-      return "rrr";
-    case Verifier::kPcm:
-      return "pcm";
-    case Verifier::kScgp:
-      return "scgp";
-    case Verifier::kGnc:
-      return "gnc";
-  }
-  return "?";
-}
+std::string toString(Verifier verifier) { return core::choiceName(verifier); }
 
 Verifier parseVerifier(const std::string& text) {
-  for (Verifier v : {Verifier::kRrr, Verifier::kPcm, Verifier::kScgp, Verifier::kGnc}) {
-    if (text == toString(v)) return v;
-  }
-  throw std::invalid_argument("verifier '" + text + "' is not rrr, pcm, scgp or gnc");
+  return core::parseChoiceOrThrow<Verifier>(text, "verifier");
 }
 
 void finishDecisions(VerificationGraph& graph, const std::vector<int>& accepted,

@@ -37,8 +37,8 @@ BAD = [
     ({"lifelong": True, "trim_every_n_nodes": 10, "sparsification": "delete"},
      "online trimming needs sparsification clt"),
     ({"map_layering": "newest"}, "map_layering must be all or newest-session"),
-    ({"verifier": "ransac"}, "verifier must be rrr, pcm, scgp or gnc, got ransac"),
-    ({"gnc_loss": "huber"}, "gnc_loss must be tls or gm, got huber"),
+    ({"verifier": "ransac"}, "verifier must be rrr, pcm, scgp or gnc, not 'ransac'"),
+    ({"gnc_loss": "huber"}, "gnc_loss must be tls or gm, not 'huber'"),
     ({"scgp_ratio": 0.5}, "scgp_ratio must be at least 1, got 0.5"),
 ]
 

@@ -29,7 +29,10 @@ struct ParamInfo {
 /// "NAME = VALUE is out of range: must be in [LOW, HIGH]".
 std::string outOfRangeMessage(const ParamInfo& info, const std::string& value);
 
-/// "NAME must be one of A, B, ..., not 'VALUE'".
+/// "A, B or C".
+std::string choiceList(const std::vector<std::string>& names);
+
+/// "NAME must be A, B or C, not 'VALUE'".
 std::string notAChoiceMessage(const ParamInfo& info, const std::string& value,
                               const std::vector<std::string>& names);
 
@@ -62,6 +65,16 @@ bool parseChoice(const std::string& text, E& value) {
     }
   }
   return false;
+}
+
+/// The choice named `text`; std::invalid_argument "WHAT 'TEXT' is not A, B or C" if none is.
+template <class E>
+E parseChoiceOrThrow(const std::string& text, const std::string& what) {
+  E value{};
+  if (!parseChoice(text, value)) {
+    throw std::invalid_argument(what + " '" + text + "' is not " + choiceList(choiceNames<E>()));
+  }
+  return value;
 }
 
 /// A value as the YAML and the messages write it.

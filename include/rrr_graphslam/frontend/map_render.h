@@ -16,12 +16,17 @@
 #include <mrpt/maps/COccupancyGridMap2D.h>
 #include <mrpt/obs/CObservation2DRangeScan.h>
 
+#include "rrr_graphslam/core/param_info.h"
 #include "rrr_graphslam/core/se2.h"
 #include "rrr_graphslam/frontend/submap.h"
 
 namespace rrr_graphslam::frontend {
 
 enum class MapLayering { kAllScans, kNewestSession };
+
+inline core::Choices<MapLayering> choices(MapLayering /*tag*/) {
+  return {{MapLayering::kAllScans, "all"}, {MapLayering::kNewestSession, "newest-session"}};
+}
 
 struct MapInputs {
   std::vector<core::Pose2> poses;  ///< map pose of every node

@@ -38,6 +38,7 @@
 #include <string>
 #include <vector>
 
+#include "rrr_graphslam/core/param_info.h"
 #include "rrr_graphslam/frontend/map_file.h"
 #include "rrr_graphslam/frontend/submap.h"
 
@@ -49,6 +50,11 @@ enum class Sparsification {
   kDense,   ///< the exact marginal, one factor over the blanket (not storable yet: refused)
   kDelete,  ///< nothing: their information is lost (Cartographer's trimmer)
 };
+inline core::Choices<Sparsification> choices(Sparsification /*tag*/) {
+  return {{Sparsification::kClt, "clt"},
+          {Sparsification::kDense, "dense"},
+          {Sparsification::kDelete, "delete"}};
+}
 /// "clt", "dense", "delete".
 std::string toString(Sparsification sparsification);
 /// Parses "clt", "dense" or "delete"; std::invalid_argument otherwise.

@@ -32,6 +32,10 @@ struct GncParams {
   int max_iterations = 1000;
 };
 
+inline core::Choices<GncParams::Loss> choices(GncParams::Loss /*tag*/) {
+  return {{GncParams::Loss::kTruncatedLeastSquares, "tls"}, {GncParams::Loss::kGemanMcClure, "gm"}};
+}
+
 /// "tls" or "gm".
 std::string toString(GncParams::Loss loss);
 /// Parses "tls" or "gm"; std::invalid_argument otherwise.

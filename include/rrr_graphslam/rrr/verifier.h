@@ -11,12 +11,20 @@
 #include <string>
 #include <vector>
 
+#include "rrr_graphslam/core/param_info.h"
 #include "rrr_graphslam/rrr/rrr.h"
 #include "rrr_graphslam/rrr/verification_graph.h"
 
 namespace rrr_graphslam::rrr {
 
 enum class Verifier { kRrr, kPcm, kScgp, kGnc };
+
+inline core::Choices<Verifier> choices(Verifier /*tag*/) {
+  return {{Verifier::kRrr, "rrr"},
+          {Verifier::kPcm, "pcm"},
+          {Verifier::kScgp, "scgp"},
+          {Verifier::kGnc, "gnc"}};
+}
 
 /// "rrr", "pcm", "scgp", "gnc".
 std::string toString(Verifier verifier);
