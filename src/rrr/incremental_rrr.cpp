@@ -11,6 +11,10 @@ namespace {
 
 int newestEnd(const LoopCandidate& c) { return std::max(c.from, c.to); }
 
+double secondsSince(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
 }  // namespace
 
 IncrementalRrr::IncrementalRrr(VerificationGraph& graph, const RrrParams& params, int cluster_gap)
@@ -117,16 +121,20 @@ RrrSummary runIncrementalRrr(VerificationGraph& graph, const RrrParams& params,
     for (int c : arrivals[n].marginal) {
       robot.addMarginal(full.from(c), full.to(c), full.measurement(c), full.information(c));
     }
+    // As on the robot (OnlineRrr): the node's arrival closes the clusters it has left behind and
+    // decides them, whether or not a candidate comes with it.
+    const auto node_start = std::chrono::steady_clock::now();
+    if (incremental.advanceTo(static_cast<int>(n))) {
+      if (latencies_sec) latencies_sec->push_back(secondsSince(node_start));
+      record(static_cast<int>(n) + 1, false);
+    }
     for (int constraint : arrivals[n].candidates) {
       const int k = candidate_of[static_cast<std::size_t>(constraint)];
       const LoopCandidate& c = graph.candidate(k);
       const auto t0 = std::chrono::steady_clock::now();
       incremental.addCandidate(
           robot.addCandidate(c.from, c.to, c.measurement, c.information, c.edge));
-      if (latencies_sec) {
-        latencies_sec->push_back(
-            std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
-      }
+      if (latencies_sec) latencies_sec->push_back(secondsSince(t0));
       arrival.push_back(k);
       if (events) {
         events->push_back({k, static_cast<int>(n) + 1,

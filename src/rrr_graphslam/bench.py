@@ -193,7 +193,7 @@ def main(argv=None):
     parser.add_argument("--verifier-seeds", nargs="+", type=int, default=[2],
                         help="seeds of the verifiers table's synthetic inputs (default 2)")
     parser.add_argument("--aliasing-incremental", action="store_true",
-                        help="the aliased inputs also in incremental mode (latency per candidate)")
+                        help="the aliased inputs also in incremental mode (latency per update)")
     args = parser.parse_args(argv)
     os.makedirs(args.cache, exist_ok=True)
     optimizer = args.rrr_optimize or os.path.join(os.path.dirname(args.rrr_offline), "rrr_optimize")
@@ -438,7 +438,7 @@ class AliasingRow(NamedTuple):
     random_score: Score
     random_run: dict
     ratio: float            # aliased batch time / random batch time
-    latency: tuple          # incremental (p99, max) ms per candidate, or None
+    latency: tuple          # incremental (p99, max) ms per update, or None
 
 
 def latency_ms(text):
@@ -571,7 +571,7 @@ def target_lines(rows):
     if r:
         p99 = float(re.search(r"p99 ([0-9.]+) ms", r["latency"]).group(1))
         verdict = "met" if p99 < 50.0 else "NOT met"
-        lines.append(f"  City10000 + 1000 random, incremental, p99 under 50 ms per candidate: "
+        lines.append(f"  City10000 + 1000 random, incremental, p99 under 50 ms per update: "
                      f"{p99:.1f} ms ({verdict})")
     return lines
 

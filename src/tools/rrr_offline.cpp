@@ -183,11 +183,11 @@ int main(int argc, char** argv) {
         return latencies[std::min(latencies.size() - 1,
                                   static_cast<std::size_t>(q * latencies.size()))];
       };
-      // The online target is a p99 under 50 ms; the candidates over it say how far off a run is.
+      // The online target is a p99 under 50 ms; the updates over it say how far off a run is.
       const auto over_50_ms =
           std::count_if(latencies.begin(), latencies.end(), [](double sec) { return sec > 0.05; });
       std::printf(
-          "latency        p50 %.2f ms, p99 %.2f ms, max %.2f ms per candidate, %ld over 50 ms\n",
+          "latency        p50 %.2f ms, p99 %.2f ms, max %.2f ms per update, %ld over 50 ms\n",
           1e3 * percentile(0.5), 1e3 * percentile(0.99), 1e3 * latencies.back(),
           static_cast<long>(over_50_ms));
     }

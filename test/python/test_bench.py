@@ -24,7 +24,7 @@ def test_targets_name_the_inputs_that_miss_them():
         row("city10000", "random", "1000", "batch", 1.0, 1.0, time=12.0),
         row("city10000", "random", "1000", "batch --full-intra", 1.0, 1.0, time=240.0),
         row("city10000", "random", "1000", "incremental", 1.0, 1.0, time=11.0,
-            latency="p50 0.00 ms, p99 31.15 ms, max 646.22 ms per candidate, 59 over 50 ms"),
+            latency="p50 0.00 ms, p99 31.15 ms, max 646.22 ms per update, 59 over 50 ms"),
         row("KITTI 00", "alpha 0.00", "DLoopDetector", "batch", 1.0, 1.0),
     ])
     text = "\n".join(lines)
@@ -34,7 +34,7 @@ def test_targets_name_the_inputs_that_miss_them():
     assert "M3500 + 1000 random, batch, under 1 s: 0.40 s (met)" in text
     assert ("City10000 + 1000 random, batch, under 10 s: 12.00 s (NOT met; full-graph intra tests "
             "in this run: 240.00 s, 20x)") in text
-    assert "p99 under 50 ms per candidate: 31.1 ms (met)" in text
+    assert "p99 under 50 ms per update: 31.1 ms (met)" in text
 
 
 def test_targets_a_run_did_not_cover_are_left_out():

@@ -5,6 +5,7 @@
 
 #include <map>
 #include <random>
+#include "rrr_graphslam/rrr/clustering.h"
 #include "rrr_graphslam/rrr/incremental_rrr.h"
 #include "rrr_graphslam/rrr/rrr.h"
 
@@ -160,7 +161,11 @@ TEST(Rrr, IncrementalReachesTheBatchDecisions) {
     std::vector<double> latencies;
     runIncrementalRrr(incremental_graph, params, incremental, incremental_clusters, {}, &latencies);
     EXPECT_EQ(incremental, batch) << count << " outliers in groups of " << group;
-    EXPECT_EQ(latencies.size(), static_cast<std::size_t>(incremental_graph.numCandidates()));
+    // One per candidate's arrival, one per node's that closed clusters (every cluster's closing
+    // is one of the two).
+    EXPECT_GE(latencies.size(), static_cast<std::size_t>(incremental_graph.numCandidates()));
+    EXPECT_LE(latencies.size(), static_cast<std::size_t>(incremental_graph.numCandidates() +
+                                                         incremental_graph.numNodes()));
   }
 }
 
@@ -202,6 +207,48 @@ TEST(Rrr, IncrementalEventsReplayToTheFinalVerdicts) {
   }
   EXPECT_EQ(seen, verdicts);
   EXPECT_GT(changes, graph.numCandidates());  // decided online, some changed again
+}
+
+// As on a robot, a cluster is decided when the robot leaves it (the node more than the gap past
+// its newest link arrives), not when some later candidate happens to arrive.
+TEST(Rrr, IncrementalDecidesAClusterWhenTheRobotLeavesIt) {
+  const testing::LabelledGraph input = testing::withOutliers(kData + "/intel.g2o.gz", 100, 10, 9);
+  RrrParams params;
+  params.cluster_gap = 3;
+  VerificationGraph graph(input.graph, params.optimizer);
+  std::vector<Verdict> verdicts;
+  std::vector<int> clusters;
+  std::vector<ReplayEvent> events;
+  runIncrementalRrr(graph, params, verdicts, clusters, {}, nullptr, nullptr, &events);
+  std::vector<int> first_change(static_cast<std::size_t>(graph.numCandidates()), -1);
+  for (const ReplayEvent& e : events) {
+    int& first = first_change[static_cast<std::size_t>(e.candidate)];
+    if (e.previous != e.verdict && first < 0) first = e.final ? 0 : e.nodes;
+  }
+  int checked = 0, between_candidates = 0;
+  std::vector<char> candidate_arrives(static_cast<std::size_t>(graph.numNodes()) + 1, 0);
+  for (const CandidateEnds& ends : candidateEnds(graph)) {
+    candidate_arrives[static_cast<std::size_t>(std::max(ends.first, ends.second)) + 1] = 1;
+  }
+  for (const std::vector<int>& members :
+       clusterCandidates(candidateEnds(graph), params.cluster_gap)) {
+    int newest = 0;
+    for (int k : members) {
+      const LoopCandidate& c = graph.candidate(k);
+      newest = std::max({newest, c.from, c.to});
+    }
+    // Closed by node newest + gap + 1, when the graph holds one node more than that.
+    const int closing = newest + params.cluster_gap + 2;
+    if (closing > graph.numNodes()) continue;
+    for (int k : members) {
+      EXPECT_EQ(first_change[static_cast<std::size_t>(k)], closing) << "candidate " << k;
+      ++checked;
+    }
+    between_candidates += candidate_arrives[static_cast<std::size_t>(closing)] == 0 ? 1 : 0;
+  }
+  EXPECT_GT(checked, graph.numCandidates() / 2);
+  EXPECT_GT(between_candidates, 0)
+      << "precondition: some cluster closes where no candidate arrives";
 }
 
 // A robot's view: nodes arrive one by one with their odometry, candidates once both ends

@@ -77,9 +77,11 @@ struct ReplayEvent {
 };
 
 /// Replays `graph` as a robot builds it (replay_plan.h: nodes in order with their odometry, each
-/// candidate right after its newest end), and IncrementalRrr works on a
-/// graph holding only what has arrived, so each decision costs what it would on the robot at
-/// that point. Records the time each candidate's call takes and, if `events` is given, every
+/// candidate right after its newest end), and IncrementalRrr works on a graph holding only what
+/// has arrived, so each decision costs what it would on the robot at that point. As OnlineRrr
+/// does, every node's arrival closes (and decides) the clusters the robot has left behind, with or
+/// without a candidate. `latencies_sec` gets the time of every update that can block the robot:
+/// each candidate's arrival and each node's that closed clusters. If `events` is given, every
 /// arrival and verdict change as it happened; verdicts, cluster_of and the graph's optimizer
 /// afterwards as in runBatchRrr.
 RrrSummary runIncrementalRrr(VerificationGraph& graph, const RrrParams& params,
