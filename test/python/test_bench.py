@@ -9,7 +9,8 @@ import sys
 from types import SimpleNamespace
 
 from rrr_graphslam.bench import (ABLATION_SWITCHES, AliasingRow, Row, aliasing_summary, main,
-                                 target_lines)
+                                 online_lines, target_lines)
+from rrr_graphslam.decision_stream import OnlineScore
 
 
 def row(dataset, kind, count, mode, precision, recall, time=0.1, latency=""):
@@ -35,6 +36,21 @@ def test_targets_name_the_inputs_that_miss_them():
     assert ("City10000 + 1000 random, batch, under 10 s: 12.00 s (NOT met; full-graph intra tests "
             "in this run: 240.00 s, 20x)") in text
     assert "p99 under 50 ms per update: 31.1 ms (met)" in text
+
+
+def test_online_rows_of_several_seeds_are_named_by_seed_and_each_judged():
+    def online(seed, held):
+        score = OnlineScore(outliers=100, transient_false_accepts=len(held),
+                            false_accept_nodes=dict(enumerate(held)),
+                            first_verdict_nodes=[3, 5], first_verdict_seconds=[0.01, 0.02])
+        return row("intel", "aliased", "100", "incremental", 1.0, 1.0)._replace(
+            seed=seed, online=score)
+    text = "\n".join(online_lines([online(2, []), online(3, [150, 20])]))
+    assert "| intel aliased 100 seed 2 | 0 (100) |" in text
+    assert "| intel aliased 100 seed 3 | 2 (100) | 0 | 150 | 1 |" in text
+    assert ("no false link accepted for longer than 100 nodes: 1 of 2; not: intel aliased 100 "
+            "seed 3 (1, longest 150)") in text
+    assert "transient false accepts at most 1% of the outliers: 1 of 2; not: intel aliased 100 seed 3 (2 of 100)" in text
 
 
 def test_targets_a_run_did_not_cover_are_left_out():
