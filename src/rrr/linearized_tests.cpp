@@ -53,6 +53,17 @@ std::optional<double> predictedIndex(const VerificationGraph& graph, const std::
   return failIfNotFinite(d2 / core::chi2Quantile(alpha, static_cast<int>(lin.residual.size())));
 }
 
+std::optional<double> mapUncertaintyRatio(const VerificationGraph& graph,
+                                          const std::vector<int>& links,
+                                          const std::vector<core::Pose2>& poses) {
+  if (!graph.optimizer().covarianceAvailable() || links.empty()) return std::nullopt;
+  const LinksLinearization lin = linearizeLinks(graph, links, poses);
+  const Eigen::GeneralizedSelfAdjointEigenSolver<Eigen::MatrixXd> ratio(
+      lin.map_term, lin.link_covariance, Eigen::EigenvaluesOnly);
+  if (ratio.info() != Eigen::Success) return std::nullopt;
+  return failIfNotFinite(ratio.eigenvalues().maxCoeff());
+}
+
 double leaveOneOutIndex(const VerificationGraph& graph, const std::vector<int>& links,
                         const std::vector<core::Pose2>& poses, double alpha) {
   if (links.empty()) return 0.0;

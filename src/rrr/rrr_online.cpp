@@ -2,10 +2,23 @@
 // decided against the good set's map, and jointly with the good set when the map cannot tell.
 
 #include <algorithm>
+#include <cstdio>
+#include <optional>
+#include <utility>
 
+#include "rrr_graphslam/rrr/linearized_tests.h"
 #include "rrr_graphslam/rrr/rrr.h"
 
 namespace rrr_graphslam::rrr {
+namespace {
+
+std::string ratioText(double ratio) {
+  char text[32];
+  std::snprintf(text, sizeof(text), "%.3g", ratio);
+  return text;
+}
+
+}  // namespace
 
 void Rrr::decideIncrementally() {
   syncWithGraph();
@@ -36,19 +49,39 @@ Rrr::OnlineVerdict Rrr::checkAgainstMap(int cluster, double& statistic) const {
     statistic = *predicted;
     return OnlineVerdict::kDoesNotFit;
   }
+  // The map would have to move to fit it. A lone link where the map leaves its relative pose open
+  // would pass the joint test wherever it points (the nodes move to fit it): it waits.
+  const std::vector<int>& kept = kept_links_[static_cast<std::size_t>(cluster)];
+  if (params_.online_untestable_ratio > 0.0 && kept.size() == 1) {
+    const std::optional<double> ratio = mapUncertaintyRatio(graph_, kept, base_);
+    if (ratio && *ratio > params_.online_untestable_ratio) {
+      statistic = *ratio;
+      return OnlineVerdict::kUntestable;
+    }
+  }
   return OnlineVerdict::kNeedsJointTest;
 }
 
 void Rrr::decideAgainstMap() {
   std::vector<int> joint;
   std::vector<int> placing_groups;  // in `joint`: groups placing an untied session
+  std::vector<int> waiting;         // one-link clusters the map cannot test yet
+  int accepted_on_map = 0;          // clusters accepted here on the map's word (not in its factor)
   auto sort_out = [&](int c, const char* step) {
+    // A one-link cluster is judged by how well the map knows where it should lie, from the good
+    // set's factor (made here if the last joint test left none usable).
+    if (params_.online_untestable_ratio > 0.0 &&
+        kept_links_[static_cast<std::size_t>(c)].size() == 1 &&
+        !graph_.optimizer().covarianceAvailable()) {
+      factorGoodMap();
+    }
     double statistic = 0.0;
     switch (checkAgainstMap(c, statistic)) {
       case OnlineVerdict::kFits:
         setStatus(c, Status::kGood,
                   std::string(step) + ": " + indexTest("CI", statistic) + " at the good map");
         ++unoptimized_accepts_;
+        ++accepted_on_map;
         break;
       case OnlineVerdict::kDoesNotFit:
         setStatus(c, Status::kRejected,
@@ -56,6 +89,12 @@ void Rrr::decideAgainstMap() {
         break;
       case OnlineVerdict::kNeedsJointTest:
         joint.push_back(c);
+        break;
+      case OnlineVerdict::kUntestable:
+        setStatus(c, Status::kPending,
+                  std::string(step) + ": waits: the map leaves " + ratioText(statistic) +
+                      " times its own uncertainty open");
+        waiting.push_back(c);
         break;
     }
   };
@@ -72,6 +111,15 @@ void Rrr::decideAgainstMap() {
     for (int c : clusters) sort_out(c, step);
   };
   admit(clustersWith(Status::kPending), "online");
+  // Clusters just accepted on the map's word may hold the path a waiting link hangs from: the map
+  // takes them in and the waiting links are checked again (after a joint test that grows the good
+  // set, the recover step below does it).
+  if (!waiting.empty() && accepted_on_map > 0) {
+    optimizeGoodMap();
+    factorGoodMap();
+    unoptimized_accepts_ = 0;
+    for (int c : std::exchange(waiting, {})) sort_out(c, "online");
+  }
   // Joint tests (realize / reverse) of the good set and the undecided clusters, which also fold
   // the clusters accepted since the last update into the map; while the good set grows, the
   // rejected clusters that now fit its map are recovered.

@@ -27,6 +27,7 @@ void applyPreset(const std::string& name, RrrParams& params) {
     p.joint_link_check = false;
     p.place_sessions = false;
     p.online_map_check = false;
+    p.online_untestable_ratio = 0.0;
     p.incremental_rebatch_every = 0;
     p.incremental_factor_updates = false;
   } else if (name != "default") {

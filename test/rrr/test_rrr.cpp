@@ -5,6 +5,7 @@
 
 #include <map>
 #include <random>
+#include <tuple>
 #include "rrr_graphslam/rrr/clustering.h"
 #include "rrr_graphslam/rrr/incremental_rrr.h"
 #include "rrr_graphslam/rrr/rrr.h"
@@ -215,6 +216,7 @@ TEST(Rrr, IncrementalDecidesAClusterWhenTheRobotLeavesIt) {
   const testing::LabelledGraph input = testing::withOutliers(kData + "/intel.g2o.gz", 100, 10, 9);
   RrrParams params;
   params.cluster_gap = 3;
+  params.online_untestable_ratio = 0.0;  // no lone link waits for the map (tested below)
   VerificationGraph graph(input.graph, params.optimizer);
   std::vector<Verdict> verdicts;
   std::vector<int> clusters;
@@ -249,6 +251,72 @@ TEST(Rrr, IncrementalDecidesAClusterWhenTheRobotLeavesIt) {
   EXPECT_GT(checked, graph.numCandidates() / 2);
   EXPECT_GT(between_candidates, 0)
       << "precondition: some cluster closes where no candidate arrives";
+}
+
+// A single false link from an early node to the robot's newest nodes, where the path since the
+// last long loop hangs from the map by odometry alone: the map can move to fit it, so the online
+// test has no power there. With online_untestable_ratio it waits until a revisit right after it
+// holds that path, and is then rejected, never accepted; without, it is accepted on arrival.
+TEST(Rrr, OnlineASingleLinkWaitsUntilTheMapCanTestIt) {
+  core::PoseGraph g;
+  const Eigen::Matrix3d odo = Eigen::Vector3d(400.0, 400.0, 2500.0).asDiagonal();
+  const Eigen::Matrix3d loop = Eigen::Vector3d(100.0, 100.0, 400.0).asDiagonal();
+  auto square = [](int k) {  // pose k along a 10 m square, 1 m steps, one lap every 40 poses
+    const int side = (k / 10) % 4, along = k % 10;
+    const double x[] = {double(along), 10.0, 10.0 - along, 0.0};
+    const double y[] = {0.0, double(along), 10.0, 10.0 - along};
+    return core::Pose2(x[side], y[side], core::normalizeAngle(side * M_PI / 2));
+  };
+  const int nodes = 125;
+  for (int k = 0; k < nodes; ++k) {
+    g.addNode(k, square(k));
+    if (k > 0)
+      g.addEdge(k - 1, k, core::between(square(k - 1), square(k)), odo, core::EdgeKind::kOdometry);
+  }
+  auto add_loop = [&](int from, int to, const core::Pose2& error) {
+    g.addEdge(from, to, core::compose(core::between(square(from), square(to)), error), loop,
+              core::EdgeKind::kLoopCandidate);
+  };
+  for (int k = 45; k < 50; ++k) add_loop(k - 40, k, core::Pose2::Zero());  // lap 2 revisits lap 1
+  const int false_from = 12, false_to = 95;                                // 0.8 m and 6 deg off
+  add_loop(false_from, false_to, core::Pose2(0.8, 0.0, 0.1));
+  for (int k = 96; k < 101; ++k) add_loop(k - 80, k, core::Pose2::Zero());  // lap 3, right after
+
+  auto first_changes = [&](double ratio) {
+    RrrParams params;
+    params.cluster_gap = 3;
+    params.online_untestable_ratio = ratio;
+    VerificationGraph graph(g, params.optimizer);
+    std::vector<Verdict> verdicts;
+    std::vector<int> clusters;
+    std::vector<ReplayEvent> events;
+    runIncrementalRrr(graph, params, verdicts, clusters, {}, nullptr, nullptr, &events);
+    std::vector<ReplayEvent> changes;  // of the false link
+    Verdict lap3 = Verdict::kPending;  // the first verdict of lap 3's first link
+    for (const ReplayEvent& e : events) {
+      const LoopCandidate& c = graph.candidate(e.candidate);
+      if (c.from == false_from && c.to == false_to && e.previous != e.verdict) changes.push_back(e);
+      if (c.to == 96 && lap3 == Verdict::kPending) lap3 = e.verdict;
+    }
+    return std::make_tuple(changes, verdicts, lap3);
+  };
+  const auto [off, off_verdicts, off_lap3] = first_changes(0.0);
+  ASSERT_FALSE(off.empty());
+  EXPECT_EQ(off.front().verdict, Verdict::kAccepted) << "precondition: the map fits it";
+  EXPECT_EQ(off.front().nodes, false_to + 3 + 2);
+  EXPECT_EQ(off_lap3, Verdict::kRejected) << "and the map it bent rejects the true revisit online";
+
+  const auto [waiting, verdicts, lap3] = first_changes(10.0);
+  EXPECT_EQ(lap3, Verdict::kAccepted);
+  ASSERT_FALSE(waiting.empty());
+  EXPECT_EQ(waiting.front().verdict, Verdict::kRejected) << waiting.front().reason;
+  EXPECT_FALSE(waiting.front().final) << "rejected online, once lap 3 held the path";
+  EXPECT_EQ(waiting.front().nodes, 100 + 3 + 2);
+  EXPECT_EQ(verdicts, off_verdicts) << "the final decisions are the batch ones either way";
+  for (std::size_t k = 0; k < verdicts.size(); ++k) {
+    const bool is_false = k == 5;  // candidates in edge order: 5 true, the false one, 5 true
+    EXPECT_EQ(verdicts[k], is_false ? Verdict::kRejected : Verdict::kAccepted) << k;
+  }
 }
 
 // A robot's view: nodes arrive one by one with their odometry, candidates once both ends
@@ -384,7 +452,9 @@ TEST(Rrr, IncrementalDecidesLateCandidatesAtOnce) {
   const testing::LabelledGraph input = testing::withOutliers(kData + "/intel.g2o.gz", 0, 1, 1);
   VerificationGraph graph(input.graph, {});
   const int gap = 3;
-  IncrementalRrr incremental(graph, {}, gap);
+  RrrParams params;
+  params.online_untestable_ratio = 0.0;  // a lone late link the map cannot test would wait
+  IncrementalRrr incremental(graph, params, gap);
   int newest = 0, latest = 0, earliest = 0, oldest = graph.numNodes();
   for (int k = 0; k < graph.numCandidates(); ++k) {
     const int end = std::max(graph.candidate(k).from, graph.candidate(k).to);

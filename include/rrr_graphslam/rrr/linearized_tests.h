@@ -23,6 +23,15 @@ std::optional<double> predictedIndex(const VerificationGraph& graph, const std::
                                      const std::vector<core::Pose2>& poses, double alpha);
 double leaveOneOutIndex(const VerificationGraph& graph, const std::vector<int>& links,
                         const std::vector<core::Pose2>& poses, double alpha);
+/// How much more the map leaves open of `links`' relative poses than the links themselves
+/// measure: the largest generalized eigenvalue of the map's covariance of their residuals over
+/// their own covariance. Above 1, in some direction a link's own error is smaller than where the
+/// map would let its ends lie: the map cannot tell a false link there from a true one (the
+/// optimization would move the nodes to fit it). None when no factor is usable or there is no
+/// link.
+std::optional<double> mapUncertaintyRatio(const VerificationGraph& graph,
+                                          const std::vector<int>& links,
+                                          const std::vector<core::Pose2>& poses);
 /// leaveOneOutIndex of each set of links; 16 sets and more in parallel over the machine's cores
 /// (each reads the same factor; the results do not depend on the threads).
 std::vector<double> leaveOneOutIndices(const VerificationGraph& graph,

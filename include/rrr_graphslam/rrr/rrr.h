@@ -95,7 +95,7 @@ class Rrr {
   // kUnplaced: joins a session not tied to the map, which no group of clusters places yet
   // (placement_min_spread_m); undecided, and in no joint test until then.
   enum class Status : std::uint8_t { kPending, kGood, kRejected, kInconsistent, kUnplaced };
-  enum class OnlineVerdict : std::uint8_t { kFits, kDoesNotFit, kNeedsJointTest };
+  enum class OnlineVerdict : std::uint8_t { kFits, kDoesNotFit, kNeedsJointTest, kUntestable };
   struct Cluster {
     std::vector<int> members;
     std::vector<int> passed;  // after the intra test (kept_links_: and the joint link check)

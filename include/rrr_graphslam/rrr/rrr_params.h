@@ -96,6 +96,14 @@ struct RrrParams {
   /// linearized joint test fails is rejected, without a joint optimization; default true (paper:
   /// every new cluster gets the joint test).
   bool online_map_check = true;
+  /// A cluster of one link that the map would have to move to fit (it needs the joint test) waits
+  /// (pending, checked again at the next decision) while the map leaves its relative pose open:
+  /// more uncertain, in some direction, than this many times the link's own covariance
+  /// (linearized_tests.h: mapUncertaintyRatio). A lone link whose end hangs from the map by
+  /// odometry alone (the robot's path since its last long loop) passes the joint test wherever it
+  /// points; once later loops hold that path it is tested. Clusters of several links test one
+  /// another (intra-cluster) and are decided at once. Default 100; 0: off (paper).
+  double online_untestable_ratio = 100.0;
   /// Re-optimize the good set after this many clusters were accepted without it; default 32.
   int incremental_map_update_every = 32;
   /// When the robot passes a multiple of this many nodes, the closed clusters are decided from
@@ -174,6 +182,10 @@ void forEachParam(Params& p, F&& f) {
   f(ParamInfo{"online_map_check", 0, 1,
               "incremental: clusters decided against the map before any joint test"},
     p.online_map_check);
+  f(ParamInfo{"online_untestable_ratio", 0, kInf,
+              "incremental: a one-link cluster the map must move to fit waits while the map's "
+              "uncertainty of it exceeds this times its own (0: off)"},
+    p.online_untestable_ratio);
   f(ParamInfo{"incremental_map_update_every", 1, 1e9,
               "incremental: re-optimize the map after this many accepted clusters"},
     p.incremental_map_update_every);
