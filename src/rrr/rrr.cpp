@@ -335,8 +335,9 @@ std::string Rrr::reason(int candidate) const {
   const auto& kept = kept_links_[static_cast<std::size_t>(c)];
   const bool in_kept = std::find(kept.begin(), kept.end(), candidate) != kept.end();
   if (!in_kept) return link_reason_[static_cast<std::size_t>(candidate)];
-  if (cluster.status == Status::kPending) return "intra-cluster: passed; awaits a joint test";
-  if (cluster.status == Status::kUnplaced) return cluster.reason;
+  if (cluster.status == Status::kPending && cluster.reason.empty()) {
+    return "intra-cluster: passed; awaits a joint test";
+  }
   return cluster.reason;
 }
 

@@ -2,7 +2,6 @@
 // decided against the good set's map, and jointly with the good set when the map cannot tell.
 
 #include <algorithm>
-#include <cstdio>
 #include <optional>
 #include <utility>
 
@@ -10,15 +9,6 @@
 #include "rrr_graphslam/rrr/rrr.h"
 
 namespace rrr_graphslam::rrr {
-namespace {
-
-std::string ratioText(double ratio) {
-  char text[32];
-  std::snprintf(text, sizeof(text), "%.3g", ratio);
-  return text;
-}
-
-}  // namespace
 
 void Rrr::decideIncrementally() {
   syncWithGraph();
@@ -51,9 +41,9 @@ Rrr::OnlineVerdict Rrr::checkAgainstMap(int cluster, double& statistic) const {
   }
   // The map would have to move to fit it. A lone link where the map leaves its relative pose open
   // would pass the joint test wherever it points (the nodes move to fit it): it waits.
-  const std::vector<int>& kept = kept_links_[static_cast<std::size_t>(cluster)];
-  if (params_.online_untestable_ratio > 0.0 && kept.size() == 1) {
-    const std::optional<double> ratio = mapUncertaintyRatio(graph_, kept, base_);
+  if (mayWaitForTheMap(cluster)) {
+    const std::optional<double> ratio =
+        mapUncertaintyRatio(graph_, kept_links_[static_cast<std::size_t>(cluster)], base_);
     if (ratio && *ratio > params_.online_untestable_ratio) {
       statistic = *ratio;
       return OnlineVerdict::kUntestable;
@@ -62,26 +52,43 @@ Rrr::OnlineVerdict Rrr::checkAgainstMap(int cluster, double& statistic) const {
   return OnlineVerdict::kNeedsJointTest;
 }
 
+bool Rrr::mayWaitForTheMap(int cluster) const {
+  const auto& kept = kept_links_[static_cast<std::size_t>(cluster)];
+  if (params_.online_untestable_ratio <= 0.0 || kept.size() != 1) return false;
+  // A link to another session is the placement rules' (a session not yet tied hangs from nothing).
+  const LoopCandidate& link = graph_.candidate(kept.front());
+  return graph_.chain().sameSession(link.from, link.to);
+}
+
+void Rrr::refreshGoodMap() {
+  optimizeGoodMap();
+  factorGoodMap();
+  unoptimized_accepts_ = 0;
+}
+
 void Rrr::decideAgainstMap() {
   std::vector<int> joint;
   std::vector<int> placing_groups;  // in `joint`: groups placing an untied session
   std::vector<int> waiting;         // one-link clusters the map cannot test yet
-  int accepted_on_map = 0;          // clusters accepted here on the map's word (not in its factor)
+  bool factored = false;            // a factor of the good map was made for this decision
   auto sort_out = [&](int c, const char* step) {
-    // A one-link cluster is judged by how well the map knows where it should lie, from the good
-    // set's factor (made here if the last joint test left none usable).
-    if (params_.online_untestable_ratio > 0.0 &&
-        kept_links_[static_cast<std::size_t>(c)].size() == 1 &&
-        !graph_.optimizer().covarianceAvailable()) {
-      factorGoodMap();
-    }
     double statistic = 0.0;
-    switch (checkAgainstMap(c, statistic)) {
+    OnlineVerdict verdict = checkAgainstMap(c, statistic);
+    // Whether a lone link can be tested is read from the good map's factor: made once here, at
+    // the map's poses, if the last joint test left none usable.
+    if (verdict == OnlineVerdict::kNeedsJointTest && mayWaitForTheMap(c) && !factored &&
+        !graph_.optimizer().covarianceAvailable()) {
+      factored = true;
+      graph_.activateOnly(acceptedCandidates());
+      graph_.optimizer().setPoses(base_);
+      graph_.optimizer().factorAtCurrentPoses();
+      verdict = checkAgainstMap(c, statistic);
+    }
+    switch (verdict) {
       case OnlineVerdict::kFits:
         setStatus(c, Status::kGood,
                   std::string(step) + ": " + indexTest("CI", statistic) + " at the good map");
         ++unoptimized_accepts_;
-        ++accepted_on_map;
         break;
       case OnlineVerdict::kDoesNotFit:
         setStatus(c, Status::kRejected,
@@ -91,9 +98,10 @@ void Rrr::decideAgainstMap() {
         joint.push_back(c);
         break;
       case OnlineVerdict::kUntestable:
-        setStatus(c, Status::kPending,
-                  std::string(step) + ": waits: the map leaves " + ratioText(statistic) +
-                      " times its own uncertainty open");
+        setStatus(
+            c, Status::kPending,
+            std::string(step) + ": waits for the map: " +
+                indexTest("map / link uncertainty", statistic, params_.online_untestable_ratio));
         waiting.push_back(c);
         break;
     }
@@ -102,8 +110,8 @@ void Rrr::decideAgainstMap() {
   // (placement_min_spread_m): the group is tested jointly, the others once the session is tied.
   auto admit = [&](std::vector<int> clusters, const char* step) {
     if (params_.placement_min_spread_m > 0.0) {
-      const std::vector<int> waiting = clustersWith(Status::kUnplaced);
-      clusters.insert(clusters.end(), waiting.begin(), waiting.end());
+      const std::vector<int> unplaced = clustersWith(Status::kUnplaced);
+      clusters.insert(clusters.end(), unplaced.begin(), unplaced.end());
       const std::vector<int> groups = takePlacingClusters(clusters);
       joint.insert(joint.end(), groups.begin(), groups.end());
       placing_groups.insert(placing_groups.end(), groups.begin(), groups.end());
@@ -111,13 +119,11 @@ void Rrr::decideAgainstMap() {
     for (int c : clusters) sort_out(c, step);
   };
   admit(clustersWith(Status::kPending), "online");
-  // Clusters just accepted on the map's word may hold the path a waiting link hangs from: the map
-  // takes them in and the waiting links are checked again (after a joint test that grows the good
-  // set, the recover step below does it).
-  if (!waiting.empty() && accepted_on_map > 0) {
-    optimizeGoodMap();
-    factorGoodMap();
-    unoptimized_accepts_ = 0;
+  // Clusters accepted on the map's word (here or before) are not in its factor yet, and may hold
+  // the path a waiting link hangs from: the map takes them in and the waiting links are checked
+  // again (after a joint test that grows the good set, the recover step below does it).
+  if (!waiting.empty() && unoptimized_accepts_ > 0) {
+    refreshGoodMap();
     for (int c : std::exchange(waiting, {})) sort_out(c, "online");
   }
   // Joint tests (realize / reverse) of the good set and the undecided clusters, which also fold
@@ -132,10 +138,7 @@ void Rrr::decideAgainstMap() {
         realize(joint, params_.warm_start ? base_ : graph_.initialPoses(), "realize", true, true);
     joint.clear();
     // The joint test may have kept fewer of a placing group than tie a session.
-    if (placing && holdLoosePlacements()) {
-      optimizeGoodMap();
-      factorGoodMap();
-    }
+    if (placing && holdLoosePlacements()) refreshGoodMap();
     if (!grew) return;
     admit(recoverHypotheses(true), "recover");
   }

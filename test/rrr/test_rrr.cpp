@@ -255,8 +255,9 @@ TEST(Rrr, IncrementalDecidesAClusterWhenTheRobotLeavesIt) {
 
 // A single false link from an early node to the robot's newest nodes, where the path since the
 // last long loop hangs from the map by odometry alone: the map can move to fit it, so the online
-// test has no power there. With online_untestable_ratio it waits until a revisit right after it
-// holds that path, and is then rejected, never accepted; without, it is accepted on arrival.
+// test has no power there. With online_untestable_ratio (its default) it waits until a revisit
+// right after it holds that path, and is then rejected, never accepted; without, it is accepted on
+// arrival.
 TEST(Rrr, OnlineASingleLinkWaitsUntilTheMapCanTestIt) {
   core::PoseGraph g;
   const Eigen::Matrix3d odo = Eigen::Vector3d(400.0, 400.0, 2500.0).asDiagonal();
@@ -267,7 +268,7 @@ TEST(Rrr, OnlineASingleLinkWaitsUntilTheMapCanTestIt) {
     const double y[] = {0.0, double(along), 10.0, 10.0 - along};
     return core::Pose2(x[side], y[side], core::normalizeAngle(side * M_PI / 2));
   };
-  const int nodes = 125;
+  const int nodes = 165;
   for (int k = 0; k < nodes; ++k) {
     g.addNode(k, square(k));
     if (k > 0)
@@ -278,9 +279,9 @@ TEST(Rrr, OnlineASingleLinkWaitsUntilTheMapCanTestIt) {
               core::EdgeKind::kLoopCandidate);
   };
   for (int k = 45; k < 50; ++k) add_loop(k - 40, k, core::Pose2::Zero());  // lap 2 revisits lap 1
-  const int false_from = 12, false_to = 95;                                // 0.8 m and 6 deg off
+  const int false_from = 12, false_to = 135;                               // 0.8 m and 6 deg off
   add_loop(false_from, false_to, core::Pose2(0.8, 0.0, 0.1));
-  for (int k = 96; k < 101; ++k) add_loop(k - 80, k, core::Pose2::Zero());  // lap 3, right after
+  for (int k = 136; k < 141; ++k) add_loop(k - 120, k, core::Pose2::Zero());  // lap 4, right after
 
   auto first_changes = [&](double ratio) {
     RrrParams params;
@@ -292,26 +293,26 @@ TEST(Rrr, OnlineASingleLinkWaitsUntilTheMapCanTestIt) {
     std::vector<ReplayEvent> events;
     runIncrementalRrr(graph, params, verdicts, clusters, {}, nullptr, nullptr, &events);
     std::vector<ReplayEvent> changes;  // of the false link
-    Verdict lap3 = Verdict::kPending;  // the first verdict of lap 3's first link
+    Verdict lap4 = Verdict::kPending;  // the first verdict of lap 4's first link
     for (const ReplayEvent& e : events) {
       const LoopCandidate& c = graph.candidate(e.candidate);
       if (c.from == false_from && c.to == false_to && e.previous != e.verdict) changes.push_back(e);
-      if (c.to == 96 && lap3 == Verdict::kPending) lap3 = e.verdict;
+      if (c.to == 136 && lap4 == Verdict::kPending) lap4 = e.verdict;
     }
-    return std::make_tuple(changes, verdicts, lap3);
+    return std::make_tuple(changes, verdicts, lap4);
   };
-  const auto [off, off_verdicts, off_lap3] = first_changes(0.0);
+  const auto [off, off_verdicts, off_lap4] = first_changes(0.0);
   ASSERT_FALSE(off.empty());
   EXPECT_EQ(off.front().verdict, Verdict::kAccepted) << "precondition: the map fits it";
   EXPECT_EQ(off.front().nodes, false_to + 3 + 2);
-  EXPECT_EQ(off_lap3, Verdict::kRejected) << "and the map it bent rejects the true revisit online";
+  EXPECT_EQ(off_lap4, Verdict::kRejected) << "and the map it bent rejects the true revisit online";
 
-  const auto [waiting, verdicts, lap3] = first_changes(10.0);
-  EXPECT_EQ(lap3, Verdict::kAccepted);
+  const auto [waiting, verdicts, lap4] = first_changes(RrrParams{}.online_untestable_ratio);
+  EXPECT_EQ(lap4, Verdict::kAccepted);
   ASSERT_FALSE(waiting.empty());
   EXPECT_EQ(waiting.front().verdict, Verdict::kRejected) << waiting.front().reason;
-  EXPECT_FALSE(waiting.front().final) << "rejected online, once lap 3 held the path";
-  EXPECT_EQ(waiting.front().nodes, 100 + 3 + 2);
+  EXPECT_FALSE(waiting.front().final) << "rejected online, once lap 4 held the path";
+  EXPECT_EQ(waiting.front().nodes, 140 + 3 + 2);
   EXPECT_EQ(verdicts, off_verdicts) << "the final decisions are the batch ones either way";
   for (std::size_t k = 0; k < verdicts.size(); ++k) {
     const bool is_false = k == 5;  // candidates in edge order: 5 true, the false one, 5 true

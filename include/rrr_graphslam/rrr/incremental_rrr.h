@@ -5,7 +5,8 @@
 // its newest link (no later candidate can then join it, so clusters equal the batch ones); it is
 // tested on its own at once and then against the good set's map (Rrr::decideIncrementally):
 // accepted when it fits the map, rejected when even the linearized joint test fails, otherwise
-// tested jointly with optimization, which can reverse earlier accepted clusters. finish()
+// tested jointly with optimization, which can reverse earlier accepted clusters (a lone link
+// that the map cannot test yet waits instead: RrrParams::online_untestable_ratio). finish()
 // closes the rest and decides every cluster again from the initial estimate (realize, reverse,
 // recover): the batch decision, whatever order the candidates came in.
 
@@ -24,7 +25,8 @@ class IncrementalRrr {
 
   /// A candidate arrives; normally its newest end is the robot's current node. A late one (a
   /// front end that searched in the background) joins the open clusters within the gap; one more
-  /// than the gap behind the robot forms a cluster of its own, closed and decided at once.
+  /// than the gap behind the robot forms a cluster of its own, closed and decided at once (or,
+  /// a lone link the map cannot test yet, left waiting: RrrParams::online_untestable_ratio).
   /// Returns true if a cluster was closed (and, unless deferred, a decision made).
   bool addCandidate(int candidate);
   /// The robot reached `node`: closes and decides the clusters it has left behind (from scratch

@@ -228,6 +228,10 @@ class Rrr {
 
   // --- Incremental (rrr_online.cpp).
   OnlineVerdict checkAgainstMap(int cluster, double& statistic) const;
+  /// online_untestable_ratio applies: on, one kept link, both ends in one session.
+  bool mayWaitForTheMap(int cluster) const;
+  /// The good set optimized (the clusters accepted on the map's word folded in) and factored.
+  void refreshGoodMap();
   /// decideIncrementally() after syncing with the graph.
   void decideAgainstMap();
 

@@ -96,13 +96,15 @@ struct RrrParams {
   /// linearized joint test fails is rejected, without a joint optimization; default true (paper:
   /// every new cluster gets the joint test).
   bool online_map_check = true;
-  /// A cluster of one link that the map would have to move to fit (it needs the joint test) waits
-  /// (pending, checked again at the next decision) while the map leaves its relative pose open:
-  /// more uncertain, in some direction, than this many times the link's own covariance
-  /// (linearized_tests.h: mapUncertaintyRatio). A lone link whose end hangs from the map by
-  /// odometry alone (the robot's path since its last long loop) passes the joint test wherever it
-  /// points; once later loops hold that path it is tested. Clusters of several links test one
-  /// another (intra-cluster) and are decided at once. Default 100; 0: off (paper).
+  /// With online_map_check: a cluster left with one link after its intra test, both ends in one
+  /// session, that the map would have to move to fit (it needs the joint test) waits (pending,
+  /// checked again at later decisions, decided at the latest by the next decision from scratch)
+  /// while the map leaves its relative pose open: more uncertain, in some direction, than this
+  /// many times the link's own covariance (linearized_tests.h: mapUncertaintyRatio). A lone link
+  /// whose end hangs from the map by odometry alone (the robot's path since its last long loop)
+  /// passes the joint test wherever it points; once later loops hold that path it is tested.
+  /// Clusters of several links test one another (intra-cluster) and are decided at once; links
+  /// between sessions are left to the placement rules. Default 100; 0: off (paper).
   double online_untestable_ratio = 100.0;
   /// Re-optimize the good set after this many clusters were accepted without it; default 32.
   int incremental_map_update_every = 32;
