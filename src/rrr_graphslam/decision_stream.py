@@ -115,3 +115,14 @@ def score_stream(rows: Sequence[StreamRow], truth: Sequence[Optional[bool]]) -> 
     s.transient_false_accepts = len(ever_false)
     s.undecided_online += len(arrived)
     return s
+
+
+def online_summary(s: OnlineScore) -> str:
+    """One line of what a robot saw on the way (the columns of bench_rrr's online table)."""
+    nodes = s.first_verdict_nodes
+    return (f"online: false links ever accepted {s.transient_false_accepts} (of {s.outliers}), "
+            f"still accepted at the end {s.final_false_accepts}, longest accepted "
+            f"{s.longest_false_accept()} nodes, accepted > 100 nodes {s.false_accepts_longer_than(100)}; "
+            f"true links reversed {s.true_reversals}; first verdict p50 / p99 / max "
+            f"{percentile(nodes, 50):.0f} / {percentile(nodes, 99):.0f} / {max(nodes, default=0)} "
+            f"nodes; undecided until the end {s.undecided_online}")

@@ -96,15 +96,15 @@ def plan_replay(graph: PoseGraph) -> Plan:
     return Plan(steps, candidates, skipped)
 
 
-def decisions_in_file_order(plan: Plan,
-                            final: Dict[Tuple[int, int], List[Tuple[int, str, int, str]]]) -> List[Decision]:
-    """One Decision per file candidate, in file order. `final` maps (from, to) to the node's final
-    (arrival index, verdict, cluster, reason) of each candidate on that pair; candidates of one pair
-    arrive in file order, so the k-th sent one is the k-th by arrival index. Duplicates, which the
-    node refuses, share their twin's decision; a candidate without an answer stays pending."""
+def file_index_by_arrival(plan: Plan, final: Dict[Tuple[int, int], List[Tuple[int, str, int, str]]]
+                          ) -> Dict[int, Tuple[int, Tuple[int, str, str]]]:
+    """The node's arrival index of each sent candidate -> (its file index, its final (cluster,
+    verdict, reason)). `final` maps (from, to) to the node's final (arrival index, verdict, cluster,
+    reason) of each candidate on that pair; candidates of one pair arrive in file order, so the k-th
+    sent one is the k-th by arrival index."""
     by_pair = {pair: sorted(items) for pair, items in final.items()}
     used: Dict[Tuple[int, int], int] = {}
-    answer: Dict[int, Tuple[int, str, str]] = {}
+    out: Dict[int, Tuple[int, Tuple[int, str, str]]] = {}
     for cand in plan.candidates:
         if cand.duplicate_of is not None:
             continue
@@ -112,9 +112,18 @@ def decisions_in_file_order(plan: Plan,
         k = used.get(pair, 0)
         items = by_pair.get(pair, [])
         if k < len(items):
-            _, verdict, cluster, reason = items[k]
-            answer[cand.index] = (cluster, verdict, reason)
+            arrival, verdict, cluster, reason = items[k]
+            out[arrival] = (cand.index, (cluster, verdict, reason))
             used[pair] = k + 1
+    return out
+
+
+def decisions_in_file_order(plan: Plan,
+                            final: Dict[Tuple[int, int], List[Tuple[int, str, int, str]]]) -> List[Decision]:
+    """One Decision per file candidate, in file order (`final` as for file_index_by_arrival).
+    Duplicates, which the node refuses, share their twin's decision; a candidate without an answer
+    stays pending."""
+    answer = {index: decided for index, decided in file_index_by_arrival(plan, final).values()}
     rows = []
     for cand in plan.candidates:
         twin = cand.index if cand.duplicate_of is None else cand.duplicate_of

@@ -12,6 +12,7 @@ from std_srvs.srv import Trigger
 
 from rrr_graphslam.msg import LoopCandidate, LoopClosureDecision, PoseGraphEdge, RrrStatus
 
+from .decision_stream import StreamRow
 from .graph_io import PoseGraph
 from .replay import Plan, information_row_major, plan_replay
 
@@ -38,6 +39,11 @@ class PoseGraphReplay:
         self.status: Optional[RrrStatus] = None
         # arrival index -> (from, to, verdict, cluster, reason)
         self.final: Dict[int, Tuple[int, int, str, int, str]] = {}
+        # Every decision message as it came, by arrival index (decision_stream.score_stream); nodes:
+        # the nodes sent when it came (exact with lockstep), final: caused by ~finish.
+        self.stream: List[StreamRow] = []
+        self.nodes_sent = 0
+        self.finishing = False
         self.decision_messages = 0
         rospy.Subscriber(self.node + "/status", RrrStatus, self._on_status, queue_size=100)
         rospy.Subscriber(self.node + "/decisions", LoopClosureDecision, self._on_decision, queue_size=100000)
@@ -48,6 +54,9 @@ class PoseGraphReplay:
 
     def _on_decision(self, msg: LoopClosureDecision) -> None:
         self.decision_messages += 1
+        self.stream.append(StreamRow(self.finishing, self.nodes_sent, msg.header.stamp.to_sec(), msg.candidate,
+                                     VERDICT_NAMES.get(msg.previous_verdict, "pending"),
+                                     VERDICT_NAMES.get(msg.verdict, "pending")))
         self.final[msg.candidate] = (msg.from_id, msg.to_id, VERDICT_NAMES.get(msg.verdict, "pending"),
                                      msg.cluster, msg.reason)
 
@@ -71,6 +80,7 @@ class PoseGraphReplay:
             self._wait(lambda: self.status is not None, "the node's status")
             self.call("reset")
             self.final.clear()
+            self.stream.clear()
             self.decision_messages = 0
         self._wait(lambda: self.status is not None, "the node's status")
         self.baseline = 0 if reset else self.status.messages_processed
@@ -90,6 +100,7 @@ class PoseGraphReplay:
             if rospy.is_shutdown():
                 raise ReplayError("ROS shut down")
             sim += period
+            self.nodes_sent = k + 1
             if self.clock_pub:
                 self.clock_pub.publish(Clock(clock=sim))
             if step.odometry is not None:
@@ -114,6 +125,7 @@ class PoseGraphReplay:
                 progress(k + 1, len(plan.steps))
         self._wait(lambda: self._processed() >= self.sent, "the node to process every message")
         if finish:
+            self.finishing = True
             self.call("finish")
         else:
             self.sync()

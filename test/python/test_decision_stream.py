@@ -2,7 +2,7 @@
 reversed, time to a first verdict; a malformed stream is refused with its file and line."""
 import pytest
 
-from rrr_graphslam.decision_stream import percentile, read_decision_stream, score_stream
+from rrr_graphslam.decision_stream import online_summary, percentile, read_decision_stream, score_stream
 from rrr_graphslam.graph_io import GraphFileError
 
 HEADER = "when\tscan\tnodes\tstamp\tcandidate\tfrom\tto\tcluster\tprevious\tverdict\treason\n"
@@ -33,6 +33,10 @@ def test_a_false_link_accepted_for_a_while_counts_though_the_end_rejects_it(tmp_
     assert s.first_verdict_nodes == [2, 4] and s.first_verdict_seconds == pytest.approx([0.2, 0.3])
     assert s.undecided_online == 1
     assert percentile(s.first_verdict_nodes, 99) == 4 and percentile([], 50) != percentile([], 50)
+    assert online_summary(s) == (
+        "online: false links ever accepted 2 (of 2), still accepted at the end 1, longest accepted "
+        "115 nodes, accepted > 100 nodes 1; true links reversed 1; first verdict p50 / p99 / max "
+        "2 / 4 / 4 nodes; undecided until the end 1")
 
 
 def test_a_malformed_stream_names_its_file_and_line(tmp_path):

@@ -7,7 +7,8 @@ import numpy as np
 from conftest import DATA
 from rrr_graphslam.graph_io import Edge, PoseGraph, between, compose, read_graph
 from rrr_graphslam.evaluation import Decision, read_decisions, write_decisions
-from rrr_graphslam.replay import decisions_in_file_order, information_row_major, inverted_edge, plan_replay
+from rrr_graphslam.replay import (decisions_in_file_order, file_index_by_arrival, information_row_major,
+                                  inverted_edge, plan_replay)
 
 
 def chi2(edge_measurement, info9, xi, xj):
@@ -75,6 +76,8 @@ def test_answers_map_back_to_file_order_and_duplicates_share_the_verdict():
         (2, 0, 4, "accepted", "duplicate of file candidate 1 (not sent): realize: a")]
     pending = decisions_in_file_order(plan, {})[0]
     assert (pending.cluster, pending.verdict, pending.reason) == (-1, "pending", "no decision received from the node")
+    # The node's arrival index -> the file's candidate (the ~decisions stream is by arrival index).
+    assert {a: index for a, (index, _) in file_index_by_arrival(plan, final).items()} == {0: 1, 1: 0, 2: 2}
 
 
 def test_decisions_written_with_reasons_read_back(tmp_path):
