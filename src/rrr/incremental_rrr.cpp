@@ -4,16 +4,13 @@
 #include <chrono>
 #include <limits>
 
+#include "rrr_graphslam/core/stopwatch.h"
 #include "rrr_graphslam/rrr/clustering.h"
 
 namespace rrr_graphslam::rrr {
 namespace {
 
 int newestEnd(const LoopCandidate& c) { return std::max(c.from, c.to); }
-
-double secondsSince(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
 
 }  // namespace
 
@@ -64,7 +61,7 @@ RrrSummary runIncrementalRrr(VerificationGraph& graph, const RrrParams& params,
                              std::vector<Verdict>& verdicts, std::vector<int>& cluster_of,
                              const ProgressFunction& progress, std::vector<double>* latencies_sec,
                              std::vector<std::string>* reasons, std::vector<ReplayEvent>* events) {
-  const auto start = std::chrono::steady_clock::now();
+  const auto start = core::Clock::now();
   RrrSummary summary;
   summary.candidates = graph.numCandidates();
   const std::vector<CandidateEnds> ends = candidateEnds(graph);
@@ -102,8 +99,7 @@ RrrSummary runIncrementalRrr(VerificationGraph& graph, const RrrParams& params,
   auto record = [&](int nodes_now, bool final) {
     if (!events) return;
     const Rrr& rrr = incremental.rrr();
-    const double seconds =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    const double seconds = core::secondsSince(start);
     for (std::size_t i = 0; i < told.size(); ++i) {
       const int k = static_cast<int>(i);
       const Verdict now = rrr.verdict(k);
@@ -123,18 +119,18 @@ RrrSummary runIncrementalRrr(VerificationGraph& graph, const RrrParams& params,
     }
     // As on the robot (OnlineRrr): the node's arrival closes the clusters it has left behind and
     // decides them, whether or not a candidate comes with it.
-    const auto node_start = std::chrono::steady_clock::now();
+    const auto node_start = core::Clock::now();
     if (incremental.advanceTo(static_cast<int>(n))) {
-      if (latencies_sec) latencies_sec->push_back(secondsSince(node_start));
+      if (latencies_sec) latencies_sec->push_back(core::secondsSince(node_start));
       record(static_cast<int>(n) + 1, false);
     }
     for (int constraint : arrivals[n].candidates) {
       const int k = candidate_of[static_cast<std::size_t>(constraint)];
       const LoopCandidate& c = graph.candidate(k);
-      const auto t0 = std::chrono::steady_clock::now();
+      const auto t0 = core::Clock::now();
       incremental.addCandidate(
           robot.addCandidate(c.from, c.to, c.measurement, c.information, c.edge));
-      if (latencies_sec) latencies_sec->push_back(secondsSince(t0));
+      if (latencies_sec) latencies_sec->push_back(core::secondsSince(t0));
       arrival.push_back(k);
       if (events) {
         events->push_back({k, static_cast<int>(n) + 1,

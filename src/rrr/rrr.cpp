@@ -123,8 +123,7 @@ void Rrr::decideFromScratch() {
   decideOnce(placement_map, nullptr);
   if (acceptedCandidates().size() >= accepted_with_previous) return;
   restoreDecisionState(std::move(with_previous));
-  graph_.activateOnly(acceptedCandidates());
-  graph_.optimizer().setPoses(base_);
+  holdGoodMap();
 }
 
 Rrr::DecisionState Rrr::decisionState() const {
@@ -192,8 +191,7 @@ bool Rrr::decideOnce(const std::vector<core::Pose2>* placement_map,
     setStatus(c, Status::kRejected, why.empty() ? "preselection: never tested" : why);
   }
   // Leave the optimizer holding the good set's solution.
-  graph_.activateOnly(acceptedCandidates());
-  graph_.optimizer().setPoses(base_);
+  holdGoodMap();
 
   if (params_.leave_one_out_check) leaveOneOutCheck();
   if (params_.joint_link_check) jointLinkCheck();

@@ -79,8 +79,7 @@ void Rrr::decideAgainstMap() {
     if (verdict == OnlineVerdict::kNeedsJointTest && mayWaitForTheMap(c) && !factored &&
         !graph_.optimizer().covarianceAvailable()) {
       factored = true;
-      graph_.activateOnly(acceptedCandidates());
-      graph_.optimizer().setPoses(base_);
+      holdGoodMap();
       graph_.optimizer().factorAtCurrentPoses();
       verdict = checkAgainstMap(c, statistic);
     }

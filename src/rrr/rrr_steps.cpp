@@ -138,7 +138,7 @@ std::vector<core::Pose2> Rrr::placeSessions(const std::vector<core::Pose2>& init
   // Sessions are what trusted constraints hold together (a trimmed session's chains, joined by
   // its marginal constraints, move as one).
   const std::vector<int> session = graph_.trustedComponents();
-  const int sessions = session.empty() ? 0 : *std::max_element(session.begin(), session.end()) + 1;
+  const int sessions = VerificationGraph::numComponents(session);
   std::vector<core::Pose2> poses = initial;
   std::vector<char> placed(static_cast<std::size_t>(sessions), 0);
   if (placed_sessions != nullptr) *placed_sessions = std::vector<char>(placed.size(), 1);
@@ -248,8 +248,7 @@ void Rrr::unplaceLooseSessions() {
 
 void Rrr::settleGoodMap() {
   core::Optimizer& opt = graph_.optimizer();
-  graph_.activateOnly(acceptedCandidates());
-  opt.setPoses(base_);
+  holdGoodMap();
   const double current = opt.chi2();
   const std::vector<core::Pose2> lago = core::lagoInitialization(opt);
   const core::OptimizationResult r = opt.optimize(core::startFrom(lago));
@@ -452,9 +451,13 @@ void Rrr::optimizeGoodMap() {
   base_ = graph_.optimizer().poses();
 }
 
-void Rrr::factorGoodMap() {
+void Rrr::holdGoodMap() {
   graph_.activateOnly(acceptedCandidates());
   graph_.optimizer().setPoses(base_);
+}
+
+void Rrr::factorGoodMap() {
+  holdGoodMap();
   // Otherwise one undamped factorization at the solution; where that optimization ends damped
   // (at its iteration limit: ringCity with aliased groups), a factorization where it stopped.
   // Without it covariance() is zero and the linearized tests weigh the residual alone.

@@ -82,8 +82,7 @@ int VerificationGraph::addMarginal(int from, int to, const core::Pose2& measurem
   return static_cast<int>(marginal_.size()) - 1;
 }
 
-int VerificationGraph::numTrustedComponents() const {
-  const std::vector<int> component = trustedComponents();
+int VerificationGraph::numComponents(const std::vector<int>& component) {
   return component.empty() ? 0 : *std::max_element(component.begin(), component.end()) + 1;
 }
 

@@ -248,6 +248,8 @@ class Rrr {
   /// the last factorization is of something else), so covariance() and predictedIndex() describe
   /// the good map.
   void factorGoodMap();
+  /// The optimizer holding the good set's map: the accepted links switched on, the poses base_.
+  void holdGoodMap();
   /// rrr::predictedIndex of a cluster's kept links at base_.
   std::optional<double> predictedIndex(int cluster) const;
   /// At least far_retry_min_links kept links (the far retry and the leave-one-out check).

@@ -69,7 +69,9 @@ class VerificationGraph {
   /// odometry chain's sessions.
   std::vector<int> trustedComponents() const;
   /// How many parts trustedComponents() finds (the sessions, less those marginals joined).
-  int numTrustedComponents() const;
+  int numTrustedComponents() const { return numComponents(trustedComponents()); }
+  /// The number of components in a trustedComponents() labelling.
+  static int numComponents(const std::vector<int>& component);
   /// chi2 of the trusted constraints alone (odometry and marginal constraints, no candidate) at
   /// their own minimum: zero for odometry (a forest), positive once marginal constraints close
   /// cycles with it (they carry loops that bent the chain). RRR's joint tests measure what the
