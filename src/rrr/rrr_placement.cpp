@@ -18,6 +18,16 @@ std::string metres(double m) {
   return text;
 }
 
+// What the ratio test asks of a group with a rival, for the reason of the clusters that wait.
+std::string rivalNote(const PlacementGroup& group, double min_ratio) {
+  if (group.rival.empty() || min_ratio <= 1.0) return "";
+  char text[128];
+  std::snprintf(text, sizeof(text),
+                "; %zu clusters agree with none of them (%g times as many needed)",
+                group.rival.size(), min_ratio);
+  return text;
+}
+
 }  // namespace
 
 std::vector<std::size_t> Rrr::joinedSessions() const {
@@ -96,8 +106,9 @@ std::vector<int> Rrr::takePlacingClusters(std::vector<int>& pending) {
       }
     }
     group.spread_m = spread(graph_, base_, ends);
-    const bool placed =
-        group.members.size() >= 2 && group.spread_m >= params_.placement_min_spread_m;
+    const bool placed = group.members.size() >= 2 &&
+                        group.spread_m >= params_.placement_min_spread_m &&
+                        outnumbersRival(group, params_.placement_min_ratio);
     if (placed) {
       // The joint test starts with the session moved rigidly onto the group's largest cluster's
       // first link (as placeSessions does): its own frame says nothing of where it lies.
@@ -130,7 +141,8 @@ std::vector<int> Rrr::takePlacingClusters(std::vector<int>& pending) {
                 "clusters joining them has " +
                     std::to_string(group.members.size()) + " of " +
                     std::to_string(clusters.size()) + ", seen " + metres(group.spread_m) +
-                    " apart (" + metres(params_.placement_min_spread_m) + " needed)");
+                    " apart (" + metres(params_.placement_min_spread_m) + " needed)" +
+                    rivalNote(group, params_.placement_min_ratio));
     }
   }
   return groups;

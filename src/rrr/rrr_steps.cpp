@@ -187,7 +187,8 @@ std::vector<core::Pose2> Rrr::placeSessions(const std::vector<core::Pose2>& init
         ends.push_back(of(c.from) == session_to_place ? c.from : c.to);
       }
     }
-    if (group.members.size() < 2 || spread(graph_, poses, ends) < params_.placement_min_spread_m) {
+    if (group.members.size() < 2 || spread(graph_, poses, ends) < params_.placement_min_spread_m ||
+        !outnumbersRival(group, params_.placement_min_ratio)) {
       return -1;
     }
     return clusters[static_cast<std::size_t>(group.members.front())];  // `joining` is by size

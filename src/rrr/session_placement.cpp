@@ -112,7 +112,20 @@ PlacementGroup largestAgreeingGroup(const VerificationGraph& graph,
   std::vector<int> ends;
   for (int p : group.members) ends.push_back(links[static_cast<std::size_t>(p)].session_node);
   group.spread_m = spread(graph, poses, ends);
+  std::vector<int> disagreeing;
+  for (int p = 0; p < n; ++p) {
+    if (std::none_of(group.members.begin(), group.members.end(),
+                     [&](int q) { return p == q || agree.connected(p, q); })) {
+      disagreeing.push_back(p);
+    }
+  }
+  if (!disagreeing.empty()) group.rival = core::maximumClique(agree, disagreeing);
   return group;
+}
+
+bool outnumbersRival(const PlacementGroup& group, double min_ratio) {
+  return static_cast<double>(group.members.size()) >=
+         min_ratio * static_cast<double>(group.rival.size());
 }
 
 }  // namespace rrr_graphslam::rrr

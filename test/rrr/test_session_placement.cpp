@@ -143,6 +143,55 @@ OnlineRrrParams withSpread(double spread_m) {
   return params;
 }
 
+// Two readings of the same corridor, matched at the same session nodes: the true one and an
+// aliased one (every match 15 m off, agreeing with one another), two clusters each 15 m apart by
+// session node 45; then the true reading alone matches twice more.
+struct Match {
+  int k;      // session node
+  int alias;  // map nodes the match is off by
+};
+const std::vector<Match> kTwoReadings{{5, 0}, {5, 30}, {35, 0}, {35, 30}, {80, 0}, {110, 0}};
+
+OnlineRrr& driveTwoReadings(OnlineRrr& online, int until) {
+  for (int k = 0; k <= until; ++k) {
+    addSessionNode(online, k);
+    for (const Match& match : kTwoReadings) {
+      if (match.k == k) addLoop(online, 20 + k, k, match.alias);
+    }
+  }
+  return online;
+}
+
+OnlineRrrParams withSpreadAndRatio(double spread_m, double ratio) {
+  OnlineRrrParams params = withSpread(spread_m);
+  params.rrr.placement_min_ratio = ratio;
+  return params;
+}
+
+TEST(SessionPlacement, TwoReadingsAlikeWaitUntilOneHasTwiceTheClusters) {
+  // Candidates 0, 2, 4, 5: the true reading; 1, 3: the aliased one.
+  OnlineRrr even(withSpreadAndRatio(10.0, 2.0));
+  addMap(even);
+  driveTwoReadings(even, 70);  // two clusters each, both 15 m apart: neither places the session
+  ASSERT_EQ(even.numCandidates(), 4);
+  for (int c = 0; c < 4; ++c) {
+    EXPECT_EQ(even.verdict(c), Verdict::kPending) << c << ": " << even.reason(c);
+    EXPECT_NE(even.reason(c).find("agree with none of them"), std::string::npos) << even.reason(c);
+  }
+
+  OnlineRrr ahead(withSpreadAndRatio(10.0, 2.0));
+  addMap(ahead);
+  driveTwoReadings(ahead, 130);  // four clusters to two: the true reading ties the session
+  ASSERT_EQ(ahead.numCandidates(), 6);
+  for (int c : {1, 3}) EXPECT_EQ(ahead.verdict(c), Verdict::kRejected) << ahead.reason(c);
+  for (int c : {0, 2, 4, 5}) {
+    EXPECT_EQ(ahead.verdict(c), Verdict::kAccepted) << c << ": " << ahead.reason(c);
+  }
+  ahead.finish();
+  for (int c : {1, 3}) EXPECT_EQ(ahead.verdict(c), Verdict::kRejected);
+  for (int c : {0, 2, 4, 5}) EXPECT_EQ(ahead.verdict(c), Verdict::kAccepted);
+}
+
 TEST(SessionPlacement, ALoneAliasedClusterWaitsAndTheAgreeingGroupTiesTheSession) {
   OnlineRrr online(withSpread(10.0));
   addMap(online);

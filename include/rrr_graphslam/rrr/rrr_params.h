@@ -90,6 +90,12 @@ struct RrrParams {
   /// that passes the tests ties a session (paper). LaserSlam sets it to the front end's
   /// relocalization_confirm_distance_m; default 0.
   double placement_min_spread_m = 0.0;
+  /// With placement_min_spread_m: the group must also have at least this many times the clusters
+  /// of the largest group that agrees with none of them (another reading of where the session
+  /// lies, session_placement.h: outnumbersRival); until then both wait. Default 1: the larger
+  /// group places the session however close the other (2 is measured in
+  /// doc/rrr_extensions.md#two-readings-of-one-place: safer, later ties).
+  double placement_min_ratio = 1.0;
 
   // --- Incremental RRR.
   /// A new cluster that fits the good set's map unchanged (index < 1) is accepted, and one whose
@@ -181,6 +187,10 @@ void forEachParam(Params& p, F&& f) {
   f(ParamInfo{"place_sessions", 0, 1,
               "batch decisions start with each session placed by its largest joining cluster"},
     p.place_sessions);
+  f(ParamInfo{"placement_min_ratio", 1, kInf,
+              "a session is placed by a group of agreeing clusters only with this many times the "
+              "clusters of a group that disagrees with it"},
+    p.placement_min_ratio);
   f(ParamInfo{"online_map_check", 0, 1,
               "incremental: clusters decided against the map before any joint test"},
     p.online_map_check);

@@ -49,13 +49,23 @@ double spread(const VerificationGraph& graph, const std::vector<core::Pose2>& po
 struct PlacementGroup {
   std::vector<int> members;  ///< indices into the links given, sorted
   double spread_m = 0.0;     ///< spread() of the given links' session ends
+  /// The largest group among the links that agree with no member: another reading of where the
+  /// session lies (the building seen from its other end, the next corridor), sorted.
+  std::vector<int> rival;
 };
 
-/// The largest group of mutually agreeing links (cycle chi2 below chi2(alpha, 3)), and how far
-/// apart the session saw them; links[k] stands for the k-th cluster.
+/// The largest group of mutually agreeing links (cycle chi2 below chi2(alpha, 3)), how far
+/// apart the session saw them, and its rival; links[k] stands for the k-th cluster.
 PlacementGroup largestAgreeingGroup(const VerificationGraph& graph,
                                     const std::vector<core::Pose2>& poses,
                                     const std::vector<JoiningLink>& links, double alpha,
                                     bool map_exact = true);
+
+/// Whether the group has at least `min_ratio` times its rival's clusters. A place seen the same
+/// from two poses gives two groups that each agree with themselves and grow side by side while
+/// the robot drives where both readings fit: the session is tied only once one of them clearly
+/// has more support (the ratio test of place recognition, applied to groups); 1 ties to the
+/// larger, a tie to the first.
+bool outnumbersRival(const PlacementGroup& group, double min_ratio);
 
 }  // namespace rrr_graphslam::rrr
