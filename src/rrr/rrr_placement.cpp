@@ -18,12 +18,13 @@ std::string metres(double m) {
   return text;
 }
 
-// What the ratio test asks of a group with a rival, for the reason of the clusters that wait.
+// Why the ratio test held a group back, for the reason of the clusters that wait.
 std::string rivalNote(const PlacementGroup& group, double min_ratio) {
-  if (group.rival.empty() || min_ratio <= 1.0) return "";
+  if (outnumbersRival(group, min_ratio)) return "";
   char text[128];
   std::snprintf(text, sizeof(text),
-                "; %zu clusters agree with none of them (%g times as many needed)",
+                "; a rival group of %zu clusters agrees with none of them (%g times as many "
+                "needed)",
                 group.rival.size(), min_ratio);
   return text;
 }
@@ -95,7 +96,8 @@ std::vector<int> Rrr::takePlacingClusters(std::vector<int>& pending) {
   for (const auto& [untied, clusters] : joining) {
     std::vector<JoiningLink> links;
     for (const auto& [c, link] : clusters) links.push_back(link);
-    PlacementGroup group = largestAgreeingGroup(graph_, base_, links, params_.alpha);
+    PlacementGroup group = largestAgreeingGroup(graph_, base_, links, params_.alpha, true,
+                                                params_.placement_min_ratio > 1.0);
     // How far apart the session saw the group: over every kept link, not only the first ones.
     std::vector<int> ends;
     for (int k : group.members) {
@@ -106,9 +108,7 @@ std::vector<int> Rrr::takePlacingClusters(std::vector<int>& pending) {
       }
     }
     group.spread_m = spread(graph_, base_, ends);
-    const bool placed = group.members.size() >= 2 &&
-                        group.spread_m >= params_.placement_min_spread_m &&
-                        outnumbersRival(group, params_.placement_min_ratio);
+    const bool placed = groupPlaces(group, group.spread_m);
     if (placed) {
       // The joint test starts with the session moved rigidly onto the group's largest cluster's
       // first link (as placeSessions does): its own frame says nothing of where it lies.
@@ -146,6 +146,11 @@ std::vector<int> Rrr::takePlacingClusters(std::vector<int>& pending) {
     }
   }
   return groups;
+}
+
+bool Rrr::groupPlaces(const PlacementGroup& group, double spread_m) const {
+  return group.members.size() >= 2 && spread_m >= params_.placement_min_spread_m &&
+         outnumbersRival(group, params_.placement_min_ratio);
 }
 
 bool Rrr::holdLoosePlacements() {

@@ -177,8 +177,9 @@ std::vector<core::Pose2> Rrr::placeSessions(const std::vector<core::Pose2>& init
       clusters.push_back(j.cluster);
       links.push_back(from_placed ? JoiningLink{k, c.from, c.to} : JoiningLink{k, c.to, c.from});
     }
-    const PlacementGroup group = largestAgreeingGroup(
-        graph_, good_map != nullptr ? *good_map : poses, links, params_.alpha, good_map != nullptr);
+    const PlacementGroup group =
+        largestAgreeingGroup(graph_, good_map != nullptr ? *good_map : poses, links, params_.alpha,
+                             good_map != nullptr, params_.placement_min_ratio > 1.0);
     std::vector<int> ends;  // every kept link's end in the session, as takePlacingClusters counts
     for (int k : group.members) {
       for (int link :
@@ -187,10 +188,7 @@ std::vector<core::Pose2> Rrr::placeSessions(const std::vector<core::Pose2>& init
         ends.push_back(of(c.from) == session_to_place ? c.from : c.to);
       }
     }
-    if (group.members.size() < 2 || spread(graph_, poses, ends) < params_.placement_min_spread_m ||
-        !outnumbersRival(group, params_.placement_min_ratio)) {
-      return -1;
-    }
+    if (!groupPlaces(group, spread(graph_, poses, ends))) return -1;
     return clusters[static_cast<std::size_t>(group.members.front())];  // `joining` is by size
   };
   for (bool moved = true; moved;) {

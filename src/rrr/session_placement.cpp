@@ -95,7 +95,7 @@ double spread(const VerificationGraph& graph, const std::vector<core::Pose2>& po
 PlacementGroup largestAgreeingGroup(const VerificationGraph& graph,
                                     const std::vector<core::Pose2>& poses,
                                     const std::vector<JoiningLink>& links, double alpha,
-                                    bool map_exact) {
+                                    bool map_exact, bool with_rival) {
   const int n = static_cast<int>(links.size());
   const double threshold = core::chi2Quantile(alpha, 3);
   core::AdjacencyMatrix agree(n);
@@ -112,6 +112,7 @@ PlacementGroup largestAgreeingGroup(const VerificationGraph& graph,
   std::vector<int> ends;
   for (int p : group.members) ends.push_back(links[static_cast<std::size_t>(p)].session_node);
   group.spread_m = spread(graph, poses, ends);
+  if (!with_rival) return group;
   std::vector<int> disagreeing;
   for (int p = 0; p < n; ++p) {
     if (std::none_of(group.members.begin(), group.members.end(),
@@ -124,8 +125,9 @@ PlacementGroup largestAgreeingGroup(const VerificationGraph& graph,
 }
 
 bool outnumbersRival(const PlacementGroup& group, double min_ratio) {
-  return static_cast<double>(group.members.size()) >=
-         min_ratio * static_cast<double>(group.rival.size());
+  return min_ratio <= 1.0 || group.rival.empty() ||
+         static_cast<double>(group.members.size()) >=
+             min_ratio * static_cast<double>(group.rival.size());
 }
 
 }  // namespace rrr_graphslam::rrr

@@ -352,7 +352,12 @@ class Loop:
 
 
 def accepted_loops(graph_path: str, decisions_path: str) -> List[Loop]:
-    """The accepted candidates with their measurements: each decision row (from, to) takes the
+    """The accepted candidates with their measurements (decided_loops)."""
+    return [loop for loop, verdict in decided_loops(graph_path, decisions_path) if verdict == "accepted"]
+
+
+def decided_loops(graph_path: str, decisions_path: str) -> List[Tuple[Loop, str]]:
+    """Every candidate with its measurement and verdict: each decision row (from, to) takes the
     graph's edge between the same nodes, candidates after odometry (the graph lists odometry
     first), so a candidate between consecutive node ids is not taken for odometry."""
     graph = read_graph(graph_path)
@@ -371,25 +376,26 @@ def accepted_loops(graph_path: str, decisions_path: str) -> List[Loop]:
         # the candidates are the last counts[key] edges between these nodes
         k = len(same) - counts[key] + used[key]
         used[key] += 1
-        if d.verdict == "accepted" and 0 <= k < len(same):
-            out.append(Loop(d.source, d.target, same[k].measurement))
+        if 0 <= k < len(same):
+            out.append((Loop(d.source, d.target, same[k].measurement), d.verdict))
     return out
 
 
 @dataclass
 class LoopCheck:
-    inter_session: int = 0        # accepted loops between different sessions
+    inter_session: int = 0        # loops between different sessions
     inter_session_false: int = 0
-    checked: int = 0              # accepted loops with ground truth at both ends
+    checked: int = 0              # loops with ground truth at both ends
     false: int = 0                # of those, disagreeing with it
-    unknown: int = 0              # accepted loops an end of which has no ground truth
+    unknown: int = 0              # loops an end of which has no ground truth
     worst: List[Tuple[float, float, int, int]] = field(default_factory=list)
 
 
 def check_loops(loops: Sequence[Loop], node_stamps: Sequence[float], session_of, truth,
                 max_m: float, max_deg: float, involving: Optional[int] = None) -> LoopCheck:
-    """Scores accepted loops against `truth(stamp) -> Pose or None`; inter-session ones are those
-    whose ends lie in different sessions (and, if `involving` is given, one of them in it)."""
+    """Scores loops (accepted ones, or every candidate) against `truth(stamp) -> Pose or None`;
+    inter-session ones are those whose ends lie in different sessions (and, if `involving` is
+    given, one of them in it)."""
     out = LoopCheck()
     for loop in loops:
         a, b = session_of(loop.source), session_of(loop.target)
@@ -561,6 +567,7 @@ class SessionRow:
     entry_node: Optional[int] = None
     mapped_nodes: List[int] = field(default_factory=list)  # the session's nodes in mapped space
     loops: Optional[LoopCheck] = None
+    proposed: Optional[LoopCheck] = None  # every candidate between the session and an earlier one
     all_error: Optional[RelationError] = None
     cross_error: Optional[RelationError] = None
     nodes_only_error: Optional[RelationError] = None
@@ -598,10 +605,13 @@ def fmt_row(r: SessionRow) -> str:
                       if s.relocalized == "at" and r.entry_node is not None else "–")
     loops = "–" if r.loops is None or r.session in (None, 0) else \
         f"{r.loops.inter_session} ({r.loops.inter_session_false})"
+    proposed = "–" if r.proposed is None or r.session in (None, 0) else \
+        f"{r.proposed.inter_session} ({r.proposed.inter_session_false})"
     ratio = r.map_bytes / r.gzipped_log_bytes if r.gzipped_log_bytes else math.nan
     seed = "–" if r.seed is None else str(r.seed)
     return (f"| {r.log} | {r.sessions if r.session is not None else 1} | {seed} | {what} | "
-            f"{s.scans} / {r.nodes} | {s.time_s:.1f} | {reloc} | {entry} | {after} | {inside} | {loops} | "
+            f"{s.scans} / {r.nodes} | {s.time_s:.1f} | {reloc} | {entry} | {after} | {inside} | {proposed} | "
+            f"{loops} | "
             f"{'–' if math.isnan(r.load_s) else f'{r.load_s:.2f}'} | "
             f"{'–' if math.isnan(r.save_s) else f'{r.save_s:.2f}'} | "
             f"{r.map_bytes / 1e6:.2f} MB ({ratio:.2f}×) | {fmt_error(r.all_error)} | "
@@ -610,7 +620,7 @@ def fmt_row(r: SessionRow) -> str:
 
 HEADER = ("| log | sessions | seed | session | scans / nodes | time (s) | relocalized at the session's "
           "node (s after start) | entered mapped space | nodes from entry to tie | nodes in mapped space "
-          "before the tie | inter-session loops "
+          "before the tie | inter-session candidates proposed (false) | inter-session loops "
           "accepted at the end of its run (false) | load (s) | save (s) | map file (× gzipped log) | "
           "relation error, all (relations) | relation error, cross-session (relations) |")
 
@@ -717,10 +727,14 @@ def run_sessions(tools: Tools, data: LogData, cache: str, count: int, seed: int,
         end = first_nodes[k] + info.session_nodes[k]
         inside = mapped_space_nodes(positions, first_nodes[k], end, criteria.mapped_radius) if k else []
         entry = inside[0] if inside else None
-        accepted = accepted_loops(files[k]["graph"], files[k]["decisions"])
+        decided = decided_loops(files[k]["graph"], files[k]["decisions"])
+        accepted = [loop for loop, verdict in decided if verdict == "accepted"]
         loops = check_loops(accepted, stamps, of_node, truth, criteria.false_m, criteria.false_deg, involving=k)
+        proposed = check_loops([loop for loop, _ in decided], stamps, of_node, truth, criteria.false_m,
+                               criteria.false_deg, involving=k)
         row = SessionRow(data.name, count, seed, k, summaries[k], info.bytes, sum(gz[:k + 1]),
-                         info.session_nodes[k], entry_node=entry, mapped_nodes=inside, loops=loops, transform=transforms[k],
+                         info.session_nodes[k], entry_node=entry, mapped_nodes=inside, loops=loops,
+                         proposed=proposed, transform=transforms[k],
                          load_s=summaries[k].load_s if k else math.nan, save_s=summaries[k].save_s)
         if data.relations:
             t_stamps, t_poses = read_tum(files[k]["trajectory"])

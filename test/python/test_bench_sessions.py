@@ -4,7 +4,8 @@ inter-session loops, mapped space and scans carried by their nodes."""
 import math
 
 import pytest
-from rrr_graphslam.bench_sessions import (GroundTruth, Loop, RawScan, accepted_loops, check_loops,
+from rrr_graphslam.bench_sessions import (GroundTruth, Loop, RawScan, accepted_loops, decided_loops,
+                                          check_loops,
                                           session_components,
                                           cross_relations, mapped_space_entry,
                                           mapped_space_nodes, parse_map_info,
@@ -141,6 +142,9 @@ def test_accepted_loops_take_the_candidate_not_the_odometry(tmp_path):
                                     "0\t4\t1\taccepted\tx\n0\t4\t2\trejected\tx\n")
     loops = accepted_loops(str(tmp_path / "g.g2o"), str(tmp_path / "d.tsv"))
     assert [(l.source, l.target, l.measurement[0]) for l in loops] == [(2, 3, 0.9), (0, 4, 4.2)]
+    every = decided_loops(str(tmp_path / "g.g2o"), str(tmp_path / "d.tsv"))
+    assert [(l.source, l.target, l.measurement[0], v) for l, v in every] == [
+        (2, 3, 0.9, "accepted"), (0, 4, 4.2, "accepted"), (0, 4, 9.0, "rejected")]
 
 
 def test_inter_session_loops_are_scored_against_the_truth():

@@ -176,7 +176,21 @@ TEST(SessionPlacement, TwoReadingsAlikeWaitUntilOneHasTwiceTheClusters) {
   ASSERT_EQ(even.numCandidates(), 4);
   for (int c = 0; c < 4; ++c) {
     EXPECT_EQ(even.verdict(c), Verdict::kPending) << c << ": " << even.reason(c);
-    EXPECT_NE(even.reason(c).find("agree with none of them"), std::string::npos) << even.reason(c);
+    EXPECT_NE(even.reason(c).find("a rival group of 2 clusters"), std::string::npos)
+        << even.reason(c);
+  }
+  OnlineRrr three(withSpreadAndRatio(10.0, 2.0));
+  addMap(three);
+  driveTwoReadings(three, 100);  // three clusters to two: still not twice as many
+  ASSERT_EQ(three.numCandidates(), 5);
+  for (int c = 0; c < 5; ++c) {
+    EXPECT_EQ(three.verdict(c), Verdict::kPending) << c << ": " << three.reason(c);
+  }
+  // A run that ends here leaves the session untied: the batch decision's placement holds it too.
+  three.finish();
+  for (int c = 0; c < 5; ++c) {
+    EXPECT_EQ(three.verdict(c), Verdict::kRejected) << c << ": " << three.reason(c);
+    EXPECT_NE(three.reason(c).find("placement:"), std::string::npos) << three.reason(c);
   }
 
   OnlineRrr ahead(withSpreadAndRatio(10.0, 2.0));

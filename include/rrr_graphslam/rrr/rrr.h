@@ -29,6 +29,7 @@
 #include "rrr_graphslam/rrr/clustering.h"
 #include "rrr_graphslam/rrr/consistency.h"
 #include "rrr_graphslam/rrr/rrr_params.h"
+#include "rrr_graphslam/rrr/session_placement.h"
 #include "rrr_graphslam/rrr/verification_graph.h"
 
 namespace rrr_graphslam::rrr {
@@ -218,6 +219,10 @@ class Rrr {
   /// the map is returned (status pending) when its session ends lie placement_min_spread_m
   /// apart; the others wait (kUnplaced, with the group's size and spread as reason).
   std::vector<int> takePlacingClusters(std::vector<int>& pending);
+  /// Whether a group of agreeing clusters whose session ends lie `spread_m` apart places its
+  /// session: two clusters or more, placement_min_spread_m apart, placement_min_ratio times its
+  /// rival's clusters.
+  bool groupPlaces(const PlacementGroup& group, double spread_m) const;
   /// After a batch decision: a session the good clusters join to the others only at places
   /// closer than placement_min_spread_m has those clusters wait (kUnplaced) and goes back to its
   /// own frame; repeated while a session is let go. Returns true if a cluster was.

@@ -49,23 +49,26 @@ double spread(const VerificationGraph& graph, const std::vector<core::Pose2>& po
 struct PlacementGroup {
   std::vector<int> members;  ///< indices into the links given, sorted
   double spread_m = 0.0;     ///< spread() of the given links' session ends
-  /// The largest group among the links that agree with no member: another reading of where the
-  /// session lies (the building seen from its other end, the next corridor), sorted.
+  /// With `with_rival`: the largest group among the links that agree with no member, another
+  /// reading of where the session lies (the building seen from its other end, the next
+  /// corridor), sorted. A link that agrees with one member is not a rival's, nor counted against
+  /// the group; links whose session ends lie on another odometry chain than a member's (a
+  /// trimmed session) cannot be compared and count as disagreeing.
   std::vector<int> rival;
 };
 
 /// The largest group of mutually agreeing links (cycle chi2 below chi2(alpha, 3)), how far
-/// apart the session saw them, and its rival; links[k] stands for the k-th cluster.
+/// apart the session saw them and, if asked, its rival; links[k] stands for the k-th cluster.
 PlacementGroup largestAgreeingGroup(const VerificationGraph& graph,
                                     const std::vector<core::Pose2>& poses,
                                     const std::vector<JoiningLink>& links, double alpha,
-                                    bool map_exact = true);
+                                    bool map_exact = true, bool with_rival = false);
 
 /// Whether the group has at least `min_ratio` times its rival's clusters. A place seen the same
 /// from two poses gives two groups that each agree with themselves and grow side by side while
 /// the robot drives where both readings fit: the session is tied only once one of them clearly
-/// has more support (the ratio test of place recognition, applied to groups); 1 ties to the
-/// larger, a tie to the first.
+/// has more support (the ratio test of place recognition, applied to groups). True for
+/// min_ratio <= 1 and for a group without a rival.
 bool outnumbersRival(const PlacementGroup& group, double min_ratio);
 
 }  // namespace rrr_graphslam::rrr
