@@ -218,7 +218,7 @@ void LaserSlam::searchLoops(int node, const PointCloud& scan_points) {
       }
     }
     search_state_[static_cast<std::size_t>(s.submap->index())].last_matched = node;
-    addLoop(*s.loop);
+    addCandidate(s.loop->from, s.loop->to, s.loop->measurement, s.loop->information);
     relocalized = relocalized || to_earlier_session;
   }
   // A cluster is decided once the robot is cluster_gap nodes past its newest link: after a few
@@ -269,25 +269,30 @@ MapAgreement LaserSlam::sessionAgreement(const LoopMatch& loop,
   return mapAgreement(map, points, params_.loops.agreement);
 }
 
-void LaserSlam::addLoop(const LoopMatch& loop) {
+bool LaserSlam::addCandidate(int from, int to, const core::Pose2& measurement,
+                             const Eigen::Matrix3d& information) {
   const auto rrr_start = std::chrono::steady_clock::now();
   const int first = sessions_.back().first_node;
   const int index = rrr_->numCandidates();
-  try {
-    rrr_->addCandidate(static_cast<rrr::OnlineRrr::NodeId>(loop.from),
-                       static_cast<rrr::OnlineRrr::NodeId>(loop.to), loop.measurement,
-                       loop.information);
-  } catch (const std::invalid_argument&) {
-    // A match RRR cannot take (information not positive definite, a duplicate): no candidate.
+  const int nodes = rrr_->numNodes();
+  if (from < 0 || to < 0 || from >= nodes || to >= nodes) {  // RRR would wait for them
     ++stats_.refused_candidates;
-    return;
+    return false;
   }
-  if (rrr_->numCandidates() > index && std::min(loop.from, loop.to) < first &&
-      std::max(loop.from, loop.to) >= first) {
-    crossing_.push_back({index, std::max(loop.from, loop.to)});
+  try {
+    rrr_->addCandidate(static_cast<rrr::OnlineRrr::NodeId>(from),
+                       static_cast<rrr::OnlineRrr::NodeId>(to), measurement, information);
+  } catch (const std::invalid_argument&) {
+    // One RRR cannot take (information not positive definite, a duplicate): no candidate.
+    ++stats_.refused_candidates;
+    return false;
+  }
+  if (rrr_->numCandidates() > index && std::min(from, to) < first && std::max(from, to) >= first) {
+    crossing_.push_back({index, std::max(from, to)});
   }
   stats_.rrr_seconds += secondsSince(rrr_start);
   ++stats_.candidates;
+  return true;
 }
 
 void LaserSlam::setInitialPose(const core::Pose2& map_pose) {

@@ -19,6 +19,7 @@
 #include <type_traits>
 
 #include "decision_stream.h"
+#include "false_loops.h"
 #include "params_cli.h"
 #include "rrr_graphslam/core/atomic_file.h"
 #include "rrr_graphslam/core/graph_io.h"
@@ -90,6 +91,7 @@ const std::string& usage() {
       "                        [--decision-stream STREAM.tsv]\n"
       "                        [--load-map IN.rrrmap] [--save-map OUT.rrrmap]\n"
       "                        [--session-name NAME] [--session-trajectory TRAJ.txt]\n"
+      "                        [--false-loops F [--false-loops-seed S]]\n"
       "                        [--initial-pose X,Y,THETA] [--localization-only]\n"
       "                        [--lifelong [--trim-overlap R] [--keep-recent-submaps N]\n"
       "                                    [--keep-current-session true|false]\n"
@@ -123,6 +125,9 @@ const std::string& usage() {
       "  --save-map        write the map at the end (IN and OUT may be the same file)\n"
       "  --localization-only  with --load-map: the log is localized in the map, which stays as\n"
       "                    it is (no submap or scan of the log joins it; no --save-map)\n"
+      "  --false-loops F   benchmarks: about F (0-0.9) of the loop candidates are false ones\n"
+      "                    injected among the loop search's (close to a random older node;\n"
+      "                    doc/lifelong.md); --false-loops-seed S (default 1) draws them\n"
       "  --session-name    this run's session name (default: the log's file name)\n"
       "  --session-trajectory  as --trajectory, for this run's session only\n"
       "  --initial-pose    with --load-map: where the log's first scan is in the map frame (m, m,\n"
@@ -181,6 +186,7 @@ struct Arguments {
   bool lifelong = false;
   frontend::TrimParams trim;
   int trim_every_n_nodes = 0;  ///< online trimming; 0: only at --save-map
+  tools::FalseLoopParams false_loops;
   frontend::LaserSlamParams params;
 };
 
@@ -292,6 +298,12 @@ Arguments parseArguments(int argc, char** argv) {
         cli.fail(std::string("--sparsification: ") + e.what());
       }
       trim_flags.push_back(a);
+    } else if (a == "--false-loops") {
+      args.false_loops.fraction = cli.number(a, cli.value(i, a), 0.0, 0.9);
+    } else if (a == "--false-loops-seed") {
+      const double v = cli.number(a, cli.value(i, a), 0, 4294967295.0);
+      if (v != std::floor(v)) cli.fail(a + " must be an integer");
+      args.false_loops.seed = static_cast<unsigned>(v);
     } else if (a == "--session-name") {
       args.session_name = cli.value(i, a);
     } else if (a == "--session-trajectory") {
@@ -322,6 +334,11 @@ Arguments parseArguments(int argc, char** argv) {
   if (!trim_flags.empty() && !args.lifelong) cli.fail(trim_flags.front() + " needs --lifelong");
   if (args.lifelong && args.save_map.empty()) {
     cli.fail("--lifelong trims the map when it is saved: it needs --save-map");
+  }
+  if (args.false_loops.fraction > 0.0 && args.trim_every_n_nodes > 0) {
+    cli.fail(
+        "--false-loops counts the loop search's candidates of one run: not with "
+        "--trim-every-n-nodes, whose trims restart the front end");
   }
   if (args.trim_every_n_nodes > 0 && args.trim.sparsification != frontend::Sparsification::kClt) {
     cli.fail(
@@ -438,6 +455,7 @@ int main(int argc, char** argv) {
     latency.reserve(n);
     constexpr int kRefusalsShown = 10;
     tools::DecisionStream stream;
+    tools::FalseLoopInjector false_loops(args.false_loops);
     for (std::size_t k = 0; k < n; ++k) {
       const auto& record = log.scans[k];
       const auto scan_start = std::chrono::steady_clock::now();
@@ -446,6 +464,7 @@ int main(int argc, char** argv) {
       std::optional<int> node;
       try {
         node = slam.addScan(scan, record.odom_pose);
+        false_loops.afterScan(slam);
         placed.push_back(k);
         latency.push_back(core::secondsSince(scan_start));
       } catch (const frontend::SensorMismatch& e) {
@@ -509,6 +528,10 @@ int main(int argc, char** argv) {
       std::printf("verifier       %s\n", rrr::toString(args.params.rrr.verifier.verifier).c_str());
     }
     std::printf("candidates     %d in %d clusters\n", status.candidates, status.clusters);
+    if (args.false_loops.fraction > 0.0) {
+      std::printf("false loops    %d injected among them (--false-loops %g, seed %u)\n",
+                  false_loops.injected(), args.false_loops.fraction, args.false_loops.seed);
+    }
     if (stats.contradicted_matches > 0) {
       std::printf(
           "contradicted   %d matches to the map not proposed (the session's path they place "

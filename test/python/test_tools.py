@@ -276,6 +276,34 @@ def test_slam_offline_decides_with_another_verifier_as_rrr_offline_would(tmp_pat
 
 
 @needs_slam
+def test_slam_offline_injects_false_loops_that_rrr_decides_and_a_seed_repeats(tmp_path):
+    # --false-loops: about that share of the candidates are injected false ones (close to an
+    # older node than the loop search may match), decided by RRR among the search's own.
+    small = ("--scans-per-submap", 10, "--min-node-separation", 15, "--refine-resolution", 0, "--quiet")
+    plain = tmp_path / "plain.tsv"
+    assert run(SLAM_OFFLINE, ACES_HEAD, "--decisions", plain, *small).returncode == 0
+    runs = []
+    for name, seed in (("a", 1), ("b", 1), ("c", 2)):
+        decisions = tmp_path / f"{name}.tsv"
+        result = run(SLAM_OFFLINE, ACES_HEAD, "--decisions", decisions, "--false-loops", 0.5,
+                     "--false-loops-seed", seed, *small)
+        assert result.returncode == 0, result.stderr
+        line = next(l for l in result.stdout.splitlines() if l.startswith("false loops"))
+        injected = int(line.split()[2])
+        runs.append((injected, [(d.source, d.target, d.verdict) for d in read_decisions(str(decisions))]))
+    searched = len(read_decisions(str(plain)))
+    (injected, rows), (again, rows_again), (other, rows_other) = runs
+    assert 0.2 < injected / len(rows) < 0.8, (injected, len(rows))
+    # The search's own candidates stay about as they were (false loops RRR accepted would move
+    # the map its search windows follow).
+    assert abs(len(rows) - injected - searched) <= max(2, searched // 5), (len(rows), injected, searched)
+    assert (again, rows_again) == (injected, rows), "the same seed injects the same loops"
+    assert rows_other != rows
+    refused = run(SLAM_OFFLINE, ACES_HEAD, "--false-loops", 0.95)
+    assert refused.returncode != 0 and "--false-loops" in refused.stderr
+
+
+@needs_slam
 def test_slam_offline_decision_stream_holds_every_arrival_and_ends_in_the_final_verdicts(tmp_path):
     import csv
     stream, decisions = tmp_path / "stream.tsv", tmp_path / "d.tsv"

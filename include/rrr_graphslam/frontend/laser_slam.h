@@ -137,6 +137,14 @@ class LaserSlam {
   std::optional<int> addScan(const RangeScan& scan, const core::Pose2& odom_pose);
   /// End of the run: RRR decides every cluster from scratch.
   void finish();
+  /// A loop candidate from outside the loop search (a place recognizer, a fiducial, a
+  /// benchmark's injected false loop), `measurement` the pose of `to` in the frame of `from`:
+  /// RRR decides it like the search's own, and once accepted a loop between the current session
+  /// and an earlier one counts toward the tie. Returns false when RRR refuses it (an unknown
+  /// node, information not positive definite, a duplicate): counted in
+  /// stats().refused_candidates.
+  bool addCandidate(int from, int to, const core::Pose2& measurement,
+                    const Eigen::Matrix3d& information);
 
   const rrr::OnlineRrr& rrr() const { return *rrr_; }
   rrr::OnlineRrr& rrr() { return *rrr_; }
@@ -201,7 +209,6 @@ class LaserSlam {
   void load(const MapSnapshot& map, std::size_t finished_submaps, bool continuing = false);
   static bool trimsWhileMapping(bool tied, std::size_t sessions, const TrimParams& params);
   void searchLoops(int node, const PointCloud& points);
-  void addLoop(const LoopMatch& loop);
   /// Keeps a thinned copy of the node's scan while its session is not tied, over the last
   /// relocalization_check_travel_m of the path.
   void keepSessionPoints(int node, const PointCloud& points);
