@@ -44,8 +44,8 @@ import time
 from dataclasses import dataclass, field
 from typing import Dict, List, Optional, Sequence, Tuple
 
-from .bench_sessions import (LOGS, Criteria, LogData, LoopCheck, MapInfo, RunSummary, accepted_loops,
-                             check_loops, parse_map_info, parse_summary, random_transforms)
+from .bench_sessions import (LOGS, Criteria, LogData, LoopCheck, MapInfo, RunSummary, check_loops,
+                             decided_loops, parse_map_info, parse_summary, random_transforms)
 from .carmen import write_moved_log
 from .evaluation import read_decisions
 from .graph_io import Pose, write_text_atomically
@@ -251,7 +251,19 @@ class SessionResult:
     reopt_file_s: float = math.nan
     relation: Optional[RelationError] = None
     loops: Optional[LoopCheck] = None
+    # The candidates with an end among the session's own nodes, and those of them RRR accepted,
+    # against the ground truth: RRR's precision and recall on the run's own loops.
+    own_candidates: Optional[LoopCheck] = None
+    own_accepted: Optional[LoopCheck] = None
     peak_nodes: int = 0              # the most the run's graph held (before a save's or online trim)
+
+    def precision_recall(self) -> Tuple[float, float]:
+        if self.own_candidates is None or self.own_accepted is None:
+            return math.nan, math.nan
+        accepted_true = self.own_accepted.checked - self.own_accepted.false
+        true = self.own_candidates.checked - self.own_candidates.false
+        return (accepted_true / self.own_accepted.checked if self.own_accepted.checked else math.nan,
+                accepted_true / true if true else math.nan)
 
     def value(self, key: str) -> int:
         return int(self.info.values.get(key, 0))
@@ -334,7 +346,8 @@ def _f(x: float, fmt: str) -> str:
 HEADER = ("| config | session | nodes | peak nodes in the run | edges | marginal edges | submaps | map file (MB) | trim p50 / p99 (ms) "
           "[slowest trim_record] | "
           "KL clt / delete (nats) | re-optimization CPU from LAGO / from the map's poses (ms) | relation error (m) | "
-          "inter-session loops (false) | wall (s) |")
+          "inter-session loops (false) | the session's loops: RRR precision / recall (candidates, false) | "
+          "wall (s) |")
 
 
 def fmt_row(r: SessionResult) -> str:
@@ -345,10 +358,13 @@ def fmt_row(r: SessionResult) -> str:
     rel = "–" if r.relation is None or not r.relation.count else \
         f"{r.relation.trans_mean:.4f} ± {r.relation.trans_std:.4f}"
     loops = "–" if r.loops is None or r.session == 0 else f"{r.loops.inter_session} ({r.loops.inter_session_false})"
+    precision, recall = r.precision_recall()
+    own = "–" if r.own_candidates is None else (f"{_f(precision, '{:.3f}')} / {_f(recall, '{:.3f}')} "
+                                                f"({r.own_candidates.checked}, {r.own_candidates.false})")
     return (f"| {r.config} | {r.session + 1} | {r.info.nodes} | {r.peak_nodes or '–'} | {r.value('edges')} | {r.value('marginal_edges')} | "
             f"{r.value('submaps')} | {r.info.bytes / 1e6:.2f} | {trim_ms} | {kl} | "
             f"{_f(r.reopt_lago_s * 1e3, '{:.1f}')} / {_f(r.reopt_file_s * 1e3, '{:.1f}')} | {rel} | {loops} | "
-            f"{_f(r.wall_s, '{:.1f}')} |")
+            f"{own} | {_f(r.wall_s, '{:.1f}')} |")
 
 
 def table(rows: Sequence[SessionResult]) -> str:
@@ -579,8 +595,15 @@ def evaluate_config(tools: Tools, data: Optional[LogData], runs, config: str,
 
             def truth(t):
                 return None if t is None else data.truth.pose(t)
-            row.loops = check_loops(accepted_loops(stem + ".g2o", stem + ".tsv"), stamps, session_of, truth,
-                                    criteria.false_m, criteria.false_deg, involving=k)
+            decided = decided_loops(stem + ".g2o", stem + ".tsv")
+            accepted = [loop for loop, verdict in decided if verdict == "accepted"]
+            row.loops = check_loops(accepted, stamps, session_of, truth, criteria.false_m, criteria.false_deg,
+                                    involving=k)
+            own = [(loop, verdict) for loop, verdict in decided if max(loop.source, loop.target) >= loaded]
+            row.own_candidates = check_loops([loop for loop, _ in own], stamps, session_of, truth,
+                                             criteria.false_m, criteria.false_deg)
+            row.own_accepted = check_loops([loop for loop, verdict in own if verdict == "accepted"], stamps,
+                                           session_of, truth, criteria.false_m, criteria.false_deg)
         rows.append(row)
         prev_info = info
     return rows

@@ -206,8 +206,13 @@ def test_table_rows_have_the_headers_columns():
     assert lines[0] == HEADER and len(lines) == 4
     assert all(line.count("|") == HEADER.count("|") for line in lines)
     assert "| clt | 1 | 2405 | – | 2519 | 0 | 20 | 0.70 | 30.0 / 40.0 [52.9] | 2.26 / 21 | 10.5 / 5.2 | " \
-           "0.0348 ± 0.0300 | – | 30.0 |" == lines[2]
-    assert fmt_row(rows[1]).endswith("| – | – | 14.0 / 7.0 | – | 5 (0) | 31.0 |")
+           "0.0348 ± 0.0300 | – | – | 30.0 |" == lines[2]
+    assert fmt_row(rows[1]).endswith("| – | – | 14.0 / 7.0 | – | 5 (0) | – | 31.0 |")
+    # RRR on the session's own loops: 9 of 10 true candidates accepted, with 1 of 3 false ones.
+    rows[1].own_candidates = LoopCheck(checked=13, false=3)
+    rows[1].own_accepted = LoopCheck(checked=10, false=1)
+    assert rows[1].precision_recall() == pytest.approx((0.9, 0.9))
+    assert fmt_row(rows[1]).endswith("| 5 (0) | 0.900 / 0.900 (13, 3) | 31.0 |")
     rows[1].peak_nodes = 3106
     assert fmt_row(rows[1]).startswith("| clt | 2 | 2900 | 3106 | 3300 |")
 
