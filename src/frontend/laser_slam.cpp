@@ -64,6 +64,7 @@ std::optional<int> LaserSlam::addScan(const RangeScan& scan, const core::Pose2& 
   stats_.local_slam_seconds += secondsSince(start);
   ++stats_.scans;
   stats_.matched_scans += result.matched ? 1 : 0;
+  stats_.velocity_predicted_scans += result.velocity_predicted ? 1 : 0;
 
   if (result.node) {
     const int node = *result.node;

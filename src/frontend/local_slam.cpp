@@ -1,5 +1,6 @@
 #include "rrr_graphslam/frontend/local_slam.h"
 
+#include <cmath>
 #include <cstdio>
 #include <string>
 
@@ -43,11 +44,49 @@ void LocalSlam::checkPlausible(const RangeScan& scan, const core::Pose2& odom_po
   }
 }
 
+std::optional<core::Pose2> LocalSlam::velocityPrediction(double stamp) const {
+  // Older than this, a velocity says nothing about the next scan (the robot may have stopped).
+  constexpr double kMaxIntervalSeconds = 1.0;
+  if (!params_.velocity_prediction || !last_motion_) return std::nullopt;
+  const double seconds = stamp - last_stamp_;
+  const double last_seconds = last_motion_->seconds;
+  if (!(seconds > 0.0 && seconds <= kMaxIntervalSeconds && last_seconds > 0.0 &&
+        last_seconds <= kMaxIntervalSeconds)) {
+    return std::nullopt;
+  }
+  return core::compose(last_local_, last_motion_->step * (seconds / last_seconds));
+}
+
+LocalSlam::WindowMatch LocalSlam::correlativeMatch(const MatchGrid& grid, const PointCloud& points,
+                                                   double stamp,
+                                                   const core::Pose2& prediction) const {
+  // The velocity prediction's match must score this much better than the odometry's: the
+  // odometry is right far more often, and a second window is a second chance for a corridor's
+  // repeated structure.
+  constexpr double kVelocityMinGain = 1.1;
+  const CorrelativeParams& window = params_.correlative;
+  const CorrelativeMatch odometry = realTimeCorrelativeMatch(grid, prediction, points, window);
+  const WindowMatch by_odometry{odometry.pose, prediction};
+  const std::optional<core::Pose2> velocity = velocityPrediction(stamp);
+  if (!velocity) return by_odometry;
+  // Within half a window of each other, the odometry's window already covers the velocity
+  // prediction's neighbourhood.
+  const bool disagree =
+      (velocity->head<2>() - prediction.head<2>()).norm() > 0.5 * window.linear_window_m ||
+      std::abs(core::normalizeAngle(velocity->z() - prediction.z())) >
+          0.5 * window.angular_window_rad;
+  if (!disagree) return by_odometry;
+  const CorrelativeMatch other = realTimeCorrelativeMatch(grid, *velocity, points, window);
+  if (other.score <= kVelocityMinGain * odometry.score) return by_odometry;
+  return {other.pose, *velocity, true};
+}
+
 LocalSlamResult LocalSlam::addScan(const RangeScan& scan, const core::Pose2& odom_pose) {
   checkPlausible(scan, odom_pose);
   LocalSlamResult result;
+  const bool first = !started_;
   const core::Pose2 prediction =
-      started_ ? core::compose(last_local_, core::between(last_odom_, odom_pose)) : odom_pose;
+      first ? odom_pose : core::compose(last_local_, core::between(last_odom_, odom_pose));
   started_ = true;
   result.local_pose = prediction;
   result.points = matchingPoints(scan, params_.scan);
@@ -55,22 +94,29 @@ LocalSlamResult LocalSlam::addScan(const RangeScan& scan, const core::Pose2& odo
   const auto submap = submaps_.matchingSubmap();
   if (submap && static_cast<int>(result.points.size()) >= params_.min_points) {
     const MatchGrid& grid = submap->matchGrid();
-    const core::Pose2 initial =
+    const WindowMatch match =
         params_.correlative.linear_window_m > 0.0
-            ? realTimeCorrelativeMatch(grid, prediction, result.points, params_.correlative)
-            : prediction;
+            ? correlativeMatch(grid, result.points, scan.timestamp, prediction)
+            : WindowMatch{prediction, prediction};
+    const core::Pose2& initial = match.pose;
+    result.velocity_predicted = match.velocity_predicted;
     if (params_.refinement == LocalSlamParams::Refinement::kIcp && submap->grid() != nullptr) {
       const auto icp = refineIcp(*submap->grid(), initial, result.points, params_.icp);
       result.local_pose = icp.value_or(initial);
     } else {
       // Cartographer's choice: translation pulled toward the prediction, rotation toward the
       // correlative result.
-      const core::Pose2 prior(prediction.x(), prediction.y(), initial.z());
+      const core::Pose2 prior(match.center.x(), match.center.y(), initial.z());
       result.local_pose =
           refineLeastSquares(grid, prior, initial, result.points, params_.least_squares).pose;
     }
     result.matched = true;
   }
+  if (!first) {
+    last_motion_ =
+        Motion{core::between(last_local_, result.local_pose), scan.timestamp - last_stamp_};
+  }
+  last_stamp_ = scan.timestamp;
   last_local_ = result.local_pose;
   last_odom_ = odom_pose;
 

@@ -7,8 +7,9 @@
 
 namespace rrr_graphslam::frontend {
 
-core::Pose2 realTimeCorrelativeMatch(const MatchGrid& grid, const core::Pose2& prediction,
-                                     const PointCloud& points, const CorrelativeParams& params) {
+CorrelativeMatch realTimeCorrelativeMatch(const MatchGrid& grid, const core::Pose2& prediction,
+                                          const PointCloud& points,
+                                          const CorrelativeParams& params) {
   const double resolution = grid.resolution();
   const int window = static_cast<int>(std::ceil(params.linear_window_m / resolution));
   const int num_angles =
@@ -40,7 +41,7 @@ core::Pose2 realTimeCorrelativeMatch(const MatchGrid& grid, const core::Pose2& p
       }
     }
   }
-  return best;
+  return {best, best_score};
 }
 
 RefinedMatch refineLeastSquares(const MatchGrid& grid, const core::Pose2& prior,

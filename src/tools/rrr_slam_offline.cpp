@@ -198,6 +198,12 @@ int main(int argc, char** argv) {
       std::printf("refused        %d scans (not placed; not in --trajectory)\n",
                   stats.refused_scans);
     }
+    if (stats.velocity_predicted_scans > 0) {
+      std::printf(
+          "odometry off   %d scans matched around the last step repeated, not the "
+          "odometry's prediction (scan_velocity_prediction)\n",
+          stats.velocity_predicted_scans);
+    }
     std::printf("nodes          %d in %d submaps\n", stats.nodes, stats.submaps);
     std::printf("loop search    %lld node-submap pairs, %.2f ms each (%.2f s on %d threads)\n",
                 stats.loop_searches,

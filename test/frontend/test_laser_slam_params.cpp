@@ -96,6 +96,8 @@ TEST(LaserSlamParams, TheYamlDocumentsEveryParameterWithItsDefault) {
     using T = std::decay_t<decltype(value)>;
     if constexpr (std::is_enum_v<T>) {
       EXPECT_EQ(m[1].str(), core::choiceName(value)) << info.name;
+    } else if constexpr (std::is_same_v<T, bool>) {
+      EXPECT_EQ(m[1].str(), value ? "true" : "false") << info.name;
     } else if constexpr (std::is_same_v<T, Eigen::Vector3d>) {
       std::string list = m[1].str();
       for (char& c : list) c = (c == '[' || c == ']' || c == ',') ? ' ' : c;

@@ -39,7 +39,7 @@ TEST(ScanMatcher, LocalMatchRecoversAKnownOffset) {
   const PointCloud points = matchingPoints(castScan(room(), truth), scan_params);
   const core::Pose2 prediction = truth + core::Pose2(0.08, -0.06, 0.05);
   const core::Pose2 coarse =
-      realTimeCorrelativeMatch(submap.matchGrid(), prediction, points, CorrelativeParams{});
+      realTimeCorrelativeMatch(submap.matchGrid(), prediction, points, CorrelativeParams{}).pose;
   EXPECT_LT((coarse.head<2>() - truth.head<2>()).norm(), 0.06) << coarse.transpose();
   LeastSquaresParams ls;
   ls.translation_weight = 0.1;  // a weak prior: the scan decides
@@ -231,6 +231,46 @@ TEST(LocalSlam, RefusesImplausibleScansAndTracksOnAfterAnOdometryJump) {
   }
 }
 
+// The largest local-pose error of a robot that drives 2 m, stops and backs up 1.5 m, scans 0.1 s
+// apart, while its odometry integrates the speed's magnitude (it reports forward motion while
+// the robot backs up, as the FR079 log's base does): each backing step is predicted 0.2 m off.
+double worstErrorBackingUpOnForwardOdometry(bool velocity_prediction, int* velocity_predicted) {
+  LocalSlamParams params;
+  params.submap.scans_per_submap = 10;
+  params.velocity_prediction = velocity_prediction;
+  LocalSlam slam(params);
+  std::vector<double> steps(20, 0.1);
+  for (double s : {0.05, 0.0, -0.05}) steps.push_back(s);
+  steps.insert(steps.end(), 14, -0.1);
+  core::Pose2 truth(1.5, 4.0, 0.0), odom = truth;
+  core::Pose2 first_local = core::Pose2::Zero();
+  double worst = 0.0;
+  *velocity_predicted = 0;
+  for (std::size_t k = 0; k <= steps.size(); ++k) {
+    if (k > 0) {
+      truth.x() += steps[k - 1];
+      odom.x() += std::abs(steps[k - 1]);
+    }
+    RangeScan scan = castScan(room(), truth);
+    scan.timestamp = 100.0 + 0.1 * static_cast<double>(k);
+    const LocalSlamResult r = slam.addScan(scan, odom);
+    if (k == 0) first_local = r.local_pose;
+    const core::Pose2 expected =
+        core::compose(first_local, core::between(core::Pose2(1.5, 4.0, 0.0), truth));
+    worst = std::max(worst, (r.local_pose.head<2>() - expected.head<2>()).norm());
+    *velocity_predicted += r.velocity_predicted ? 1 : 0;
+  }
+  return worst;
+}
+
+TEST(LocalSlam, FollowsARobotBackingUpWhileItsOdometrySaysForward) {
+  int velocity_predicted = 0;
+  EXPECT_LT(worstErrorBackingUpOnForwardOdometry(true, &velocity_predicted), 0.05);
+  EXPECT_GE(velocity_predicted, 10);  // every backing step after the first ones
+  // Searched around the odometry alone, the backing scans are held near the window's edge.
+  EXPECT_GT(worstErrorBackingUpOnForwardOdometry(false, &velocity_predicted), 0.3);
+  EXPECT_EQ(velocity_predicted, 0);
+}
 INSTANTIATE_TEST_SUITE_P(Refinements, LocalSlamTest,
                          ::testing::Values(LocalSlamParams::Refinement::kLeastSquares,
                                            LocalSlamParams::Refinement::kIcp),

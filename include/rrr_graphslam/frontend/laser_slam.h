@@ -51,6 +51,9 @@ enum class SessionMode {
 struct LaserSlamStats {
   int scans = 0;
   int matched_scans = 0;
+  /// Scans matched in the window around the constant-velocity prediction, which scored better
+  /// than the odometry's (LocalSlamParams::velocity_prediction): where the odometry was wrong.
+  int velocity_predicted_scans = 0;
   int refused_scans = 0;  ///< ScanRefused (not counted in scans)
   int nodes = 0;
   int submaps = 0;

@@ -54,6 +54,10 @@ void forEachSlamParam(Params& p, F&& f) {
   f(core::ParamInfo{"correlative_search_window", 0.0, 10.0,
                     "m; local SLAM's correlative search +- this (0: least squares only)"},
     local.correlative.linear_window_m);
+  f(core::ParamInfo{"scan_velocity_prediction", 0, 1,
+                    "where the odometry's prediction is half a window from the last step "
+                    "repeated, the window is searched around that too (10% better score wins)"},
+    local.velocity_prediction);
   f(core::ParamInfo{"correlative_translation_cost", 0.0, 1e6,
                     "the correlative score is discounted by exp(-(this |dt|^2 + ...))"},
     local.correlative.translation_delta_cost_weight);

@@ -1,10 +1,11 @@
 #pragma once
 // Local SLAM (Cartographer's LocalTrajectoryBuilder2D): every scan is matched against the active
 // submap, starting from the odometry prediction (correlative search, then least squares or MRPT's
-// ICP); scans that moved far enough since the last inserted one (the motion filter) become nodes
-// and are inserted into both active submaps. A scan that cannot be placed (non-finite or absurd
-// odometry, an odometry jump, a laser mounted far from the robot) is refused (ScanRefused), so a
-// wheel slip or a tf glitch never reaches the grids.
+// ICP; the search also runs around a constant-velocity prediction when the odometry disagrees
+// with it); scans that moved far enough since the last inserted one (the motion filter) become
+// nodes and are inserted into both active submaps. A scan that cannot be placed (non-finite or
+// absurd odometry, an odometry jump, a laser mounted far from the robot) is refused (ScanRefused),
+// so a wheel slip or a tf glitch never reaches the grids.
 
 #include <memory>
 #include <optional>
@@ -34,6 +35,12 @@ struct LocalSlamParams {
   core::KeyframeParams motion_filter{0.1, 2.0 * M_PI / 180};
   /// Scans with fewer matching points are not matched (the prediction is kept).
   int min_points = 20;
+  /// Odometry wrong by more than the correlative window (a wheel slip; a base that reports
+  /// forward motion while it backs up, as in the FR079 log) would hold each scan at the window's
+  /// edge. With this on, when the constant-velocity prediction (the last scan's matched step,
+  /// scaled to this scan's interval) lies more than half a window from the odometry's, the
+  /// window is searched around it too, and its match is taken if it scores at least 10% better.
+  bool velocity_prediction = true;
   /// A scan whose odometry moved more than this (m) since the previous scan is refused, and the
   /// odometry is re-anchored at it: the scans after it are tracked from there as if the robot had
   /// stood still across the jump (a wheel slip, an odometry reset). Default 5 m.
@@ -50,6 +57,9 @@ struct LocalSlamResult {
   core::Pose2 local_pose;  ///< the scan's robot pose in the local SLAM frame
   PointCloud points;       ///< matching points, robot frame
   bool matched = false;    ///< false: the odometry prediction was kept
+  /// The match came from the window around the constant-velocity prediction, which scored
+  /// better than the odometry's (LocalSlamParams::velocity_prediction).
+  bool velocity_predicted = false;
   /// Set when the scan became node `node` and was inserted (as `observation`).
   std::optional<int> node;
   std::optional<mrpt::obs::CObservation2DRangeScan> observation;
@@ -85,6 +95,17 @@ class LocalSlam {
 
  private:
   void checkPlausible(const RangeScan& scan, const core::Pose2& odom_pose);
+  /// The last matched step repeated over this scan's interval, when both intervals are known.
+  std::optional<core::Pose2> velocityPrediction(double stamp) const;
+  struct WindowMatch {
+    core::Pose2 pose;    ///< the correlative match
+    core::Pose2 center;  ///< the prediction whose window it came from
+    bool velocity_predicted = false;
+  };
+  /// The correlative match, searched around the odometry's prediction and, when the velocity
+  /// prediction disagrees with it, around that too.
+  WindowMatch correlativeMatch(const MatchGrid& grid, const PointCloud& points, double stamp,
+                               const core::Pose2& prediction) const;
 
   LocalSlamParams params_;
   ActiveSubmaps submaps_;
@@ -92,6 +113,13 @@ class LocalSlam {
   bool started_ = false;
   core::Pose2 last_odom_ = core::Pose2::Zero();
   core::Pose2 last_local_ = core::Pose2::Zero();
+  /// The last scan's local step and the seconds since the scan before it (the velocity).
+  struct Motion {
+    core::Pose2 step;
+    double seconds;
+  };
+  std::optional<Motion> last_motion_;
+  double last_stamp_ = 0.0;
   int next_node_ = 0;
 };
 

@@ -41,9 +41,15 @@ struct RefinedMatch {
   Eigen::Matrix3d information;  ///< of `pose`, from the Gauss-Newton Hessian of the scan term
 };
 
-/// The best discrete pose near `prediction`; returns `prediction` if no pose scores above zero.
-core::Pose2 realTimeCorrelativeMatch(const MatchGrid& grid, const core::Pose2& prediction,
-                                     const PointCloud& points, const CorrelativeParams& params);
+struct CorrelativeMatch {
+  core::Pose2 pose;    ///< the best discrete pose (the prediction when nothing scored above 0)
+  double score = 0.0;  ///< its mean probability, discounted for straying from the prediction
+};
+
+/// The best discrete pose near `prediction`; `prediction` itself if no pose scores above zero.
+CorrelativeMatch realTimeCorrelativeMatch(const MatchGrid& grid, const core::Pose2& prediction,
+                                          const PointCloud& points,
+                                          const CorrelativeParams& params);
 
 /// Least-squares refinement starting at `initial`, pulled toward `prior`.
 RefinedMatch refineLeastSquares(const MatchGrid& grid, const core::Pose2& prior,
