@@ -50,16 +50,21 @@ std::optional<core::Pose2> LocalSlam::velocityPrediction(double stamp) const {
   if (!params_.velocity_prediction || !last_motion_) return std::nullopt;
   const double seconds = stamp - last_stamp_;
   const double last_seconds = last_motion_->seconds;
+  // Intervals further apart than this factor say more about the stamps (jitter, bursts of a
+  // logger, a near-duplicate) than about the motion: no prediction.
+  constexpr double kMaxIntervalRatio = 2.0;
   if (!(seconds > 0.0 && seconds <= kMaxIntervalSeconds && last_seconds > 0.0 &&
         last_seconds <= kMaxIntervalSeconds)) {
     return std::nullopt;
   }
-  return core::compose(last_local_, last_motion_->step * (seconds / last_seconds));
+  const double ratio = seconds / last_seconds;
+  if (ratio > kMaxIntervalRatio || ratio < 1.0 / kMaxIntervalRatio) return std::nullopt;
+  // x, y and theta scaled alike: exact for equal intervals, off to second order otherwise.
+  return core::compose(last_local_, last_motion_->step * ratio);
 }
 
-LocalSlam::WindowMatch LocalSlam::correlativeMatch(const MatchGrid& grid, const PointCloud& points,
-                                                   double stamp,
-                                                   const core::Pose2& prediction) const {
+LocalSlam::WindowMatch LocalSlam::searchWindows(const MatchGrid& grid, const PointCloud& points,
+                                                double stamp, const core::Pose2& prediction) const {
   // The velocity prediction's match must score this much better than the odometry's: the
   // odometry is right far more often, and a second window is a second chance for a corridor's
   // repeated structure.
@@ -76,9 +81,9 @@ LocalSlam::WindowMatch LocalSlam::correlativeMatch(const MatchGrid& grid, const 
       std::abs(core::normalizeAngle(velocity->z() - prediction.z())) >
           0.5 * window.angular_window_rad;
   if (!disagree) return by_odometry;
-  const CorrelativeMatch other = realTimeCorrelativeMatch(grid, *velocity, points, window);
-  if (other.score <= kVelocityMinGain * odometry.score) return by_odometry;
-  return {other.pose, *velocity, true};
+  const CorrelativeMatch by_velocity = realTimeCorrelativeMatch(grid, *velocity, points, window);
+  if (by_velocity.score <= kVelocityMinGain * odometry.score) return by_odometry;
+  return {by_velocity.pose, *velocity, true};
 }
 
 LocalSlamResult LocalSlam::addScan(const RangeScan& scan, const core::Pose2& odom_pose) {
@@ -94,18 +99,17 @@ LocalSlamResult LocalSlam::addScan(const RangeScan& scan, const core::Pose2& odo
   const auto submap = submaps_.matchingSubmap();
   if (submap && static_cast<int>(result.points.size()) >= params_.min_points) {
     const MatchGrid& grid = submap->matchGrid();
-    const WindowMatch match =
-        params_.correlative.linear_window_m > 0.0
-            ? correlativeMatch(grid, result.points, scan.timestamp, prediction)
-            : WindowMatch{prediction, prediction};
+    const WindowMatch match = params_.correlative.linear_window_m > 0.0
+                                  ? searchWindows(grid, result.points, scan.timestamp, prediction)
+                                  : WindowMatch{prediction, prediction};
     const core::Pose2& initial = match.pose;
     result.velocity_predicted = match.velocity_predicted;
     if (params_.refinement == LocalSlamParams::Refinement::kIcp && submap->grid() != nullptr) {
       const auto icp = refineIcp(*submap->grid(), initial, result.points, params_.icp);
       result.local_pose = icp.value_or(initial);
     } else {
-      // Cartographer's choice: translation pulled toward the prediction, rotation toward the
-      // correlative result.
+      // Cartographer's choice: translation pulled toward the prediction (of the window the match
+      // came from), rotation toward the correlative result.
       const core::Pose2 prior(match.center.x(), match.center.y(), initial.z());
       result.local_pose =
           refineLeastSquares(grid, prior, initial, result.points, params_.least_squares).pose;

@@ -231,17 +231,21 @@ TEST(LocalSlam, RefusesImplausibleScansAndTracksOnAfterAnOdometryJump) {
   }
 }
 
-// The largest local-pose error of a robot that drives 2 m, stops and backs up 1.5 m, scans 0.1 s
-// apart, while its odometry integrates the speed's magnitude (it reports forward motion while
-// the robot backs up, as the FR079 log's base does): each backing step is predicted 0.2 m off.
-double worstErrorBackingUpOnForwardOdometry(bool velocity_prediction, int* velocity_predicted) {
+// The largest local-pose error of a robot that drives 2 m forward and then backs up 1.5 m, scans
+// 0.1 s apart (`stop`: slowing down and starting again over three scans; else reversing from one
+// scan to the next). `odometry_reports_forward`: the odometry integrates the speed's magnitude,
+// so each backing step is predicted 0.2 m off (the FR079 log's base does this).
+double worstErrorBackingUp(bool velocity_prediction, bool stop, bool odometry_reports_forward,
+                           int* velocity_predicted) {
   LocalSlamParams params;
   params.submap.scans_per_submap = 10;
   params.velocity_prediction = velocity_prediction;
   LocalSlam slam(params);
   std::vector<double> steps(20, 0.1);
-  for (double s : {0.05, 0.0, -0.05}) steps.push_back(s);
-  steps.insert(steps.end(), 14, -0.1);
+  if (stop) {
+    for (double s : {0.05, 0.0, -0.05}) steps.push_back(s);
+  }
+  steps.insert(steps.end(), stop ? 14 : 15, -0.1);
   core::Pose2 truth(1.5, 4.0, 0.0), odom = truth;
   core::Pose2 first_local = core::Pose2::Zero();
   double worst = 0.0;
@@ -249,7 +253,7 @@ double worstErrorBackingUpOnForwardOdometry(bool velocity_prediction, int* veloc
   for (std::size_t k = 0; k <= steps.size(); ++k) {
     if (k > 0) {
       truth.x() += steps[k - 1];
-      odom.x() += std::abs(steps[k - 1]);
+      odom.x() += odometry_reports_forward ? std::abs(steps[k - 1]) : steps[k - 1];
     }
     RangeScan scan = castScan(room(), truth);
     scan.timestamp = 100.0 + 0.1 * static_cast<double>(k);
@@ -265,10 +269,18 @@ double worstErrorBackingUpOnForwardOdometry(bool velocity_prediction, int* veloc
 
 TEST(LocalSlam, FollowsARobotBackingUpWhileItsOdometrySaysForward) {
   int velocity_predicted = 0;
-  EXPECT_LT(worstErrorBackingUpOnForwardOdometry(true, &velocity_predicted), 0.05);
+  EXPECT_LT(worstErrorBackingUp(true, true, true, &velocity_predicted), 0.05);
   EXPECT_GE(velocity_predicted, 10);  // every backing step after the first ones
   // Searched around the odometry alone, the backing scans are held near the window's edge.
-  EXPECT_GT(worstErrorBackingUpOnForwardOdometry(false, &velocity_predicted), 0.3);
+  EXPECT_GT(worstErrorBackingUp(false, true, true, &velocity_predicted), 0.3);
+  EXPECT_EQ(velocity_predicted, 0);
+}
+
+TEST(LocalSlam, KeepsTrueOdometryWhenTheRobotReversesAtOnce) {
+  // The velocity prediction is 0.2 m off at the reversal and searched; the odometry's window,
+  // which holds the truth, must win.
+  int velocity_predicted = 0;
+  EXPECT_LT(worstErrorBackingUp(true, false, false, &velocity_predicted), 0.05);
   EXPECT_EQ(velocity_predicted, 0);
 }
 INSTANTIATE_TEST_SUITE_P(Refinements, LocalSlamTest,

@@ -29,9 +29,9 @@ inline core::Choices<LocalSlamParams::Refinement> choices(LocalSlamParams::Refin
 }
 
 /// Calls f(info, field) for every front-end parameter of `p` (LaserSlamParams or const
-/// LaserSlamParams) in a fixed order; fields are double, int, LocalSlamParams::Refinement or
-/// Eigen::Vector3d. Submaps insert rays up to scan_max_range: after visiting a non-const `p`, its
-/// submap insertion range follows the scan's.
+/// LaserSlamParams) in a fixed order; fields are double, int, bool, LocalSlamParams::Refinement
+/// or Eigen::Vector3d. Submaps insert rays up to scan_max_range: after visiting a non-const `p`,
+/// its submap insertion range follows the scan's.
 template <class Params, class F>
 void forEachSlamParam(Params& p, F&& f) {
   auto& local = p.local;
@@ -64,7 +64,7 @@ void forEachSlamParam(Params& p, F&& f) {
   f(core::ParamInfo{"correlative_rotation_cost", 0.0, 1e6, "... and exp(-this dtheta^2)"},
     local.correlative.rotation_delta_cost_weight);
   f(core::ParamInfo{"scan_translation_weight", 0.0, 1e6,
-                    "least squares: pull of the translation toward the odometry prediction"},
+                    "least squares: pull of the translation toward the prediction"},
     local.least_squares.translation_weight);
   f(core::ParamInfo{"scan_rotation_weight", 0.0, 1e6,
                     "least squares: pull of the rotation toward the correlative match"},

@@ -37,8 +37,8 @@ struct LocalSlamParams {
   int min_points = 20;
   /// Odometry wrong by more than the correlative window (a wheel slip; a base that reports
   /// forward motion while it backs up, as in the FR079 log) would hold each scan at the window's
-  /// edge. With this on, when the constant-velocity prediction (the last scan's matched step,
-  /// scaled to this scan's interval) lies more than half a window from the odometry's, the
+  /// edge. With this on, when the constant-velocity prediction (the last scan's step, scaled
+  /// to this scan's interval) lies more than half a window from the odometry's, the
   /// window is searched around it too, and its match is taken if it scores at least 10% better.
   bool velocity_prediction = true;
   /// A scan whose odometry moved more than this (m) since the previous scan is refused, and the
@@ -95,7 +95,8 @@ class LocalSlam {
 
  private:
   void checkPlausible(const RangeScan& scan, const core::Pose2& odom_pose);
-  /// The last matched step repeated over this scan's interval, when both intervals are known.
+  /// The last step (matched, or the odometry's when that scan could not be matched) repeated
+  /// over this scan's interval, when both intervals are known and within 2x of each other.
   std::optional<core::Pose2> velocityPrediction(double stamp) const;
   struct WindowMatch {
     core::Pose2 pose;    ///< the correlative match
@@ -104,8 +105,8 @@ class LocalSlam {
   };
   /// The correlative match, searched around the odometry's prediction and, when the velocity
   /// prediction disagrees with it, around that too.
-  WindowMatch correlativeMatch(const MatchGrid& grid, const PointCloud& points, double stamp,
-                               const core::Pose2& prediction) const;
+  WindowMatch searchWindows(const MatchGrid& grid, const PointCloud& points, double stamp,
+                            const core::Pose2& prediction) const;
 
   LocalSlamParams params_;
   ActiveSubmaps submaps_;
