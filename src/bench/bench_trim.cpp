@@ -4,7 +4,8 @@
 //
 // usage: rrr_bench_trim [--sparsification clt|delete] [--trim-overlap R]
 //                       [--keep-recent-submaps N] [--keep-current-session true|false]
-//                       [--group-neighbours] [--no-kl] [--repeat N] MAP.rrrmap...
+//                       [--clt-conservative true|false] [--group-neighbours] [--no-kl]
+//                       [--repeat N] MAP.rrrmap...
 // The maps must have been made with the default front-end parameters (the coverage grids are
 // built with them).
 
@@ -40,7 +41,7 @@ struct Options {
   std::cerr << "rrr_bench_trim: " << problem
             << "\nusage: rrr_bench_trim [--sparsification clt|delete] [--trim-overlap R] "
                "[--keep-recent-submaps N] [--keep-current-session true|false] "
-               "[--group-neighbours] [--no-kl] [--repeat N] "
+               "[--clt-conservative true|false] [--group-neighbours] [--no-kl] [--repeat N] "
                "MAP.rrrmap...\n";
   std::exit(2);
 }
@@ -66,6 +67,7 @@ double optimizeOnce(const frontend::MapSnapshot& map) {
 
 int main(int argc, char** argv) {
   Options options;
+  options.trim.report_kl = true;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     auto value = [&]() -> std::string {
@@ -83,6 +85,10 @@ int main(int argc, char** argv) {
         const std::string v = value();
         if (v != "true" && v != "false") usage(a + " must be true or false");
         options.trim.keep_current_session = v == "true";
+      } else if (a == "--clt-conservative") {
+        const std::string v = value();
+        if (v != "true" && v != "false") usage(a + " must be true or false");
+        options.trim.chow_liu.conservative = v == "true";
       } else if (a == "--group-neighbours") {
         options.trim.group_neighbours = true;
       } else if (a == "--no-kl") {

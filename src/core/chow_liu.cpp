@@ -9,6 +9,7 @@
 #include <Eigen/Cholesky>
 #include <Eigen/LU>
 
+#include "rrr_graphslam/core/largest_eigenvalue.h"
 #include "rrr_graphslam/core/union_find.h"
 
 namespace rrr_graphslam::core {
@@ -129,6 +130,67 @@ std::vector<Candidate> maximumSpanningTree(std::vector<Candidate> candidates, st
   return tree;
 }
 
+// Conservative scaling: the tree's information over a piece (anchored at its root) against the
+// marginal's. In the tree's own coordinates (its edges' relative poses, an invertible function
+// of the non-root poses) the tree's information is block-diagonal, Omega = diag(Sigma_e^-1),
+// and the marginal's covariance is Sigma_rel, whose diagonal blocks are the Sigma_e: the
+// largest eigenvalue of Omega^1/2 Sigma_rel Omega^1/2 (blocks L_e^T Sigma_rel(e, f) L_f,
+// Omega_e = L_e L_e^T, identity on the diagonal) is the most the tree overstates the
+// marginal's information in any direction. It is at least 1, and 1 only when the edges'
+// relative poses are uncorrelated (the marginal is itself that tree). Dividing every edge's
+// information by it makes the tree's information at most the marginal's.
+double largestOverstatement(const Eigen::MatrixXd& covariance,
+                            const std::vector<Candidate>& edges) {
+  const auto size = static_cast<Eigen::Index>(3 * edges.size());
+  if (size == 0) return 1.0;
+  std::vector<Eigen::Matrix3d> whitening;  // L_e
+  for (const Candidate& c : edges) {
+    whitening.push_back(Eigen::LLT<Eigen::Matrix3d>(c.information).matrixL());
+  }
+  auto block = [&](std::size_t a, std::size_t b) {
+    return covariance.block<3, 3>(3 * static_cast<Eigen::Index>(a),
+                                  3 * static_cast<Eigen::Index>(b));
+  };
+  Eigen::MatrixXd whitened(size, size);
+  for (std::size_t e = 0; e < edges.size(); ++e) {
+    const Candidate& ce = edges[e];
+    for (std::size_t f = e; f < edges.size(); ++f) {
+      const Candidate& cf = edges[f];
+      const Eigen::Matrix3d sigma =
+          ce.linearization.J_from * block(ce.i, cf.i) * cf.linearization.J_from.transpose() +
+          ce.linearization.J_from * block(ce.i, cf.j) * cf.linearization.J_to.transpose() +
+          ce.linearization.J_to * block(ce.j, cf.i) * cf.linearization.J_from.transpose() +
+          ce.linearization.J_to * block(ce.j, cf.j) * cf.linearization.J_to.transpose();
+      const Eigen::Matrix3d w = whitening[e].transpose() * sigma * whitening[f];
+      whitened.block<3, 3>(3 * static_cast<Eigen::Index>(e), 3 * static_cast<Eigen::Index>(f)) = w;
+      whitened.block<3, 3>(3 * static_cast<Eigen::Index>(f), 3 * static_cast<Eigen::Index>(e)) =
+          w.transpose();
+    }
+  }
+  const double overstatement = largestEigenvalue(whitened);  // throws if not finite
+  return std::max(1.0, overstatement);
+}
+
+// Scales each piece's tree edges by 1 / largestOverstatement (Kruskal's order mixes pieces).
+void makeConservative(const Eigen::MatrixXd& covariance,
+                      const std::vector<std::vector<std::size_t>>& pieces,
+                      std::vector<Candidate>& tree) {
+  std::vector<std::size_t> piece_of(covariance.rows() / 3, 0);
+  for (std::size_t p = 0; p < pieces.size(); ++p) {
+    for (std::size_t k : pieces[p]) piece_of[k] = p;
+  }
+  for (std::size_t p = 0; p < pieces.size(); ++p) {
+    std::vector<Candidate> edges;
+    for (const Candidate& c : tree) {
+      if (piece_of[c.i] == p) edges.push_back(c);
+    }
+    const double scale = 1.0 / largestOverstatement(covariance, edges);
+    for (Candidate& c : tree) {
+      if (piece_of[c.i] == p) c.information *= scale;
+    }
+  }
+}
+
 // The tree's edges as constraints whose gradient at the linearization point is the marginal's
 // g. Edge e with measurement z_e = d_e - delta_e (d_e = between(x_i, x_j), on x, y, theta) has
 // error K_z delta_e there, K_z = diag(R(z_theta)^T, 1), and Jacobians K_z K_d^T A_e with A_e its
@@ -198,8 +260,8 @@ std::vector<ChowLiuEdge> chowLiuTree(const Marginal& marginal, const ChowLiuPara
       }
     }
   }
-  const std::vector<Candidate> tree =
-      maximumSpanningTree(std::move(candidates), marginal.blanket.size());
+  std::vector<Candidate> tree = maximumSpanningTree(std::move(candidates), marginal.blanket.size());
+  if (params.conservative) makeConservative(covariance, pieces, tree);
 
   std::vector<ChowLiuEdge> edges;
   if (params.match_gradient) {

@@ -44,6 +44,65 @@ double gaussianKl(const Eigen::VectorXd& mean0, const Eigen::MatrixXd& informati
                 shift.dot(information1 * shift) + logDet(llt0) - logDet(llt1));
 }
 
+KlReference::KlReference(const Eigen::MatrixXd& covariance0) {
+  if (covariance0.cols() != covariance0.rows()) {
+    throw std::invalid_argument("KlReference: the covariance is " +
+                                sizes(covariance0.rows(), covariance0.cols()) + ", not square");
+  }
+  if (!covariance0.allFinite()) {
+    throw std::invalid_argument("KlReference: the covariance is not finite");
+  }
+  // Sigma0 = P^T L D L^T P (symmetric pivoting copes with the zero rows of anchored variables),
+  // F = P^T L D^1/2 (positive semi-definite: rounding below zero clamped).
+  const Eigen::LDLT<Eigen::MatrixXd> ldlt(0.5 * (covariance0 + covariance0.transpose()));
+  const Eigen::MatrixXd L = ldlt.matrixL();
+  square_root_ = ldlt.transpositionsP().transpose() *
+                 (L * ldlt.vectorD().cwiseMax(0.0).cwiseSqrt().asDiagonal());
+}
+
+double KlReference::klOfFactorChange(const Eigen::MatrixXd& information_change,
+                                     const Eigen::VectorXd& gradient_change) const {
+  const Eigen::Index k = square_root_.rows();
+  if (information_change.rows() != k || information_change.cols() != k ||
+      gradient_change.size() != k) {
+    throw std::invalid_argument(
+        "klOfFactorChange: sizes disagree (covariance " + sizes(k, k) + ", information change " +
+        sizes(information_change.rows(), information_change.cols()) + ", gradient change " +
+        std::to_string(gradient_change.size()) + ")");
+  }
+  if (!information_change.allFinite() || !gradient_change.allFinite()) {
+    throw std::invalid_argument("klOfFactorChange: an input is not finite");
+  }
+  if (k == 0) return 0.0;
+  // S = I + F^T D F, whose eigenvalues are p1's information relative to p0's, direction by
+  // direction: KL = 1/2 (sum (lambda - 1 - ln lambda) + u^T S^-1 u).
+  const Eigen::MatrixXd D = 0.5 * (information_change + information_change.transpose());
+  const Eigen::MatrixXd S =
+      Eigen::MatrixXd::Identity(k, k) + square_root_.transpose() * (D * square_root_);
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> s(S, Eigen::EigenvaluesOnly);
+  const Eigen::VectorXd& lambda = s.eigenvalues();
+  if (lambda.minCoeff() < kLostInformation) return std::numeric_limits<double>::infinity();
+  double kl = 0.0;
+  for (Eigen::Index i = 0; i < k; ++i) kl += lambda(i) - 1.0 - std::log(lambda(i));
+  const Eigen::VectorXd u = square_root_.transpose() * gradient_change;
+  if (!u.isZero(0.0)) kl += u.dot(Eigen::LDLT<Eigen::MatrixXd>(S).solve(u));
+  return 0.5 * kl;
+}
+
+double KlReference::replacementKl(const Marginal& marginal,
+                                  const QuadraticModel& replacement) const {
+  const Eigen::Index k = marginal.information.rows();
+  if (replacement.information.rows() != k || replacement.information.cols() != k ||
+      replacement.gradient.size() != k || marginal.gradient.size() != k) {
+    throw std::invalid_argument("replacementKl: the replacement's sizes (" +
+                                sizes(replacement.information.rows(), replacement.gradient.size()) +
+                                ") differ from the marginal's (" +
+                                sizes(k, marginal.gradient.size()) + ")");
+  }
+  return klOfFactorChange(replacement.information - marginal.information,
+                          replacement.gradient - marginal.gradient);
+}
+
 double klOfFactorChange(const Eigen::MatrixXd& covariance0,
                         const Eigen::MatrixXd& information_change,
                         const Eigen::VectorXd& gradient_change) {
@@ -58,38 +117,12 @@ double klOfFactorChange(const Eigen::MatrixXd& covariance0,
   if (!covariance0.allFinite() || !information_change.allFinite() || !gradient_change.allFinite()) {
     throw std::invalid_argument("klOfFactorChange: an input is not finite");
   }
-  // Sigma0 = F F^T from its eigen decomposition (positive semi-definite: clamp rounding).
-  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> sigma(
-      0.5 * (covariance0 + covariance0.transpose()));
-  const Eigen::MatrixXd F =
-      sigma.eigenvectors() * sigma.eigenvalues().cwiseMax(0.0).cwiseSqrt().asDiagonal();
-  // S = I + F^T D F, whose eigenvalues are p1's information relative to p0's, direction by
-  // direction; KL = 1/2 sum (lambda - 1 - ln lambda + (q^T u)^2 / lambda).
-  const Eigen::MatrixXd D = 0.5 * (information_change + information_change.transpose());
-  const Eigen::MatrixXd S = Eigen::MatrixXd::Identity(k, k) + F.transpose() * D * F;
-  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> s(S);
-  const Eigen::VectorXd& lambda = s.eigenvalues();
-  if (k > 0 && lambda.minCoeff() < kLostInformation) return std::numeric_limits<double>::infinity();
-  const Eigen::VectorXd u = s.eigenvectors().transpose() * (F.transpose() * gradient_change);
-  double kl = 0.0;
-  for (Eigen::Index i = 0; i < k; ++i) {
-    kl += lambda(i) - 1.0 - std::log(lambda(i)) + u(i) * u(i) / lambda(i);
-  }
-  return 0.5 * kl;
+  return KlReference(covariance0).klOfFactorChange(information_change, gradient_change);
 }
 
 double replacementKl(const Eigen::MatrixXd& blanket_covariance, const Marginal& marginal,
                      const QuadraticModel& replacement) {
-  const Eigen::Index k = marginal.information.rows();
-  if (replacement.information.rows() != k || replacement.information.cols() != k ||
-      replacement.gradient.size() != k || marginal.gradient.size() != k) {
-    throw std::invalid_argument("replacementKl: the replacement's sizes (" +
-                                sizes(replacement.information.rows(), replacement.gradient.size()) +
-                                ") differ from the marginal's (" +
-                                sizes(k, marginal.gradient.size()) + ")");
-  }
-  return klOfFactorChange(blanket_covariance, replacement.information - marginal.information,
-                          replacement.gradient - marginal.gradient);
+  return KlReference(blanket_covariance).replacementKl(marginal, replacement);
 }
 
 }  // namespace rrr_graphslam::core

@@ -188,21 +188,21 @@ void optimizeTrusted(const std::vector<Trusted>& trusted, const std::vector<char
 // and deletion are compared with the exact marginal.
 void measureKl(const std::vector<Trusted>& trusted, const std::vector<char>& alive,
                const std::vector<core::Pose2>& poses, const core::Marginal& marginal,
-               Sparsification sparsification, TrimRecord& record) {
+               const TrimParams& params, TrimRecord& record) {
   const core::Clock::time_point watch = core::Clock::now();
   std::vector<int> index_of;
   core::Optimizer optimizer = trustedOptimizer(trusted, alive, poses, index_of);
   if (optimizer.factorAtCurrentPoses() && optimizer.covarianceAvailable()) {
     std::vector<int> blanket;
     for (NodeId b : marginal.blanket) blanket.push_back(index_of[b]);
-    const Eigen::MatrixXd covariance = optimizer.covariance(blanket);
-    record.kl_clt_nats = core::replacementKl(
-        covariance, marginal,
-        core::replacementModel(marginal, core::MarginalReplacement::kChowLiuTree));
-    record.kl_delete_nats = core::replacementKl(
-        covariance, marginal, core::replacementModel(marginal, core::MarginalReplacement::kDelete));
+    const core::KlReference exact(optimizer.covariance(blanket));
+    record.kl_clt_nats = exact.replacementKl(
+        marginal,
+        core::replacementModel(marginal, core::MarginalReplacement::kChowLiuTree, params.chow_liu));
+    record.kl_delete_nats = exact.replacementKl(
+        marginal, core::replacementModel(marginal, core::MarginalReplacement::kDelete));
     record.kl_nats =
-        sparsification == Sparsification::kClt ? record.kl_clt_nats : record.kl_delete_nats;
+        params.sparsification == Sparsification::kClt ? record.kl_clt_nats : record.kl_delete_nats;
   }
   record.kl_seconds = core::secondsSince(watch);
 }
@@ -399,12 +399,12 @@ TrimResult trimMap(const MapSnapshot& map, const TrimParams& params,
       const core::Marginal marginal = core::marginalizeNodes(local, pose_of, marginalized);
       record.blanket_nodes = static_cast<int>(marginal.blanket.size());
       if (params.sparsification == Sparsification::kClt) {
-        for (const core::ChowLiuEdge& e : core::chowLiuTree(marginal)) {
+        for (const core::ChowLiuEdge& e : core::chowLiuTree(marginal, params.chow_liu)) {
           replacement.push_back({e.constraint, -1, s});
         }
       }
       if (params.report_kl) {
-        measureKl(trusted, alive, poses, marginal, params.sparsification, record);
+        measureKl(trusted, alive, poses, marginal, params, record);
       }
     }
     for (NodeId k : group) {

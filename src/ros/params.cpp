@@ -171,6 +171,9 @@ NodeParams loadParams(const ros::NodeHandle& private_nh) {
       [](const std::string& s) { return s == "clt" || s == "delete"; },
       "clt or delete (dense keeps one factor over a whole blanket, which the map cannot hold)");
   p.trim.sparsification = frontend::parseSparsification(sparsification);
+  r.read<bool>(
+      "clt_conservative", p.trim.chow_liu.conservative, [](const bool&) { return true; },
+      "a boolean");
   r.read<int>(
       "trim_every_n_nodes", p.trim_every_n_nodes, [](const int& v) { return v >= 0; },
       "at least 0 (0: trim only when ~save_map writes the map)");

@@ -53,9 +53,9 @@ from .relations import RelationError, read_tum, relation_error
 
 CONFIGS = {
     "untrimmed": [],
-    "clt": ["--lifelong"],
-    "delete": ["--lifelong", "--sparsification", "delete"],
-    "online": ["--lifelong", "--trim-every-n-nodes", "200"],
+    "clt": ["--lifelong", "--trim-kl"],
+    "delete": ["--lifelong", "--sparsification", "delete", "--trim-kl"],
+    "online": ["--lifelong", "--trim-every-n-nodes", "200", "--trim-kl"],
 }
 
 

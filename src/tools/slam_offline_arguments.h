@@ -70,6 +70,7 @@ inline const std::string& usage() {
       "                        [--lifelong [--trim-overlap R] [--keep-recent-submaps N]\n"
       "                                    [--keep-current-session true|false]\n"
       "                                    [--sparsification clt|dense|delete]\n"
+      "                                    [--clt-conservative true|false] [--trim-kl]\n"
       "                                    [--trim-group-neighbours]\n"
       "                                    [--trim-every-n-nodes N]]\n"
       "                        [--preset paper|default] [--PARAMETER V ...]\n"
@@ -117,6 +118,11 @@ inline const std::string& usage() {
       "                    newest view of all it saw)\n"
       "  --sparsification  what replaces a trimmed submap's constraints: clt (Chow-Liu tree,\n"
       "                    default) or delete (nothing; dense is not storable yet and refused)\n"
+      "  --clt-conservative true|false  the Chow-Liu tree's information scaled down to at\n"
+      "                    most the marginal's (default true)\n"
+      "  --trim-kl         measure each trim's KL divergence (tree and deletion against the\n"
+      "                    exact marginal: the trim_kl lines; slow on large maps); without it\n"
+      "                    they say nan\n"
       "  --trim-group-neighbours  marginalize the leaving nodes of neighbouring trimmed submaps\n"
       "                    together (one tree for all; larger blankets) instead of submap by\n"
       "                    submap\n"
@@ -257,6 +263,14 @@ inline Arguments parseArguments(int argc, char** argv) {
       const std::string v = cli.value(i, a);
       if (v != "true" && v != "false") cli.fail(a + " must be true or false");
       args.trim.keep_current_session = v == "true";
+      trim_flags.push_back(a);
+    } else if (a == "--trim-kl") {
+      args.trim.report_kl = true;
+      trim_flags.push_back(a);
+    } else if (a == "--clt-conservative") {
+      const std::string v = cli.value(i, a);
+      if (v != "true" && v != "false") cli.fail(a + " must be true or false");
+      args.trim.chow_liu.conservative = v == "true";
       trim_flags.push_back(a);
     } else if (a == "--trim-every-n-nodes") {
       const double v = cli.number(a, cli.value(i, a), 1, 1e9);

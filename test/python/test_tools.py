@@ -515,7 +515,7 @@ def test_lifelong_trims_covered_submaps_when_the_map_is_saved(tmp_path):
     # The head of ACES twice as two sessions: the second covers the first, whose submaps go.
     first_map, before, moved = aces_head_twice(tmp_path)
     second = run(SLAM_OFFLINE, moved, "--load-map", first_map, "--save-map", first_map, "--lifelong",
-                 "--trim-overlap", 0.5, "--keep-recent-submaps", 2, "--refine-resolution", 0, "--quiet",
+                 "--trim-kl", "--trim-overlap", 0.5, "--keep-recent-submaps", 2, "--refine-resolution", 0, "--quiet",
                  *SMALL_SUBMAPS)
     assert second.returncode == 0, second.stderr
     assert "lifelong       trimmed" in second.stdout, second.stdout
@@ -549,6 +549,9 @@ def test_lifelong_trims_while_the_session_maps(tmp_path):
     assert trims, second.stdout
     assert sum(int(t["submaps_trimmed"]) for t in trims) > 0, second.stdout
     assert re.search(r"^online trims   \d+ \(every 10 nodes once tied\)", second.stdout, re.M), second.stdout
+    # Without --trim-kl the KL divergences are not measured, and say so.
+    saved = dict(line.split(" ", 1) for line in second.stdout.splitlines() if line.startswith("trim_"))
+    assert saved["trim_kl_clt"] == "nan" and saved["trim_kl_delete"] == "nan", second.stdout
     after = dict(line.split(" ", 1) for line in run(MAP_INFO, out_map).stdout.splitlines())
     assert int(after["trimmed_submaps"]) > 0 and int(after["marginal_edges"]) > 0
     assert int(after["nodes"]) < 2 * int(before["nodes"])

@@ -34,6 +34,23 @@ namespace rrr_graphslam::core {
 double gaussianKl(const Eigen::VectorXd& mean0, const Eigen::MatrixXd& information0,
                   const Eigen::VectorXd& mean1, const Eigen::MatrixXd& information1);
 
+/// p0, given by its covariance over the variables that changes touch, factored once
+/// (Sigma0 = F F^T, pivoted LDLT) for several changes compared against it, e.g. a trim's tree
+/// and deletion. The free functions below build one per call.
+class KlReference {
+ public:
+  /// Throws std::invalid_argument for a covariance that is not square or not finite.
+  explicit KlReference(const Eigen::MatrixXd& covariance0);
+  /// As the free klOfFactorChange.
+  double klOfFactorChange(const Eigen::MatrixXd& information_change,
+                          const Eigen::VectorXd& gradient_change) const;
+  /// As the free replacementKl.
+  double replacementKl(const Marginal& marginal, const QuadraticModel& replacement) const;
+
+ private:
+  Eigen::MatrixXd square_root_;  ///< F
+};
+
 /// KL(p0 || p1) for p1 = p0 exp(-1/2 dx^T information_change dx - gradient_change^T dx), with
 /// p0's covariance over the variables the change touches (positive semi-definite; rows and
 /// columns of anchored variables zero) and p0's mean at dx = 0. +infinity when p1 keeps less

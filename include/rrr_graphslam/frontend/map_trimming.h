@@ -38,6 +38,7 @@
 #include <string>
 #include <vector>
 
+#include "rrr_graphslam/core/chow_liu.h"
 #include "rrr_graphslam/core/param_info.h"
 #include "rrr_graphslam/frontend/map_file.h"
 #include "rrr_graphslam/frontend/submap.h"
@@ -80,6 +81,8 @@ struct TrimParams {
   /// Node numbers count the nodes left after earlier trims: the gap is at least this many.
   int revisit_gap_nodes = 0;
   Sparsification sparsification = Sparsification::kClt;
+  /// How the Chow-Liu tree is built (kClt): its conservative scaling, its measurements.
+  core::ChowLiuParams chow_liu;
   /// Cell size of the coverage grids (m).
   double coverage_resolution_m = 0.1;
   /// true: the leaving nodes that trusted constraints join are marginalized together (one exact
@@ -87,8 +90,10 @@ struct TrimParams {
   /// of nodes); false (default): the nodes of each trimmed submap on their own, oldest first (a
   /// later trim may marginalize an earlier one's tree again).
   bool group_neighbours = false;
-  /// Whether each trim's KL divergences are computed (one covariance of the graph per trim).
-  bool report_kl = true;
+  /// Whether each trim's KL divergences are measured: an instrument of the benchmarks, not part
+  /// of a trim (one covariance of the whole graph over the blanket per trim; on a large map it
+  /// takes far longer than the trims themselves).
+  bool report_kl = false;
   /// Threads that build the coverage grids.
   int threads = 2;
 };
