@@ -191,6 +191,10 @@ void makeConservative(const Eigen::MatrixXd& covariance,
   }
 }
 
+// The largest rotation by which a gradient-matching measurement may differ from the relative pose
+// at the linearization point (rad).
+constexpr double kMaxOffsetRotation = M_PI / 4.0;
+
 // The tree's edges as constraints whose gradient at the linearization point is the marginal's
 // g. Edge e with measurement z_e = d_e - delta_e (d_e = between(x_i, x_j), on x, y, theta) has
 // error K_z delta_e there, K_z = diag(R(z_theta)^T, 1), and Jacobians K_z K_d^T A_e with A_e its
@@ -225,12 +229,24 @@ std::vector<PoseConstraint> gradientMatchingConstraints(
   }
   const Eigen::VectorXd v = A.transpose().partialPivLu().solve(g);
 
+  // K_d delta_e per edge, then all offsets shrunk together where one would turn by more than
+  // kMaxOffsetRotation (see ChowLiuParams::match_gradient): the tree's gradient is then c g, one
+  // fraction c for the whole blanket (one per piece would not keep KL(tree) <= KL(delete): the
+  // rest of the graph couples the pieces).
+  std::vector<Eigen::Vector3d> k_deltas;
+  double largest_rotation = 0.0;
+  for (std::size_t e = 0; e < tree.size(); ++e) {
+    k_deltas.push_back(
+        tree[e].information.ldlt().solve(v.segment<3>(3 * static_cast<Eigen::Index>(e))));
+    largest_rotation = std::max(largest_rotation, std::abs(k_deltas.back().z()));
+  }
+  const double fraction =
+      largest_rotation > kMaxOffsetRotation ? kMaxOffsetRotation / largest_rotation : 1.0;
   std::vector<PoseConstraint> constraints;
   for (std::size_t e = 0; e < tree.size(); ++e) {
     const Candidate& c = tree[e];
     const Pose2 d = between(marginal.linearization_point[c.i], marginal.linearization_point[c.j]);
-    const Eigen::Vector3d k_delta =
-        c.information.ldlt().solve(v.segment<3>(3 * static_cast<Eigen::Index>(e)));
+    const Eigen::Vector3d k_delta = fraction * k_deltas[e];
     Pose2 delta;
     delta.head<2>() = rotation(d.z()) * k_delta.head<2>();  // K_d^-1
     delta.z() = k_delta.z();
