@@ -193,7 +193,7 @@ void makeConservative(const Eigen::MatrixXd& covariance,
 
 // The largest rotation by which a gradient-matching measurement may differ from the relative pose
 // at the linearization point (rad).
-constexpr double kMaxOffsetRotation = M_PI / 4.0;
+constexpr double kMaxOffsetRotation = M_PI / 2.0;
 
 // The tree's edges as constraints whose gradient at the linearization point is the marginal's
 // g. Edge e with measurement z_e = d_e - delta_e (d_e = between(x_i, x_j), on x, y, theta) has

@@ -70,7 +70,7 @@ struct ChowLiuParams {
   /// is the marginal's (the tree's linear term exact, its information the Chow-Liu one);
   /// false: measurement between(x_i, x_j) at the linearization point, zero error there.
   /// A weak tree edge must be stretched far to pull as hard as the marginal does: where the
-  /// measurements would turn by more than 45 degrees from the relative poses (on
+  /// measurements would turn by more than 90 degrees from the relative poses (on
   /// Intel's third session the plain tree's up to 3 rad, the conservative one's beyond pi, where
   /// the angle wraps and the gradient is lost), all the offsets are shrunk together to that
   /// bound and the tree keeps that fraction of the marginal's gradient (its KL still at most
