@@ -74,6 +74,11 @@ int main(int argc, char** argv) {
       if (i + 1 >= argc) usage(a + " needs a value");
       return argv[++i];
     };
+    auto boolean = [&] {
+      const std::string v = value();
+      if (v != "true" && v != "false") usage(a + " must be true or false");
+      return v == "true";
+    };
     try {
       if (a == "--sparsification") {
         options.trim.sparsification = frontend::parseSparsification(value());
@@ -82,13 +87,9 @@ int main(int argc, char** argv) {
       } else if (a == "--keep-recent-submaps") {
         options.trim.keep_recent_submaps = std::stoi(value());
       } else if (a == "--keep-current-session") {
-        const std::string v = value();
-        if (v != "true" && v != "false") usage(a + " must be true or false");
-        options.trim.keep_current_session = v == "true";
+        options.trim.keep_current_session = boolean();
       } else if (a == "--clt-conservative") {
-        const std::string v = value();
-        if (v != "true" && v != "false") usage(a + " must be true or false");
-        options.trim.chow_liu.conservative = v == "true";
+        options.trim.chow_liu.conservative = boolean();
       } else if (a == "--group-neighbours") {
         options.trim.group_neighbours = true;
       } else if (a == "--no-kl") {

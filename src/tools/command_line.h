@@ -50,6 +50,13 @@ class CommandLine {
     return v;
   }
 
+  /// `text` as true or false, or a usage error naming `option`.
+  bool boolean(const std::string& option, const std::string& text) const {
+    if (text != "true" && text != "false")
+      fail(option + " must be true or false, not '" + text + "'");
+    return text == "true";
+  }
+
  private:
   int argc_;
   char** argv_;

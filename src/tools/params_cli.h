@@ -37,9 +37,7 @@ template <class T>
 void parseParam(const CommandLine& cli, const std::string& flag, const core::ParamInfo& info,
                 const std::string& text, T& field) {
   if constexpr (std::is_same_v<T, bool>) {
-    if (text != "true" && text != "false")
-      cli.fail(flag + " must be true or false, not '" + text + "'");
-    field = text == "true";
+    field = cli.boolean(flag, text);
   } else if constexpr (std::is_enum_v<T>) {
     if (!core::parseChoice(text, field))
       cli.fail(core::notAChoiceMessage(info, text, core::choiceNames<T>()));

@@ -260,17 +260,13 @@ inline Arguments parseArguments(int argc, char** argv) {
       args.trim.keep_recent_submaps = static_cast<int>(v);
       trim_flags.push_back(a);
     } else if (a == "--keep-current-session") {
-      const std::string v = cli.value(i, a);
-      if (v != "true" && v != "false") cli.fail(a + " must be true or false");
-      args.trim.keep_current_session = v == "true";
+      args.trim.keep_current_session = cli.boolean(a, cli.value(i, a));
       trim_flags.push_back(a);
     } else if (a == "--trim-kl") {
       args.trim.report_kl = true;
       trim_flags.push_back(a);
     } else if (a == "--clt-conservative") {
-      const std::string v = cli.value(i, a);
-      if (v != "true" && v != "false") cli.fail(a + " must be true or false");
-      args.trim.chow_liu.conservative = v == "true";
+      args.trim.chow_liu.conservative = cli.boolean(a, cli.value(i, a));
       trim_flags.push_back(a);
     } else if (a == "--trim-every-n-nodes") {
       const double v = cli.number(a, cli.value(i, a), 1, 1e9);

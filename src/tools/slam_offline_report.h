@@ -33,7 +33,12 @@ inline void printTrimReport(const frontend::TrimReport& report,
       worst_ratio = std::max(worst_ratio, t.kl_clt_nats / t.kl_delete_nats);
     }
   }
-  if (!params.report_kl) kl = kl_clt = kl_delete = worst_ratio = std::nan("");
+  // Without TrimParams::report_kl the divergences were not measured: nan, not 0.
+  auto measured = [&](double kl_nats) { return params.report_kl ? kl_nats : std::nan(""); };
+  kl = measured(kl);
+  kl_clt = measured(kl_clt);
+  kl_delete = measured(kl_delete);
+  worst_ratio = measured(worst_ratio);
   std::sort(ms.begin(), ms.end());
   auto quantile = [&](double q) { return ms.empty() ? 0.0 : nearestRank(ms, q); };
   std::printf(
@@ -59,9 +64,8 @@ inline void printTrimReport(const frontend::TrimReport& report,
         "trim_record submap %d submaps %d nodes %d blanket %d constraints %d edges %d "
         "kl %.6g kl_clt %.6g kl_delete %.6g ms %.3f kl_ms %.3f\n",
         t.submap, t.submaps, t.removed_nodes, t.blanket_nodes, t.removed_constraints,
-        t.marginal_edges, params.report_kl ? t.kl_nats : std::nan(""),
-        params.report_kl ? t.kl_clt_nats : std::nan(""),
-        params.report_kl ? t.kl_delete_nats : std::nan(""), 1e3 * t.seconds, 1e3 * t.kl_seconds);
+        t.marginal_edges, measured(t.kl_nats), measured(t.kl_clt_nats), measured(t.kl_delete_nats),
+        1e3 * t.seconds, 1e3 * t.kl_seconds);
   }
 }
 
