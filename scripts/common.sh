@@ -4,7 +4,7 @@
 # Environment: RRR_WS (catkin workspace, default ~/.cache/rrr_graphslam/ws: outside the source
 # tree, since a workspace inside it would let rosrun/rospack crawl it through the src symlink),
 # RRR_SKIP_INSTALL=1,
-# RRR_CMAKE_ARGS (extra arguments for catkin_make).
+# RRR_CMAKE_ARGS (extra arguments for catkin_make), OPENBLAS_CORETYPE (see rrr_blas_kernel).
 
 set -euo pipefail
 # pyenv's python3 lacks catkin_pkg/rospkg: Debian's tools must come first.
@@ -80,6 +80,23 @@ rrr_install_missing() {
   "${sudo[@]}" env DEBIAN_FRONTEND=noninteractive apt-get install -y -q --no-install-recommends "${missing[@]}"
 }
 
+# OpenBLAS runs its generic kernel (Prescott) on processors newer than itself (Debian 12's 0.3.21
+# on Intel Emerald Rapids): CHOLMOD's large factorizations then run up to 1.5x slower, and the tools
+# warn (core/blas_kernel.h). Where the processor has AVX2 and FMA, the scripts choose the Haswell
+# kernel instead, so the benchmarks measure the product on a BLAS configured as the warning asks.
+rrr_blas_kernel() {
+  [[ -n "${OPENBLAS_CORETYPE:-}" ]] && return 0
+  local core
+  core=$(/usr/bin/python3 -c 'import ctypes
+name = ctypes.CDLL("libopenblas.so.0").openblas_get_corename
+name.restype = ctypes.c_char_p
+print(name().decode())' 2>/dev/null) || return 0
+  if [[ "${core}" == Prescott ]] && grep -qw avx2 /proc/cpuinfo && grep -qw fma /proc/cpuinfo; then
+    export OPENBLAS_CORETYPE=Haswell
+    echo "[rrr] OpenBLAS does not know this processor (kernel ${core}): OPENBLAS_CORETYPE=Haswell" >&2
+  fi
+}
+
 rrr_build() {
   mkdir -p "${RRR_WS}/src"
   # make compares times only: objects built from another checkout can look newer than this
@@ -97,4 +114,5 @@ rrr_build() {
   (cd "${RRR_WS}" && catkin_make -DCMAKE_BUILD_TYPE=Release ${RRR_CMAKE_ARGS:-} "$@")
   # shellcheck disable=SC1091
   set +u; source "${RRR_WS}/devel/setup.bash"; set -u
+  rrr_blas_kernel
 }

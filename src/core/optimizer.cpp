@@ -149,7 +149,7 @@ void Optimizer::rebuildPattern() {
   // Variables are numbered in a fill-reducing order of the nodes, so that H is assembled
   // already permuted and CHOLMOD factors it as it is. Nodes that took reserved slots are ordered
   // with the rest; a fresh reserve follows them.
-  const std::vector<int> order = blockOrdering(used_variables_, pairs);
+  const std::vector<int> order = blockOrdering(used_variables_, pairs).order;
   num_variables_ = used_variables_ + reservedSlots();
   std::vector<int> position(order.size());
   for (std::size_t k = 0; k < order.size(); ++k) {

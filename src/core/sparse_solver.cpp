@@ -31,43 +31,109 @@ SparseSolver::~SparseSolver() = default;
 SparseSolver::SparseSolver(SparseSolver&&) noexcept = default;
 SparseSolver& SparseSolver::operator=(SparseSolver&&) noexcept = default;
 
-std::vector<int> blockOrdering(int num_blocks, const std::vector<std::pair<int, int>>& pairs) {
-  std::vector<int> order(static_cast<std::size_t>(num_blocks));
-  if (num_blocks == 0) return order;
-  // The block pattern, upper triangle, as CHOLMOD's AMD reads it (values unused).
-  std::vector<std::vector<int>> rows(static_cast<std::size_t>(num_blocks));
-  for (auto [a, b] : pairs) {
-    if (a == b) continue;
-    rows[static_cast<std::size_t>(std::max(a, b))].push_back(std::min(a, b));
+namespace {
+
+// The upper triangle of the block pattern as CHOLMOD reads it (values unused). Owns the arrays
+// the cholmod_sparse view points into.
+struct BlockPattern {
+  std::vector<int> outer, inner;
+  cholmod_sparse view{};
+
+  BlockPattern(const BlockPattern&) = delete;
+  BlockPattern& operator=(const BlockPattern&) = delete;
+  BlockPattern(int num_blocks, const std::vector<std::pair<int, int>>& pairs) {
+    std::vector<std::vector<int>> rows(static_cast<std::size_t>(num_blocks));
+    for (auto [a, b] : pairs) {
+      if (a == b) continue;
+      rows[static_cast<std::size_t>(std::max(a, b))].push_back(std::min(a, b));
+    }
+    outer.assign(static_cast<std::size_t>(num_blocks) + 1, 0);
+    inner.reserve(pairs.size() + static_cast<std::size_t>(num_blocks));
+    for (int c = 0; c < num_blocks; ++c) {
+      auto& r = rows[static_cast<std::size_t>(c)];
+      std::sort(r.begin(), r.end());
+      r.erase(std::unique(r.begin(), r.end()), r.end());
+      inner.insert(inner.end(), r.begin(), r.end());
+      inner.push_back(c);
+      outer[static_cast<std::size_t>(c) + 1] = static_cast<int>(inner.size());
+    }
+    view.nrow = view.ncol = static_cast<std::size_t>(num_blocks);
+    view.nzmax = inner.size();
+    view.p = outer.data();
+    view.i = inner.data();
+    view.stype = 1;
+    view.itype = CHOLMOD_INT;
+    view.xtype = CHOLMOD_PATTERN;
+    view.dtype = CHOLMOD_DOUBLE;
+    view.sorted = 1;
+    view.packed = 1;
   }
-  std::vector<int> outer(static_cast<std::size_t>(num_blocks) + 1, 0);
-  std::vector<int> inner;
-  inner.reserve(pairs.size() + static_cast<std::size_t>(num_blocks));
-  for (int c = 0; c < num_blocks; ++c) {
-    auto& r = rows[static_cast<std::size_t>(c)];
-    std::sort(r.begin(), r.end());
-    r.erase(std::unique(r.begin(), r.end()), r.end());
-    inner.insert(inner.end(), r.begin(), r.end());
-    inner.push_back(c);
-    outer[static_cast<std::size_t>(c) + 1] = static_cast<int>(inner.size());
-  }
-  cholmod_sparse A{};
-  A.nrow = A.ncol = static_cast<std::size_t>(num_blocks);
-  A.nzmax = inner.size();
-  A.p = outer.data();
-  A.i = inner.data();
-  A.stype = 1;
-  A.itype = CHOLMOD_INT;
-  A.xtype = CHOLMOD_PATTERN;
-  A.dtype = CHOLMOD_DOUBLE;
-  A.sorted = 1;
-  A.packed = 1;
+};
+
+struct OrderingResult {
+  bool ok = false;
+  std::vector<int> order;
+  double flops = 0, factor_nonzeros = 0;
+};
+
+// One ordering method and the symbolic factorization it gives (its flop count and nnz(L)).
+OrderingResult orderBy(cholmod_sparse& pattern, int method) {
+  OrderingResult result;
   cholmod_common common;
   cholmod_start(&common);
-  const bool ok = cholmod_amd(&A, nullptr, 0, order.data(), &common) == 1;
+  common.nmethods = 1;
+  common.method[0].ordering = method;
+  common.postorder = 0;                    // AMD's order exactly as cholmod_amd gives it
+  common.supernodal = CHOLMOD_SIMPLICIAL;  // the counts are all we need
+  cholmod_factor* L = cholmod_analyze(&pattern, &common);
+  if (L != nullptr && common.status == CHOLMOD_OK) {
+    const int* perm = static_cast<const int*>(L->Perm);
+    result.order.assign(perm, perm + L->n);
+    result.flops = common.fl;
+    result.factor_nonzeros = common.lnz;
+    result.ok = true;
+  }
+  cholmod_free_factor(&L, &common);
   cholmod_finish(&common);
-  if (!ok) std::iota(order.begin(), order.end(), 0);
-  return order;
+  return result;
+}
+
+}  // namespace
+
+BlockOrdering blockOrdering(int num_blocks, const std::vector<std::pair<int, int>>& pairs,
+                            BlockOrdering::Method method) {
+  BlockOrdering result;
+  result.order.resize(static_cast<std::size_t>(num_blocks));
+  std::iota(result.order.begin(), result.order.end(), 0);
+  if (num_blocks == 0) return result;
+  BlockPattern pattern(num_blocks, pairs);
+  auto take = [&result](OrderingResult& o, bool nested_dissection) {
+    result.order = std::move(o.order);
+    result.flops = o.flops;
+    result.nested_dissection = nested_dissection;
+  };
+  if (method == BlockOrdering::Method::kNestedDissection) {
+    OrderingResult metis = orderBy(pattern.view, CHOLMOD_METIS);
+    if (metis.ok) take(metis, true);
+    return result;
+  }
+  OrderingResult amd = orderBy(pattern.view, CHOLMOD_AMD);
+  if (!amd.ok) return result;
+  const double amd_flops = amd.flops, amd_nonzeros = amd.factor_nonzeros;
+  take(amd, false);
+  if (method == BlockOrdering::Method::kAmd) return result;
+  // CHOLMOD's own rule for when AMD's ordering fills in badly enough to try METIS (fl/lnz >= 500
+  // and lnz/nnz(A) >= 5 on the scalar matrix), on the block graph: a 3x3 block stands for 9
+  // nonzeros and 27 flops, so the scalar fl/lnz is about 3 times the block one. Long links
+  // between distant parts of a graph (false loops in groups, before the robust map switches
+  // them off) fill AMD's factor 3 times more than nested dissection's: City10000 + 2000 false
+  // loops in groups of 20 factor in 0.44 s instead of 1.38 s.
+  const double pattern_nonzeros = static_cast<double>(pattern.inner.size());
+  const bool fills_in = 3 * amd_flops >= 500 * amd_nonzeros && amd_nonzeros >= 5 * pattern_nonzeros;
+  if (!fills_in) return result;
+  OrderingResult metis = orderBy(pattern.view, CHOLMOD_METIS);
+  if (metis.ok && metis.flops < amd_flops) take(metis, true);
+  return result;
 }
 
 void SparseSolver::analyze(const Matrix& upper, bool preordered, Kind kind) {

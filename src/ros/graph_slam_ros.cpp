@@ -10,6 +10,7 @@
 
 #include "rrr_graphslam/LoopClosureDecision.h"
 #include "rrr_graphslam/RrrStatus.h"
+#include "rrr_graphslam/core/blas_kernel.h"
 #include "rrr_graphslam/core/constraint_check.h"
 #include "rrr_graphslam/core/odometry_noise.h"
 #include "rrr_graphslam/core/stopwatch.h"
@@ -142,6 +143,8 @@ GraphSlamRos::GraphSlamRos(ros::NodeHandle nh, ros::NodeHandle private_nh)
            nh_.resolveName(kOdomTopic).c_str(), nh_.resolveName(kEdgesTopic).c_str(),
            nh_.resolveName(kCandidatesTopic).c_str(), params_.input_mode.c_str(),
            params_.rrr.rrr.cluster_gap, params_.rrr.rrr.alpha);
+  if (const auto warning = core::blasKernelWarning())
+    ROS_WARN("rrr_graphslam: %s", warning->c_str());
 }
 
 GraphSlamRos::~GraphSlamRos() {

@@ -17,6 +17,7 @@
 
 #include "command_line.h"
 #include "decision_stream.h"
+#include "rrr_graphslam/core/blas_kernel.h"
 #include "rrr_graphslam/core/graph_io.h"
 #include "rrr_graphslam/rrr/decisions_io.h"
 #include "rrr_graphslam/rrr/incremental_rrr.h"
@@ -140,6 +141,8 @@ rrr::ProgressFunction terminalProgress(bool quiet) {
 
 int main(int argc, char** argv) {
   const Arguments args = parseArguments(argc, argv);
+  if (const auto warning = core::blasKernelWarning())
+    std::fprintf(stderr, "warning: %s\n", warning->c_str());
   try {
     core::GraphReadOptions read_options;
     read_options.allow_disconnected = true;  // sessions without an accepted link stay apart

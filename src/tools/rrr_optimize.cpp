@@ -11,6 +11,7 @@
 #include <string>
 
 #include "command_line.h"
+#include "rrr_graphslam/core/blas_kernel.h"
 #include "rrr_graphslam/core/graph_io.h"
 #include "rrr_graphslam/core/lago.h"
 #include "rrr_graphslam/core/optimizer.h"
@@ -86,6 +87,8 @@ Arguments parseArguments(int argc, char** argv) {
 int main(int argc, char** argv) {
   namespace core = rrr_graphslam::core;
   const Arguments args = parseArguments(argc, argv);
+  if (const auto warning = core::blasKernelWarning())
+    std::fprintf(stderr, "warning: %s\n", warning->c_str());
   try {
     const auto load_start = std::chrono::steady_clock::now();
     core::PoseGraph graph = core::readPoseGraph(args.input);

@@ -22,6 +22,7 @@
 #include "false_loops.h"
 #include "params_cli.h"
 #include "rrr_graphslam/core/atomic_file.h"
+#include "rrr_graphslam/core/blas_kernel.h"
 #include "rrr_graphslam/core/graph_io.h"
 #include "rrr_graphslam/core/stopwatch.h"
 #include "rrr_graphslam/core/text_file.h"
@@ -93,6 +94,8 @@ std::vector<frontend::LoopLine> loopLines(const frontend::LaserSlam& slam) {
 
 int main(int argc, char** argv) {
   const Arguments args = parseArguments(argc, argv);
+  if (const auto warning = core::blasKernelWarning())
+    std::fprintf(stderr, "warning: %s\n", warning->c_str());
   try {
     const auto start = std::chrono::steady_clock::now();
     const frontend::CarmenLog log = frontend::readCarmenLog(args.log);

@@ -1,12 +1,16 @@
-// CHOLMOD through SparseSolver: solves against a dense Cholesky, and rank updates / downdates of
-// the factor against a dense solve of the updated matrix, for a simplicial and a supernodal factor.
+// The block ordering against the elimination game, and CHOLMOD through SparseSolver: solves against
+// a dense Cholesky, and rank updates / downdates of the factor against a dense solve of the updated
+// matrix, for a simplicial and a supernodal factor.
 
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
+#include <algorithm>
 #include <random>
 #include <stdexcept>
 #include <tuple>
+#include <utility>
+#include <vector>
 
 #include "rrr_graphslam/core/sparse_solver.h"
 
@@ -204,6 +208,100 @@ TEST(InverseProjection, ColumnsWhosePathsMeetOnlyNearTheRootOfASupernodalFactor)
     EXPECT_NEAR(solver.inverseSubmatrix({picked[a]})(0, 0), inverse(picked[a], picked[a]),
                 1e-9 * inverse.norm());
   }
+}
+
+// The slow, obvious symbolic factorization: eliminate the blocks in `order` one by one, each
+// joining its remaining neighbours into a clique (the elimination game, on a dense adjacency
+// matrix). Returns the flop count sum over columns of c^2, c = the column's nonzeros in L with
+// its diagonal (CHOLMOD's fl for a symmetric matrix).
+double eliminationFlops(int n, const std::vector<std::pair<int, int>>& pairs,
+                        const std::vector<int>& order) {
+  const auto size = static_cast<std::size_t>(n);
+  std::vector<char> adjacent(size * size, 0);
+  for (auto [a, b] : pairs) {
+    adjacent[static_cast<std::size_t>(a) * size + static_cast<std::size_t>(b)] = 1;
+    adjacent[static_cast<std::size_t>(b) * size + static_cast<std::size_t>(a)] = 1;
+  }
+  std::vector<char> eliminated(size, 0);
+  double flops = 0;
+  for (const int v : order) {
+    eliminated[static_cast<std::size_t>(v)] = 1;
+    std::vector<std::size_t> rest;
+    for (std::size_t w = 0; w < size; ++w) {
+      if (!eliminated[w] && adjacent[static_cast<std::size_t>(v) * size + w]) rest.push_back(w);
+    }
+    const double c = static_cast<double>(rest.size()) + 1.0;
+    flops += c * c;
+    for (const std::size_t a : rest) {
+      for (const std::size_t b : rest) adjacent[a * size + b] = 1;
+    }
+  }
+  return flops;
+}
+
+bool isPermutation(std::vector<int> order, int n) {
+  std::sort(order.begin(), order.end());
+  for (int k = 0; k < n; ++k) {
+    if (order[static_cast<std::size_t>(k)] != k) return false;
+  }
+  return static_cast<int>(order.size()) == n;
+}
+
+// A street grid walked row by row (odometry) with a loop at every crossing of two streets: a
+// pose graph whose AMD order fills in little.
+std::vector<std::pair<int, int>> gridGraph(int side) {
+  std::vector<std::pair<int, int>> pairs;
+  auto at = [side](int r, int c) { return r * side + c; };
+  for (int r = 0; r < side; ++r) {
+    for (int c = 0; c < side; ++c) {
+      if (c + 1 < side) pairs.emplace_back(at(r, c), at(r, c + 1));
+      if (r + 1 < side) pairs.emplace_back(at(r, c), at(r + 1, c));
+    }
+  }
+  return pairs;
+}
+
+TEST(BlockOrdering, AGraphThatFillsInLittleKeepsAmd) {
+  const int side = 40, n = side * side;
+  const auto pairs = gridGraph(side);
+  const BlockOrdering ordering = blockOrdering(n, pairs);
+  ASSERT_TRUE(isPermutation(ordering.order, n));
+  EXPECT_FALSE(ordering.nested_dissection);
+  const BlockOrdering amd = blockOrdering(n, pairs, BlockOrdering::Method::kAmd);
+  EXPECT_EQ(ordering.order, amd.order);
+  // CHOLMOD's flop count is the elimination game's.
+  EXPECT_DOUBLE_EQ(ordering.flops, eliminationFlops(n, pairs, ordering.order));
+}
+
+TEST(BlockOrdering, LongLinksBetweenDistantPartsTakeNestedDissection) {
+  // The street grid, and groups of 5 parallel links between random stretches of it: what
+  // groups of false loops do to a pose graph.
+  const int side = 60, n = side * side, groups = 100, group_size = 5;
+  std::vector<std::pair<int, int>> pairs = gridGraph(side);
+  std::mt19937 rng(3);
+  std::uniform_int_distribution<int> start(0, n - group_size - 1);
+  for (int g = 0; g < groups; ++g) {
+    const int a = start(rng), b = start(rng);
+    for (int k = 0; k < group_size; ++k) pairs.emplace_back(a + k, b + k);
+  }
+  const BlockOrdering ordering = blockOrdering(n, pairs);
+  const BlockOrdering amd = blockOrdering(n, pairs, BlockOrdering::Method::kAmd);
+  const BlockOrdering nd = blockOrdering(n, pairs, BlockOrdering::Method::kNestedDissection);
+  ASSERT_TRUE(isPermutation(ordering.order, n));
+  ASSERT_TRUE(isPermutation(nd.order, n));
+  EXPECT_TRUE(ordering.nested_dissection);
+  EXPECT_EQ(ordering.order, nd.order);
+  EXPECT_LT(ordering.flops, 0.7 * amd.flops);
+  EXPECT_DOUBLE_EQ(amd.flops, eliminationFlops(n, pairs, amd.order));
+  EXPECT_DOUBLE_EQ(nd.flops, eliminationFlops(n, pairs, nd.order));
+  // METIS is seeded: the same graph gets the same order.
+  EXPECT_EQ(blockOrdering(n, pairs).order, ordering.order);
+}
+
+TEST(BlockOrdering, NoBlocksNoOrder) {
+  EXPECT_TRUE(blockOrdering(0, {}).order.empty());
+  const BlockOrdering lone = blockOrdering(3, {});
+  EXPECT_TRUE(isPermutation(lone.order, 3));
 }
 
 INSTANTIATE_TEST_SUITE_P(SimplicialAndSupernodal, RankUpdates,

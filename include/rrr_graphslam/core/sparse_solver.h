@@ -2,9 +2,9 @@
 // Sparse symmetric positive-definite solves through CHOLMOD (via Eigen's CholmodSupport).
 // The symbolic analysis is done by analyze() once per sparsity pattern; factorize() only redoes
 // the numeric factorization, so Gauss-Newton iterations and re-optimizations that keep the
-// pattern pay for it once. The optimizer orders the 3x3 blocks itself (blockOrdering(), AMD on
-// the block graph) and assembles H already permuted, so CHOLMOD neither orders the 9x larger
-// scalar pattern nor copies and transposes H into its ordering at every factorization (M3500
+// pattern pay for it once. The optimizer orders the 3x3 blocks itself (blockOrdering(), AMD or
+// METIS on the block graph) and assembles H already permuted, so CHOLMOD neither orders the 9x
+// larger scalar pattern nor copies and transposes H into its ordering at every factorization (M3500
 // 55 -> 41 ms, Intel 5.5 -> 4.8 ms in scripts/bench_optimizer). update() folds a few
 // constraints switched on or off into the factor by rank updates (cholmod_updown).
 //
@@ -23,10 +23,22 @@
 
 namespace rrr_graphslam::core {
 
-/// A fill-reducing order (AMD, through CHOLMOD) of `num_blocks` blocks coupled by `pairs`:
-/// order[k] is the block to place k-th. Ordering the 3x3 blocks instead of the scalars is the
-/// same ordering problem on a graph 9 times smaller.
-std::vector<int> blockOrdering(int num_blocks, const std::vector<std::pair<int, int>>& pairs);
+/// A fill-reducing order of blocks: order[k] is the block to place k-th.
+struct BlockOrdering {
+  /// kAuto: AMD, and METIS's nested dissection too where AMD's factor fills in badly
+  /// (CHOLMOD's own rule for its default strategy, on the block graph); the order with fewer
+  /// flops wins. The others force one method (tests, measurements).
+  enum class Method { kAuto, kAmd, kNestedDissection };
+
+  std::vector<int> order;
+  bool nested_dissection = false;  ///< METIS's order, not AMD's
+  double flops = 0;                ///< of the block factor in this order (CHOLMOD's count)
+};
+
+/// A fill-reducing order of `num_blocks` blocks coupled by `pairs`, through CHOLMOD. Ordering
+/// the 3x3 blocks instead of the scalars is the same ordering problem on a graph 9 times smaller.
+BlockOrdering blockOrdering(int num_blocks, const std::vector<std::pair<int, int>>& pairs,
+                            BlockOrdering::Method method = BlockOrdering::Method::kAuto);
 
 class SparseSolver {
  public:
