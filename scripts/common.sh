@@ -22,7 +22,7 @@ RRR_APT_PACKAGES=(
   python3-visualization-msgs python3-tf2-msgs python3-rosgraph-msgs libnav-msgs-dev
   libsensor-msgs-dev libvisualization-msgs-dev rviz librviz-dev xvfb x11-apps imagemagick
   libmrpt-graphslam-dev libmrpt-slam-dev libmrpt-maps-dev libmrpt-ros1bridge-dev mrpt-apps
-  libsuitesparse-dev libopenblas0-serial libeigen3-dev libboost-math-dev zlib1g-dev
+  libsuitesparse-dev liblapack-dev libopenblas0-serial libeigen3-dev libboost-math-dev zlib1g-dev
   libgtest-dev googletest clang-format-14 clang-14 libclang-rt-14-dev
   python3-numpy python3-scipy python3-matplotlib python3-pytest
 )

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -10,6 +11,7 @@
 #include <Eigen/LU>
 
 #include "rrr_graphslam/core/largest_eigenvalue.h"
+#include "rrr_graphslam/core/spd_inverse.h"
 #include "rrr_graphslam/core/union_find.h"
 
 namespace rrr_graphslam::core {
@@ -68,9 +70,8 @@ Eigen::MatrixXd anchoredCovariance(const Marginal& marginal,
     for (std::size_t k = 1; k < piece.size(); ++k) {
       for (int r = 0; r < 3; ++r) rows.push_back(3 * static_cast<Eigen::Index>(piece[k]) + r);
     }
-    const Eigen::MatrixXd anchored = marginal.information(rows, rows);
-    const Eigen::LLT<Eigen::MatrixXd> llt(anchored);
-    if (llt.info() != Eigen::Success) {
+    const std::optional<Eigen::MatrixXd> inverse = spdInverse(marginal.information(rows, rows));
+    if (!inverse) {
       std::string ids;
       for (std::size_t k : piece) {
         ids += (ids.empty() ? "" : ", ") + std::to_string(marginal.blanket[k]);
@@ -80,9 +81,7 @@ Eigen::MatrixXd anchoredCovariance(const Marginal& marginal,
                                   std::to_string(marginal.blanket[piece.front()]) +
                                   " anchored): some relative pose carries no information");
     }
-    const Eigen::MatrixXd inverse =
-        llt.solve(Eigen::MatrixXd::Identity(anchored.rows(), anchored.cols()));
-    covariance(rows, rows) = inverse;
+    covariance(rows, rows) = *inverse;
   }
   return covariance;
 }
@@ -115,17 +114,24 @@ Candidate relativePose(const Marginal& marginal, const Eigen::MatrixXd& covarian
   return {i, j, -entropy, 0.5 * (information + information.transpose()), lin};
 }
 
-// Maximum spanning tree (Kruskal) over the candidates; ties keep the blanket order, so the
-// result is deterministic.
-std::vector<Candidate> maximumSpanningTree(std::vector<Candidate> candidates, std::size_t n) {
-  std::stable_sort(candidates.begin(), candidates.end(),
-                   [](const Candidate& a, const Candidate& b) {
-                     return a.mutual_information_nats > b.mutual_information_nats;
-                   });
-  std::vector<Candidate> tree;
+// A pair of blanket nodes and its Chow-Liu weight, what Kruskal sorts (a blanket of n nodes has
+// n(n-1)/2 pairs: 694k for 1178 nodes; the tree's n-1 edges get their relative poses again).
+struct Pair {
+  std::size_t i;
+  std::size_t j;
+  double mutual_information_nats;
+};
+
+// Maximum spanning tree (Kruskal) over the pairs; ties keep the blanket order, so the result is
+// deterministic.
+std::vector<Pair> maximumSpanningTree(std::vector<Pair> pairs, std::size_t n) {
+  std::stable_sort(pairs.begin(), pairs.end(), [](const Pair& a, const Pair& b) {
+    return a.mutual_information_nats > b.mutual_information_nats;
+  });
+  std::vector<Pair> tree;
   UnionFind spanned(n);
-  for (const Candidate& c : candidates) {
-    if (spanned.unite(c.i, c.j)) tree.push_back(c);
+  for (const Pair& p : pairs) {
+    if (spanned.unite(p.i, p.j)) tree.push_back(p);
   }
   return tree;
 }
@@ -195,6 +201,58 @@ void makeConservative(const Eigen::MatrixXd& covariance,
 // at the linearization point (rad).
 constexpr double kMaxOffsetRotation = M_PI / 2.0;
 
+// Solves A^T v = g (see gradientMatchingConstraints) by the tree's structure: from the leaves to
+// each piece's root, a node's equation J_p^T v_p + sum over its child edges J_c^T v_c = g_node
+// gives its parent edge's v_p once its children's are known (J_p, J_c: the edges' 3x3 Jacobians
+// at that node, invertible). O(n), where a dense LU of A was O(n^3). test_chow_liu checks that the
+// tree's gradient is the marginal's.
+Eigen::VectorXd treeTransposeSolve(const Marginal& marginal, const std::vector<Candidate>& tree,
+                                   const std::vector<std::vector<std::size_t>>& pieces) {
+  const std::size_t n = marginal.blanket.size();
+  std::vector<std::vector<std::size_t>> incident(n);
+  for (std::size_t e = 0; e < tree.size(); ++e) {
+    incident[tree[e].i].push_back(e);
+    incident[tree[e].j].push_back(e);
+  }
+  // Breadth first from each root: every other node's parent edge, parents before children.
+  std::vector<std::size_t> order;
+  std::vector<std::ptrdiff_t> parent_edge(n, -1);
+  std::vector<char> reached(n, 0);
+  for (const auto& piece : pieces) {
+    const std::size_t first = order.size();
+    order.push_back(piece.front());
+    reached[piece.front()] = 1;
+    for (std::size_t next = first; next < order.size(); ++next) {
+      const std::size_t node = order[next];
+      for (const std::size_t e : incident[node]) {
+        const std::size_t other = tree[e].i == node ? tree[e].j : tree[e].i;
+        if (reached[other]) continue;
+        reached[other] = 1;
+        parent_edge[other] = static_cast<std::ptrdiff_t>(e);
+        order.push_back(other);
+      }
+    }
+  }
+  std::vector<Eigen::Vector3d> rest(n);  // g_node minus what the solved child edges give
+  for (std::size_t k = 0; k < n; ++k) {
+    rest[k] = marginal.gradient.segment<3>(3 * static_cast<Eigen::Index>(k));
+  }
+  Eigen::VectorXd v = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(3 * tree.size()));
+  for (auto it = order.rbegin(); it != order.rend(); ++it) {
+    const std::size_t node = *it;
+    if (parent_edge[node] < 0) continue;  // a root: its equation holds with the others
+    const auto e = static_cast<std::size_t>(parent_edge[node]);
+    const Candidate& c = tree[e];
+    const bool from = c.i == node;
+    const Eigen::Matrix3d& J = from ? c.linearization.J_from : c.linearization.J_to;
+    const Eigen::Vector3d v_e = J.transpose().partialPivLu().solve(rest[node]);
+    v.segment<3>(3 * static_cast<Eigen::Index>(e)) = v_e;
+    const std::size_t parent = from ? c.j : c.i;
+    rest[parent] -= (from ? c.linearization.J_to : c.linearization.J_from).transpose() * v_e;
+  }
+  return v;
+}
+
 // The tree's edges as constraints whose gradient at the linearization point is the marginal's
 // g. Edge e with measurement z_e = d_e - delta_e (d_e = between(x_i, x_j), on x, y, theta) has
 // error K_z delta_e there, K_z = diag(R(z_theta)^T, 1), and Jacobians K_z K_d^T A_e with A_e its
@@ -207,27 +265,7 @@ constexpr double kMaxOffsetRotation = M_PI / 2.0;
 std::vector<PoseConstraint> gradientMatchingConstraints(
     const Marginal& marginal, const std::vector<Candidate>& tree,
     const std::vector<std::vector<std::size_t>>& pieces) {
-  const std::size_t n = marginal.blanket.size();
-  std::vector<Eigen::Index> column(n, -1);  // among the non-root nodes
-  Eigen::Index columns = 0;
-  for (const auto& piece : pieces) {
-    for (std::size_t k = 1; k < piece.size(); ++k) column[piece[k]] = 3 * columns++;
-  }
-  const auto size = static_cast<Eigen::Index>(3 * tree.size());
-  Eigen::MatrixXd A = Eigen::MatrixXd::Zero(size, size);
-  Eigen::VectorXd g(size);
-  for (std::size_t k = 0; k < n; ++k) {
-    if (column[k] >= 0) {
-      g.segment<3>(column[k]) = marginal.gradient.segment<3>(3 * static_cast<Eigen::Index>(k));
-    }
-  }
-  for (std::size_t e = 0; e < tree.size(); ++e) {
-    const Candidate& c = tree[e];
-    const auto row = static_cast<Eigen::Index>(3 * e);
-    if (column[c.i] >= 0) A.block<3, 3>(row, column[c.i]) = c.linearization.J_from;
-    if (column[c.j] >= 0) A.block<3, 3>(row, column[c.j]) = c.linearization.J_to;
-  }
-  const Eigen::VectorXd v = A.transpose().partialPivLu().solve(g);
+  const Eigen::VectorXd v = treeTransposeSolve(marginal, tree, pieces);
 
   // K_d delta_e per edge, then all offsets shrunk together where one would turn by more than
   // kMaxOffsetRotation (see ChowLiuParams::match_gradient): the tree's gradient is then c g, one
@@ -268,15 +306,19 @@ std::vector<ChowLiuEdge> chowLiuTree(const Marginal& marginal, const ChowLiuPara
   const Eigen::MatrixXd covariance = anchoredCovariance(marginal, pieces);
 
   // Mutual information of every pair within a piece.
-  std::vector<Candidate> candidates;
+  std::vector<Pair> pairs;
   for (const auto& piece : pieces) {
     for (std::size_t a = 0; a < piece.size(); ++a) {
       for (std::size_t b = a + 1; b < piece.size(); ++b) {
-        candidates.push_back(relativePose(marginal, covariance, piece[a], piece[b]));
+        const Candidate c = relativePose(marginal, covariance, piece[a], piece[b]);
+        pairs.push_back({c.i, c.j, c.mutual_information_nats});
       }
     }
   }
-  std::vector<Candidate> tree = maximumSpanningTree(std::move(candidates), marginal.blanket.size());
+  std::vector<Candidate> tree;
+  for (const Pair& p : maximumSpanningTree(std::move(pairs), marginal.blanket.size())) {
+    tree.push_back(relativePose(marginal, covariance, p.i, p.j));
+  }
   if (params.conservative) makeConservative(covariance, pieces, tree);
 
   std::vector<ChowLiuEdge> edges;
