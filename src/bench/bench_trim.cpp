@@ -4,7 +4,8 @@
 //
 // usage: rrr_bench_trim [--sparsification clt|delete] [--trim-overlap R]
 //                       [--keep-recent-submaps N] [--keep-current-session true|false]
-//                       [--clt-conservative true|false] [--group-neighbours] [--no-kl]
+//                       [--clt-conservative true|false] [--clt-per-edge-scaling true|false]
+//                       [--group-neighbours] [--no-kl]
 //                       [--repeat N] MAP.rrrmap...
 // The maps must have been made with the default front-end parameters (the coverage grids are
 // built with them).
@@ -41,7 +42,8 @@ struct Options {
   std::cerr << "rrr_bench_trim: " << problem
             << "\nusage: rrr_bench_trim [--sparsification clt|delete] [--trim-overlap R] "
                "[--keep-recent-submaps N] [--keep-current-session true|false] "
-               "[--clt-conservative true|false] [--group-neighbours] [--no-kl] [--repeat N] "
+               "[--clt-conservative true|false] [--clt-per-edge-scaling true|false] "
+               "[--group-neighbours] [--no-kl] [--repeat N] "
                "MAP.rrrmap...\n";
   std::exit(2);
 }
@@ -90,6 +92,8 @@ int main(int argc, char** argv) {
         options.trim.keep_current_session = boolean();
       } else if (a == "--clt-conservative") {
         options.trim.chow_liu.conservative = boolean();
+      } else if (a == "--clt-per-edge-scaling") {
+        options.trim.chow_liu.per_edge_scaling = boolean();
       } else if (a == "--group-neighbours") {
         options.trim.group_neighbours = true;
       } else if (a == "--no-kl") {

@@ -8,6 +8,7 @@
 #include <utility>
 
 #include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
 #include <Eigen/LU>
 
 #include "rrr_graphslam/core/largest_eigenvalue.h"
@@ -139,16 +140,14 @@ std::vector<Pair> maximumSpanningTree(std::vector<Pair> pairs, std::size_t n) {
 // Conservative scaling: the tree's information over a piece (anchored at its root) against the
 // marginal's. In the tree's own coordinates (its edges' relative poses, an invertible function
 // of the non-root poses) the tree's information is block-diagonal, Omega = diag(Sigma_e^-1),
-// and the marginal's covariance is Sigma_rel, whose diagonal blocks are the Sigma_e: the
-// largest eigenvalue of Omega^1/2 Sigma_rel Omega^1/2 (blocks L_e^T Sigma_rel(e, f) L_f,
-// Omega_e = L_e L_e^T, identity on the diagonal) is the most the tree overstates the
-// marginal's information in any direction. It is at least 1, and 1 only when the edges'
-// relative poses are uncorrelated (the marginal is itself that tree). Dividing every edge's
-// information by it makes the tree's information at most the marginal's.
-double largestOverstatement(const Eigen::MatrixXd& covariance,
-                            const std::vector<Candidate>& edges) {
+// and the marginal's covariance is Sigma_rel, whose diagonal blocks are the Sigma_e. Whitened,
+// W = Omega^1/2 Sigma_rel Omega^1/2 (blocks L_e^T Sigma_rel(e, f) L_f, Omega_e = L_e L_e^T,
+// identity on the diagonal). Scaling edge e's information by s_e (S = diag(s_e), one per 3x3
+// block), the tree states no more than the marginal when S <= W^-1, i.e. when the largest
+// eigenvalue of S^1/2 W S^1/2 is at most 1.
+Eigen::MatrixXd whitenedCovariance(const Eigen::MatrixXd& covariance,
+                                   const std::vector<Candidate>& edges) {
   const auto size = static_cast<Eigen::Index>(3 * edges.size());
-  if (size == 0) return 1.0;
   std::vector<Eigen::Matrix3d> whitening;  // L_e
   for (const Candidate& c : edges) {
     whitening.push_back(Eigen::LLT<Eigen::Matrix3d>(c.information).matrixL());
@@ -173,27 +172,86 @@ double largestOverstatement(const Eigen::MatrixXd& covariance,
           w.transpose();
     }
   }
-  const double overstatement = largestEigenvalue(whitened);  // throws if not finite
-  return std::max(1.0, overstatement);
+  return whitened;
 }
 
-// Scales each piece's tree edges by 1 / largestOverstatement (Kruskal's order mixes pieces).
+// The scales s_e of a piece's edges (see above), from two that are conservative:
+//   - one for all: 1 / lambda_max(W), the most the tree overstates the marginal's information
+//     in any direction (at least 1; 1 only when the edges' relative poses are uncorrelated, the
+//     marginal then being the tree itself);
+//   - per edge (ChowLiuParams::per_edge_scaling), the Schur test: with N_ef = ||W_ef||_2,
+//     s_e = 1 / sum_f N_ef. For any x, x^T S^1/2 W S^1/2 x <= y^T B y with y_e = ||x_e||,
+//     B_ef = sqrt(s_e s_f) N_ef, and B p = p for p_e = sqrt(sum_f N_ef): the largest eigenvalue
+//     is at most 1. An edge whose relative pose the others hardly correlate with keeps nearly
+//     all its information, where the uniform scale divides every edge by the worst direction.
+// The conservative scales form a convex set, so the segment between the two is conservative
+// too; the point taken minimizes the piece's KL divergence in the tree's coordinates,
+// 1/2 (tr(S W) - ln det(S W) - dim) = 3/2 sum_e (s_e - ln s_e) + const (W's diagonal blocks
+// are I), a convex function of the segment's parameter.
+std::vector<double> conservativeScales(const Eigen::MatrixXd& whitened, bool per_edge) {
+  const auto edges = static_cast<std::size_t>(whitened.rows() / 3);
+  const double uniform = 1.0 / std::max(1.0, largestEigenvalue(whitened));  // throws if not finite
+  std::vector<double> scales(edges, uniform);
+  if (!per_edge || edges < 2) return scales;
+  std::vector<double> row_sums(edges, 0.0);
+  for (std::size_t e = 0; e < edges; ++e) {
+    for (std::size_t f = e; f < edges; ++f) {
+      const Eigen::Matrix3d b =
+          whitened.block<3, 3>(3 * static_cast<Eigen::Index>(e), 3 * static_cast<Eigen::Index>(f));
+      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> gram;
+      gram.computeDirect(b.transpose() * b, Eigen::EigenvaluesOnly);
+      const double norm = std::sqrt(std::max(0.0, gram.eigenvalues()(2)));
+      row_sums[e] += norm;
+      if (f != e) row_sums[f] += norm;
+    }
+  }
+  // s(t) = (1 - t) uniform + t schur; d/dt sum(s - ln s) = sum (1 - 1/s_e)(schur_e - uniform),
+  // increasing in t: bisection for its zero in [0, 1].
+  auto slope = [&](double t) {
+    double d = 0.0;
+    for (std::size_t e = 0; e < edges; ++e) {
+      const double schur = 1.0 / row_sums[e];
+      const double s = (1.0 - t) * uniform + t * schur;
+      d += (1.0 - 1.0 / s) * (schur - uniform);
+    }
+    return d;
+  };
+  double lo = 0.0, hi = 1.0;
+  if (slope(1.0) <= 0.0) {
+    lo = 1.0;
+  } else if (slope(0.0) < 0.0) {
+    for (int k = 0; k < 60; ++k) {
+      const double mid = 0.5 * (lo + hi);
+      (slope(mid) < 0.0 ? lo : hi) = mid;
+    }
+  }
+  for (std::size_t e = 0; e < edges; ++e) {
+    scales[e] = (1.0 - lo) * uniform + lo / row_sums[e];
+  }
+  return scales;
+}
+
+// Scales each piece's tree edges by conservativeScales (Kruskal's order mixes pieces).
 void makeConservative(const Eigen::MatrixXd& covariance,
-                      const std::vector<std::vector<std::size_t>>& pieces,
+                      const std::vector<std::vector<std::size_t>>& pieces, bool per_edge,
                       std::vector<Candidate>& tree) {
   std::vector<std::size_t> piece_of(covariance.rows() / 3, 0);
   for (std::size_t p = 0; p < pieces.size(); ++p) {
     for (std::size_t k : pieces[p]) piece_of[k] = p;
   }
   for (std::size_t p = 0; p < pieces.size(); ++p) {
-    std::vector<Candidate> edges;
-    for (const Candidate& c : tree) {
-      if (piece_of[c.i] == p) edges.push_back(c);
-    }
-    const double scale = 1.0 / largestOverstatement(covariance, edges);
+    std::vector<Candidate*> edges;
+    std::vector<Candidate> copies;
     for (Candidate& c : tree) {
-      if (piece_of[c.i] == p) c.information *= scale;
+      if (piece_of[c.i] == p) {
+        edges.push_back(&c);
+        copies.push_back(c);
+      }
     }
+    if (edges.empty()) continue;
+    const std::vector<double> scales =
+        conservativeScales(whitenedCovariance(covariance, copies), per_edge);
+    for (std::size_t e = 0; e < edges.size(); ++e) edges[e]->information *= scales[e];
   }
 }
 
@@ -319,7 +377,7 @@ std::vector<ChowLiuEdge> chowLiuTree(const Marginal& marginal, const ChowLiuPara
   for (const Pair& p : maximumSpanningTree(std::move(pairs), marginal.blanket.size())) {
     tree.push_back(relativePose(marginal, covariance, p.i, p.j));
   }
-  if (params.conservative) makeConservative(covariance, pieces, tree);
+  if (params.conservative) makeConservative(covariance, pieces, params.per_edge_scaling, tree);
 
   std::vector<ChowLiuEdge> edges;
   if (params.match_gradient) {

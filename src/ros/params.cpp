@@ -174,6 +174,9 @@ NodeParams loadParams(const ros::NodeHandle& private_nh) {
   r.read<bool>(
       "clt_conservative", p.trim.chow_liu.conservative, [](const bool&) { return true; },
       "a boolean");
+  r.read<bool>(
+      "clt_per_edge_scaling", p.trim.chow_liu.per_edge_scaling, [](const bool&) { return true; },
+      "a boolean");
   r.read<int>(
       "trim_every_n_nodes", p.trim_every_n_nodes, [](const int& v) { return v >= 0; },
       "at least 0 (0: trim only when ~save_map writes the map)");

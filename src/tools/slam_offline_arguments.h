@@ -70,7 +70,8 @@ inline const std::string& usage() {
       "                        [--lifelong [--trim-overlap R] [--keep-recent-submaps N]\n"
       "                                    [--keep-current-session true|false]\n"
       "                                    [--sparsification clt|dense|delete]\n"
-      "                                    [--clt-conservative true|false] [--trim-kl]\n"
+      "                                    [--clt-conservative true|false]\n"
+      "                                    [--clt-per-edge-scaling true|false] [--trim-kl]\n"
       "                                    [--trim-group-neighbours]\n"
       "                                    [--trim-every-n-nodes N]]\n"
       "                        [--preset paper|default] [--PARAMETER V ...]\n"
@@ -120,6 +121,8 @@ inline const std::string& usage() {
       "                    default) or delete (nothing; dense is not storable yet and refused)\n"
       "  --clt-conservative true|false  the Chow-Liu tree's information scaled down to at\n"
       "                    most the marginal's (default true)\n"
+      "  --clt-per-edge-scaling true|false  with it, each edge scaled on its own where\n"
+      "                    that loses less (default true); false: one scale for all\n"
       "  --trim-kl         measure each trim's KL divergence (tree and deletion against the\n"
       "                    exact marginal: the trim_kl lines; slow on large maps); without it\n"
       "                    they say nan\n"
@@ -267,6 +270,8 @@ inline Arguments parseArguments(int argc, char** argv) {
       trim_flags.push_back(a);
     } else if (a == "--clt-conservative") {
       args.trim.chow_liu.conservative = cli.boolean(a, cli.value(i, a));
+    } else if (a == "--clt-per-edge-scaling") {
+      args.trim.chow_liu.per_edge_scaling = cli.boolean(a, cli.value(i, a));
       trim_flags.push_back(a);
     } else if (a == "--trim-every-n-nodes") {
       const double v = cli.number(a, cli.value(i, a), 1, 1e9);

@@ -285,13 +285,24 @@ double largestOverstatement(const Marginal& marginal, const Eigen::MatrixXd& inf
   return eigen.eigenvalues().maxCoeff();
 }
 
+// KL(marginal || replacement) over the anchored blanket from their information alone (no mean
+// shift): in the tree's coordinates 3/2 sum_e (s_e - ln s_e) + const, what the per-edge scales
+// minimize along their segment.
+double blanketKl(const Marginal& marginal, const Eigen::MatrixXd& information) {
+  const Eigen::Index k = marginal.information.rows() - 3;
+  const Eigen::MatrixXd sigma = marginal.information.bottomRightCorner(k, k).inverse();
+  const Eigen::MatrixXd product = information.bottomRightCorner(k, k) * sigma;
+  return 0.5 * (product.trace() - std::log(product.determinant()) - static_cast<double>(k));
+}
+
 // The plain Chow-Liu tree overstates the marginal's information in some direction (its edges'
-// relative poses are taken as independent); the conservative one never does, and its scale is
-// tight: in the most overstated direction it states exactly what the marginal does. Its
-// measurements still give the marginal's gradient.
+// relative poses are taken as independent); the conservative one never does. With one scale for
+// all edges it is tight: in the most overstated direction it states exactly what the marginal
+// does. With per-edge scales (the default) it never loses more than that over the blanket, and
+// on large blankets less. Its measurements still give the marginal's gradient.
 // Blankets of 3-10 nodes and of more than 30 (the largest eigenvalue then comes from Lanczos).
 TEST(ChowLiu, ConservativeTreeNeverStatesMoreThanTheMarginal) {
-  int shrunk = 0;
+  int shrunk = 0, per_edge_better = 0;
   for (unsigned seed = 1; seed <= 14; ++seed) {
     const bool large = seed > 10;
     const PoseGraph graph =
@@ -304,12 +315,21 @@ TEST(ChowLiu, ConservativeTreeNeverStatesMoreThanTheMarginal) {
         replacementModel(marginal, MarginalReplacement::kChowLiuTree);
     const QuadraticModel overstated =
         replacementModel(marginal, MarginalReplacement::kChowLiuTree, plain);
+    ChowLiuParams uniform;
+    uniform.per_edge_scaling = false;
+    const QuadraticModel one_scale =
+        replacementModel(marginal, MarginalReplacement::kChowLiuTree, uniform);
     const double scale = largestOverstatement(marginal, overstated.information);
     EXPECT_GT(scale, 1.01) << seed;
-    EXPECT_NEAR(largestOverstatement(marginal, conservative.information), 1.0, 1e-9) << seed;
-    EXPECT_LT((scale * conservative.information - overstated.information).norm(),
+    EXPECT_NEAR(largestOverstatement(marginal, one_scale.information), 1.0, 1e-9) << seed;
+    EXPECT_LT((scale * one_scale.information - overstated.information).norm(),
               1e-9 * overstated.information.norm())
         << seed;
+    EXPECT_LE(largestOverstatement(marginal, conservative.information), 1.0 + 1e-9) << seed;
+    const double kl_per_edge = blanketKl(marginal, conservative.information);
+    const double kl_one_scale = blanketKl(marginal, one_scale.information);
+    EXPECT_LE(kl_per_edge, kl_one_scale * (1.0 + 1e-9)) << seed;
+    if (large) per_edge_better += kl_per_edge < 0.9 * kl_one_scale;
     // The marginal's gradient, or where the offsets that takes would turn the measurements by
     // more than 90 degrees (the large blankets of these unoptimized graphs), a fraction of it.
     const double fraction =
@@ -334,6 +354,8 @@ TEST(ChowLiu, ConservativeTreeNeverStatesMoreThanTheMarginal) {
         << seed;
   }
   EXPECT_GT(shrunk, 0) << "no blanket whose offsets were shrunk: that path is untested";
+  // Measured: 0.76-0.96 of one scale's loss on the 4 large blankets, 0.98-1 on the small ones.
+  EXPECT_GE(per_edge_better, 2) << "per-edge scales lost 10% less than one scale on too few";
 }
 
 // Because the conservative tree lies between nothing and the marginal (in information) and keeps

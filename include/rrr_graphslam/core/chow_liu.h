@@ -83,6 +83,12 @@ struct ChowLiuParams {
   /// then loses at most what deleting loses (see the header's comment). false: the Chow-Liu
   /// edges' own information, the relative poses' marginal covariances inverted.
   bool conservative = true;
+  /// With `conservative`: true (default), each edge its own scale where that loses less (the
+  /// Schur test's per-edge bound, or the best mix of it and the uniform one: an edge the others
+  /// hardly correlate with keeps nearly all its information; chow_liu.cpp); false, one scale
+  /// for all the piece's edges, 1 / the largest overstatement. Either way the tree states no
+  /// more than the marginal in any direction.
+  bool per_edge_scaling = true;
 };
 
 struct ChowLiuEdge {
