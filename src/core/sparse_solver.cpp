@@ -74,6 +74,7 @@ struct OrderingResult {
   bool ok = false;
   std::vector<int> order;
   double flops = 0, factor_nonzeros = 0;
+  bool nested_dissection = false;  // what CHOLMOD used (METIS falls back to AMD on dense graphs)
 };
 
 // One ordering method and the symbolic factorization it gives (its flop count and nnz(L)).
@@ -83,7 +84,9 @@ OrderingResult orderBy(cholmod_sparse& pattern, int method) {
   cholmod_start(&common);
   common.nmethods = 1;
   common.method[0].ordering = method;
-  common.postorder = 0;                    // AMD's order exactly as cholmod_amd gives it
+  // AMD's order exactly as cholmod_amd gives it; METIS's postordered (its separators' subtrees
+  // in one piece each, as CHOLMOD's own analysis would: larger supernodes).
+  common.postorder = method == CHOLMOD_METIS ? 1 : 0;
   common.supernodal = CHOLMOD_SIMPLICIAL;  // the counts are all we need
   cholmod_factor* L = cholmod_analyze(&pattern, &common);
   if (L != nullptr && common.status == CHOLMOD_OK) {
@@ -91,6 +94,7 @@ OrderingResult orderBy(cholmod_sparse& pattern, int method) {
     result.order.assign(perm, perm + L->n);
     result.flops = common.fl;
     result.factor_nonzeros = common.lnz;
+    result.nested_dissection = L->ordering == CHOLMOD_METIS;
     result.ok = true;
   }
   cholmod_free_factor(&L, &common);
@@ -107,20 +111,20 @@ BlockOrdering blockOrdering(int num_blocks, const std::vector<std::pair<int, int
   std::iota(result.order.begin(), result.order.end(), 0);
   if (num_blocks == 0) return result;
   BlockPattern pattern(num_blocks, pairs);
-  auto take = [&result](OrderingResult& o, bool nested_dissection) {
+  auto take = [&result](OrderingResult& o) {
     result.order = std::move(o.order);
     result.flops = o.flops;
-    result.nested_dissection = nested_dissection;
+    result.nested_dissection = o.nested_dissection;
   };
   if (method == BlockOrdering::Method::kNestedDissection) {
     OrderingResult metis = orderBy(pattern.view, CHOLMOD_METIS);
-    if (metis.ok) take(metis, true);
+    if (metis.ok) take(metis);
     return result;
   }
   OrderingResult amd = orderBy(pattern.view, CHOLMOD_AMD);
   if (!amd.ok) return result;
   const double amd_flops = amd.flops, amd_nonzeros = amd.factor_nonzeros;
-  take(amd, false);
+  take(amd);
   if (method == BlockOrdering::Method::kAmd) return result;
   // CHOLMOD's own rule for when AMD's ordering fills in badly enough to try METIS (fl/lnz >= 500
   // and lnz/nnz(A) >= 5 on the scalar matrix), on the block graph: a 3x3 block stands for 9
@@ -132,7 +136,7 @@ BlockOrdering blockOrdering(int num_blocks, const std::vector<std::pair<int, int
   const bool fills_in = 3 * amd_flops >= 500 * amd_nonzeros && amd_nonzeros >= 5 * pattern_nonzeros;
   if (!fills_in) return result;
   OrderingResult metis = orderBy(pattern.view, CHOLMOD_METIS);
-  if (metis.ok && metis.flops < amd_flops) take(metis, true);
+  if (metis.ok && metis.flops < amd_flops) take(metis);
   return result;
 }
 

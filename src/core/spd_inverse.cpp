@@ -1,14 +1,17 @@
 #include "rrr_graphslam/core/spd_inverse.h"
 
+#include <cstddef>
 #include <limits>
 #include <stdexcept>
 #include <string>
 
 extern "C" {
 // LAPACK (Fortran calling convention, 32-bit integers as Debian's liblapack3 and OpenBLAS build
-// it).
-void dpotrf_(const char* uplo, const int* n, double* a, const int* lda, int* info);
-void dpotri_(const char* uplo, const int* n, double* a, const int* lda, int* info);
+// it; gfortran's hidden length of the character argument last).
+void dpotrf_(const char* uplo, const int* n, double* a, const int* lda, int* info,
+             std::size_t uplo_length);
+void dpotri_(const char* uplo, const int* n, double* a, const int* lda, int* info,
+             std::size_t uplo_length);
 }
 
 namespace rrr_graphslam::core {
@@ -25,10 +28,14 @@ std::optional<Eigen::MatrixXd> spdInverse(const Eigen::MatrixXd& a) {
   Eigen::MatrixXd inverse = a;  // column-major, as LAPACK reads it
   const int n = static_cast<int>(a.rows());
   int info = 0;
-  dpotrf_("L", &n, inverse.data(), &n, &info);
-  if (info != 0) return std::nullopt;  // > 0: not positive definite
-  dpotri_("L", &n, inverse.data(), &n, &info);
-  if (info != 0) return std::nullopt;
+  dpotrf_("L", &n, inverse.data(), &n, &info, 1);
+  if (info < 0)
+    throw std::logic_error("spdInverse: dpotrf refused argument " + std::to_string(-info));
+  if (info > 0) return std::nullopt;  // not positive definite
+  dpotri_("L", &n, inverse.data(), &n, &info, 1);
+  if (info < 0)
+    throw std::logic_error("spdInverse: dpotri refused argument " + std::to_string(-info));
+  if (info > 0) return std::nullopt;
   return Eigen::MatrixXd(inverse.selfadjointView<Eigen::Lower>());
 }
 

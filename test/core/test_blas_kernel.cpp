@@ -20,6 +20,8 @@ bool processorHasAvx2() {
 }
 
 TEST(BlasKernel, OnlyTheGenericKernelOnAModernProcessorIsWarnedAbout) {
+  const char* before = std::getenv("OPENBLAS_CORETYPE");
+  const std::string saved = before != nullptr ? before : "";
   unsetenv("OPENBLAS_CORETYPE");
   EXPECT_FALSE(blasKernelWarning("Haswell"));
   EXPECT_FALSE(blasKernelWarning("SkylakeX"));
@@ -32,7 +34,11 @@ TEST(BlasKernel, OnlyTheGenericKernelOnAModernProcessorIsWarnedAbout) {
   // A kernel the user chose is left alone.
   setenv("OPENBLAS_CORETYPE", "Prescott", 1);
   EXPECT_FALSE(blasKernelWarning("Prescott"));
-  unsetenv("OPENBLAS_CORETYPE");
+  if (before != nullptr) {
+    setenv("OPENBLAS_CORETYPE", saved.c_str(), 1);
+  } else {
+    unsetenv("OPENBLAS_CORETYPE");
+  }
 }
 
 TEST(BlasKernel, TheLoadedLibraryNamesItsKernel) {

@@ -292,7 +292,9 @@ double blanketKl(const Marginal& marginal, const Eigen::MatrixXd& information) {
   const Eigen::Index k = marginal.information.rows() - 3;
   const Eigen::MatrixXd sigma = marginal.information.bottomRightCorner(k, k).inverse();
   const Eigen::MatrixXd product = information.bottomRightCorner(k, k) * sigma;
-  return 0.5 * (product.trace() - std::log(product.determinant()) - static_cast<double>(k));
+  const Eigen::PartialPivLU<Eigen::MatrixXd> lu(product);
+  const double log_det = lu.matrixLU().diagonal().array().abs().log().sum();
+  return 0.5 * (product.trace() - log_det - static_cast<double>(k));
 }
 
 // The plain Chow-Liu tree overstates the marginal's information in some direction (its edges'

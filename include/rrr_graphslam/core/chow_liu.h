@@ -24,9 +24,10 @@
 //   5. Conservative scaling (ChowLiuParams::conservative): the tree takes its edges' relative
 //      poses as independent, which overstates the marginal's information along directions where
 //      they are correlated (by the largest generalized eigenvalue of the two informations, at
-//      least 1). Every edge's information is divided by it, per piece, so the tree's
-//      information is at most the marginal's (the consistency asked of a sparse approximation by
-//      Vial, Durrant-Whyte, Bailey, IROS 2011, and Carlevaris-Bianco, Eustice, ICRA 2014).
+//      least 1). Every edge's information is scaled down, per piece, so the tree's information
+//      is at most the marginal's (the consistency asked of a sparse approximation by Vial,
+//      Durrant-Whyte, Bailey, IROS 2011, and Carlevaris-Bianco, Eustice, ICRA 2014): by that
+//      eigenvalue for all, or (ChowLiuParams::per_edge_scaling) each edge by its own scale.
 // Why this weight: a spanning tree of relative-pose constraints makes its edges' relative poses
 // independent, so KL(marginal || tree) = sum over edges H(relative pose) - H(marginal) (the
 // marginal's entropy is the same in every tree's coordinates: the relative-pose Jacobians have
@@ -76,9 +77,10 @@ struct ChowLiuParams {
   /// bound and the tree keeps that fraction of the marginal's gradient (its KL still at most
   /// deletion's, which keeps none).
   bool match_gradient = true;
-  /// true (default): every edge's information is divided by the most the tree overstates the
-  /// marginal's information in any direction (the largest generalized eigenvalue of the two over
-  /// the piece, at least 1), so the tree never claims more than the marginal knows: replacing
+  /// true (default): the edges' information is scaled down until the tree states no more than
+  /// the marginal in any direction (per_edge_scaling below; with one scale for all, the largest
+  /// generalized eigenvalue of the two over the piece, at least 1), so the tree never claims
+  /// more than the marginal knows: replacing
   /// the marginal by it can only lose information, never invent it, and over the whole graph it
   /// then loses at most what deleting loses (see the header's comment). false: the Chow-Liu
   /// edges' own information, the relative poses' marginal covariances inverted.
