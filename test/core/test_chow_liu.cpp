@@ -208,6 +208,42 @@ TEST(ChowLiu, BlanketInPiecesGivesAForest) {
   EXPECT_TRUE(chowLiuTree(end).empty());
 }
 
+// Two pieces of several nodes each (two removed runs, each with loops to its own side of the
+// chain): a tree per piece, and the matched gradient (solved along each tree from its leaves)
+// is the marginal's in both pieces, with one scale per piece or per edge.
+TEST(ChowLiu, ForestOfLargePiecesKeepsTheGradientOfEach) {
+  PoseGraph chain = randomChainWithLoops(40, 5, 0);
+  std::mt19937 rng(8);
+  const auto noisy = [&](NodeId a, NodeId b) {
+    Pose2 d = between(chain.pose(a), chain.pose(b));
+    d.x() += 0.05;
+    d.z() = normalizeAngle(d.z() - 0.02);
+    return d;
+  };
+  for (const auto& [a, b] : std::vector<std::pair<NodeId, NodeId>>{
+           {6, 12}, {8, 15}, {9, 17}, {26, 20}, {27, 33}, {29, 36}}) {
+    chain.addEdge(a, b, noisy(a, b), randomInformation(rng), EdgeKind::kLoopCandidate);
+  }
+  std::vector<NodeId> removed = run(5, 5);
+  for (NodeId id : run(25, 5)) removed.push_back(id);
+  const Marginal marginal = marginalizeNodes(chain, removed);
+  ASSERT_EQ(marginal.blanket, (std::vector<NodeId>{4, 10, 12, 15, 17, 20, 24, 30, 33, 36}));
+  for (bool per_edge : {true, false}) {
+    ChowLiuParams params;
+    params.per_edge_scaling = per_edge;
+    const std::vector<ChowLiuEdge> forest = chowLiuTree(marginal, params);
+    ASSERT_EQ(forest.size(), 8u) << "two trees of 5 nodes";
+    for (const ChowLiuEdge& e : forest) {
+      EXPECT_EQ(e.constraint.from < 20, e.constraint.to < 20) << "an edge between the pieces";
+    }
+    const QuadraticModel tree =
+        replacementModel(marginal, MarginalReplacement::kChowLiuTree, params);
+    EXPECT_GT(marginal.gradient.norm(), 1e-3);
+    EXPECT_LT((tree.gradient - marginal.gradient).norm(), 1e-9 * marginal.gradient.norm())
+        << per_edge;
+  }
+}
+
 TEST(ChowLiu, BadMarginalThrowsNamingTheProblem) {
   const std::vector<NodeId> blanket{1, 2, 5};
   const std::vector<Pose2> poses{Pose2(0.0, 0.0, 0.0), Pose2(1.0, 0.0, 0.5), Pose2(1.0, 1.0, 1.0)};

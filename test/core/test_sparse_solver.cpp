@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <Eigen/CholmodSupport>
 #include <Eigen/Dense>
 #include <algorithm>
 #include <random>
@@ -296,6 +297,32 @@ TEST(BlockOrdering, LongLinksBetweenDistantPartsTakeNestedDissection) {
   EXPECT_DOUBLE_EQ(nd.flops, eliminationFlops(n, pairs, nd.order));
   // METIS is seeded: the same graph gets the same order.
   EXPECT_EQ(blockOrdering(n, pairs).order, ordering.order);
+}
+
+// The AMD order is the one cholmod_amd gives (the optimizer's order before nested dissection
+// was added): decisions made with it stay as they were.
+TEST(BlockOrdering, AmdIsCholmodAmdsOrder) {
+  const int side = 30, n = side * side;
+  auto pairs = gridGraph(side);
+  std::mt19937 rng(4);
+  std::uniform_int_distribution<int> node(0, n - 1);
+  for (int k = 0; k < 40; ++k) pairs.emplace_back(node(rng), node(rng));
+  Eigen::SparseMatrix<double> pattern(n, n);
+  std::vector<Eigen::Triplet<double>> entries;
+  for (int k = 0; k < n; ++k) entries.emplace_back(k, k, 1.0);
+  for (auto [a, b] : pairs) {
+    if (a != b) entries.emplace_back(std::min(a, b), std::max(a, b), 1.0);
+  }
+  pattern.setFromTriplets(entries.begin(), entries.end());
+  pattern.makeCompressed();
+  cholmod_sparse view = Eigen::viewAsCholmod(pattern);
+  view.stype = 1;  // the upper triangle of a symmetric matrix
+  cholmod_common common;
+  cholmod_start(&common);
+  std::vector<int> expected(static_cast<std::size_t>(n));
+  ASSERT_EQ(cholmod_amd(&view, nullptr, 0, expected.data(), &common), 1);
+  cholmod_finish(&common);
+  EXPECT_EQ(blockOrdering(n, pairs, BlockOrdering::Method::kAmd).order, expected);
 }
 
 TEST(BlockOrdering, NoBlocksNoOrder) {
