@@ -146,11 +146,11 @@ std::vector<Pair> maximumSpanningTree(std::vector<Pair> pairs, std::size_t n) {
 // block), the tree states no more than the marginal when S <= W^-1, i.e. when the largest
 // eigenvalue of S^1/2 W S^1/2 is at most 1.
 Eigen::MatrixXd whitenedCovariance(const Eigen::MatrixXd& covariance,
-                                   const std::vector<Candidate>& edges) {
+                                   const std::vector<Candidate*>& edges) {
   const auto size = static_cast<Eigen::Index>(3 * edges.size());
   std::vector<Eigen::Matrix3d> whitening;  // L_e
-  for (const Candidate& c : edges) {
-    whitening.push_back(Eigen::LLT<Eigen::Matrix3d>(c.information).matrixL());
+  for (const Candidate* c : edges) {
+    whitening.push_back(Eigen::LLT<Eigen::Matrix3d>(c->information).matrixL());
   }
   auto block = [&](std::size_t a, std::size_t b) {
     return covariance.block<3, 3>(3 * static_cast<Eigen::Index>(a),
@@ -158,9 +158,9 @@ Eigen::MatrixXd whitenedCovariance(const Eigen::MatrixXd& covariance,
   };
   Eigen::MatrixXd whitened(size, size);
   for (std::size_t e = 0; e < edges.size(); ++e) {
-    const Candidate& ce = edges[e];
+    const Candidate& ce = *edges[e];
     for (std::size_t f = e; f < edges.size(); ++f) {
-      const Candidate& cf = edges[f];
+      const Candidate& cf = *edges[f];
       const Eigen::Matrix3d sigma =
           ce.linearization.J_from * block(ce.i, cf.i) * cf.linearization.J_from.transpose() +
           ce.linearization.J_from * block(ce.i, cf.j) * cf.linearization.J_to.transpose() +
@@ -252,16 +252,12 @@ void makeConservative(const Eigen::MatrixXd& covariance,
   }
   for (std::size_t p = 0; p < pieces.size(); ++p) {
     std::vector<Candidate*> edges;
-    std::vector<Candidate> copies;
     for (Candidate& c : tree) {
-      if (piece_of[c.i] == p) {
-        edges.push_back(&c);
-        copies.push_back(c);
-      }
+      if (piece_of[c.i] == p) edges.push_back(&c);
     }
     if (edges.empty()) continue;
     const std::vector<double> scales =
-        conservativeScales(whitenedCovariance(covariance, copies), per_edge);
+        conservativeScales(whitenedCovariance(covariance, edges), per_edge);
     for (std::size_t e = 0; e < edges.size(); ++e) edges[e]->information *= scales[e];
   }
 }

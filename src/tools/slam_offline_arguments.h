@@ -270,6 +270,7 @@ inline Arguments parseArguments(int argc, char** argv) {
       trim_flags.push_back(a);
     } else if (a == "--clt-conservative") {
       args.trim.chow_liu.conservative = cli.boolean(a, cli.value(i, a));
+      trim_flags.push_back(a);
     } else if (a == "--clt-per-edge-scaling") {
       args.trim.chow_liu.per_edge_scaling = cli.boolean(a, cli.value(i, a));
       trim_flags.push_back(a);
