@@ -44,11 +44,14 @@ import time
 from dataclasses import dataclass, field
 from typing import Dict, List, Optional, Sequence, Tuple
 
-from .bench_sessions import (LOGS, Criteria, LogData, LoopCheck, MapInfo, RunSummary, check_loops,
-                             decided_loops, parse_map_info, parse_summary, random_transforms)
+from .bench_sessions import (LOGS, Criteria, LoopCheck, MapInfo, RunSummary, check_loops,
+                             decided_loops, log_data_or_skip, parse_map_info, parse_summary,
+                             random_transforms)
 from .carmen import write_moved_log
 from .evaluation import read_decisions
 from .graph_io import Pose, write_text_atomically
+from .lifelong_world import (SimulatedWorld, WorldScore, plot_final_maps, score_map, trajectory_ate,
+                             world_name)
 from .relations import RelationError, read_tum, relation_error
 
 CONFIGS = {
@@ -256,6 +259,12 @@ class SessionResult:
     own_candidates: Optional[LoopCheck] = None
     own_accepted: Optional[LoopCheck] = None
     peak_nodes: int = 0              # the most the run's graph held (before a save's or online trim)
+    # The simulated world (--world): ATE (m) of the saved map's nodes and of the session's own
+    # scans against the true poses, and the rendered map against the sessions' true worlds, as
+    # every scan weighs alike and as the newest session saw each cell (rrr_map_info --map-layering).
+    ate_map: float = math.nan
+    ate_session: float = math.nan
+    world: Dict[str, WorldScore] = field(default_factory=dict)
 
     def precision_recall(self) -> Tuple[float, float]:
         if self.own_candidates is None or self.own_accepted is None:
@@ -339,6 +348,43 @@ def check_targets(config: str, rows: Sequence[SessionResult], max_trim_ms: float
     return out
 
 
+def check_world_targets(results: Dict[str, List[SessionResult]], ate_margin_m: float = 0.06,
+                        changed_min: float = 0.95, f1_min: float = 0.95) -> List[Target]:
+    """Issue 20's targets in the simulated changing world: after the last session the map shows
+    the world as it is now in the changed cells and keeps the static ones; a trimmed map's ATE
+    stays within `ate_margin_m` of the untrimmed one's, session by session."""
+    out = []
+    for config, rows in results.items():
+        if not rows or not rows[-1].world:
+            continue
+        n = len(rows)
+        for layering, w in rows[-1].world.items():
+            c = w.comparison
+            seen = (f"; of the {c.changed_observed} the last session's laser swept "
+                    f"{c.changed_observed_agree} = {c.changed_observed_agreement:.3f}" if c.changed_observed >= 0 else "")
+            out.append(Target(config, f"changed world after {n} sessions ({layering}): the map agrees with the "
+                                      f"world now in >= {changed_min:.0%} of the changed cells",
+                              f"{c.changed_agree} of {c.changed_cells} = {c.changed_agreement:.3f} (stale "
+                              f"{c.changed_stale}, unknown {c.changed_unknown}{seen})",
+                              c.changed_agreement >= changed_min if c.changed_cells else None))
+            out.append(Target(config, f"static cells' occupancy F1 >= {f1_min} after {n} sessions ({layering})",
+                              f"{c.static_f1:.3f} over {c.static_cells} cells", c.static_f1 >= f1_min))
+    untrimmed = results.get("untrimmed", [])
+    for config, rows in results.items():
+        if config == "untrimmed":
+            continue
+        excess = [(b.ate_map - a.ate_map, a, b) for a, b in zip(untrimmed, rows)
+                  if not (math.isnan(a.ate_map) or math.isnan(b.ate_map))]
+        if not excess:
+            continue
+        worst, a, b = max(excess, key=lambda e: e[0])
+        out.append(Target(config, f"ATE of the map within {100 * ate_margin_m:.0f} cm of the untrimmed one's in "
+                                  f"every session ({len(excess)})",
+                          f"worst session {b.session + 1}: {100 * b.ate_map:.2f} cm against {100 * a.ate_map:.2f} cm",
+                          worst <= ate_margin_m))
+    return out
+
+
 def _f(x: float, fmt: str) -> str:
     return "–" if x is None or (isinstance(x, float) and math.isnan(x)) else fmt.format(x)
 
@@ -370,6 +416,32 @@ def fmt_row(r: SessionResult) -> str:
 def table(rows: Sequence[SessionResult]) -> str:
     lines = [HEADER, "|" + "---|" * (HEADER.count("|") - 1)]
     lines.extend(fmt_row(r) for r in rows)
+    return "\n".join(lines)
+
+
+WORLD_HEADER = ("| config | session | ATE of the map / of the session's scans (cm) | changed cells: agree / stale / "
+                "unknown of N, every scan alike | the same, newest session per cell | changed cells the session's laser "
+                "swept: agree of N (alike / newest) | static cells' F1 (alike / newest) |")
+
+
+def world_table(rows: Sequence[SessionResult]) -> str:
+    """The simulated world's columns, one row per session and configuration."""
+    def changed(w: Optional[WorldScore]) -> str:
+        if w is None:
+            return "–"
+        c = w.comparison
+        return f"{c.changed_agree} / {c.changed_stale} / {c.changed_unknown} of {c.changed_cells}"
+
+    lines = [WORLD_HEADER, "|" + "---|" * (WORLD_HEADER.count("|") - 1)]
+    for r in rows:
+        alike, newest = r.world.get("all"), r.world.get("newest-session")
+        swept = " / ".join("–" if w is None or w.comparison.changed_observed < 0 else
+                           f"{w.comparison.changed_observed_agree}" for w in (alike, newest))
+        n_swept = next((w.comparison.changed_observed for w in (alike, newest) if w is not None), -1)
+        f1 = " / ".join("–" if w is None else f"{w.comparison.static_f1:.3f}" for w in (alike, newest))
+        lines.append(f"| {r.config} | {r.session + 1} | {_f(r.ate_map * 100, '{:.2f}')} / "
+                     f"{_f(r.ate_session * 100, '{:.2f}')} | {changed(alike)} | {changed(newest)} | "
+                     f"{swept} of {n_swept if n_swept >= 0 else '–'} | {f1} |")
     return "\n".join(lines)
 
 
@@ -496,6 +568,18 @@ class Tools:
             raise RuntimeError(f"rrr_map_info {path} failed:\n{result.stderr}")
         return parse_map_info(result.stdout)
 
+    def render_map(self, path: str, out: str, resolution: float, layering: str) -> str:
+        """rrr_map_info PATH --map OUT (map_server pair; reused with --reuse while newer than the
+        map); returns OUT.yaml."""
+        yaml = out + ".yaml"
+        if self.reuse and os.path.exists(yaml) and os.path.getmtime(yaml) >= os.path.getmtime(path):
+            return yaml
+        result = subprocess.run([self.map_info, path, "--map", out, "--map-resolution", str(resolution),
+                                 "--map-layering", layering], capture_output=True, text=True)
+        if result.returncode != 0:
+            raise RuntimeError(f"rrr_map_info {path} --map {out} failed:\n{result.stderr}")
+        return yaml
+
     def _optimize_cpu(self, graph: str, args: Sequence[str]) -> float:
         """CPU seconds (user + system) of one rrr_optimize process, the least of `repeats` runs."""
         best = math.inf
@@ -504,6 +588,10 @@ class Tools:
             result = subprocess.run([self.optimize, graph, "--output", graph + ".opt.g2o"] + list(args),
                                     capture_output=True, text=True)
             after = resource.getrusage(resource.RUSAGE_CHILDREN)
+            if result.returncode != 0 and "graph is disconnected" in result.stderr:
+                # A session that never tied to the map stays its own component: no one graph to time.
+                print(f"  {graph}: {result.stderr.strip().splitlines()[-1]}; not timed", file=sys.stderr)
+                return math.nan
             if result.returncode != 0:
                 raise RuntimeError(f"rrr_optimize {graph} failed:\n{result.stderr}")
             best = min(best, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime))
@@ -548,8 +636,26 @@ def run_config(tools: Tools, logs: Sequence[str], out_dir: str, config: str) -> 
     return out
 
 
-def evaluate_config(tools: Tools, data: Optional[LogData], runs, config: str,
-                    criteria: Criteria) -> List[SessionResult]:
+LAYERINGS = ("all", "newest-session")
+
+
+def score_world(tools: Tools, world: SimulatedWorld, row: SessionResult, stem: str, resolution: float) -> None:
+    """The simulated world's figures of session `row.session`'s saved map: its nodes' ATE, the
+    session's own ATE, and the map rendered both ways against the true worlds of the sessions so
+    far, the changed cells this session's laser swept apart."""
+    k = row.session
+    row.ate_map = trajectory_ate(stem + ".map.traj.txt", world.truth)[0]
+    row.ate_session = trajectory_ate(stem + ".session.txt", world.truth)[0]
+    for layering in LAYERINGS:
+        rendered = tools.render_map(stem + ".rrrmap", f"{stem}.map_{layering}", resolution, layering)
+        row.world[layering] = score_map(rendered, stem + ".map.traj.txt", world.truth, world.world_files[:k + 1],
+                                        world.logs[k], layering)
+
+
+def evaluate_config(tools: Tools, data, runs, config: str, criteria: Criteria,
+                    map_resolution: float = 0.1) -> List[SessionResult]:
+    """Per session of one configuration's runs; `data`: the log's LogData or the SimulatedWorld
+    (None: no ground truth)."""
     rows: List[SessionResult] = []
     prev_info: Optional[MapInfo] = None
     for k, (stem, summary, text, wall) in enumerate(runs):
@@ -604,6 +710,8 @@ def evaluate_config(tools: Tools, data: Optional[LogData], runs, config: str,
                                              criteria.false_m, criteria.false_deg)
             row.own_accepted = check_loops([loop for loop, verdict in own if verdict == "accepted"], stamps,
                                            session_of, truth, criteria.false_m, criteria.false_deg)
+        if isinstance(data, SimulatedWorld):
+            score_world(tools, data, row, stem, map_resolution)
         rows.append(row)
         prev_info = info
     return rows
@@ -633,53 +741,93 @@ def main(argv=None):
     parser.add_argument("--no-run", action="store_true",
                         help="score only the runs kept in --cache (implies --reuse); a configuration "
                              "stops at its first session not run")
+    parser.add_argument("--world", metavar="WORLD.yaml",
+                        help="also run the simulated changing world: rrr_simulate's sessions of this world "
+                             "(needs --simulate); scored by ATE against the true poses and the final map "
+                             "against the true worlds")
+    parser.add_argument("--changes", action="append", default=[], metavar="CHANGES.yaml",
+                        help="with --world: rrr_simulate's change sets (repeatable)")
+    parser.add_argument("--route", metavar="ROUTE.yaml", help="with --world: rrr_simulate's route")
+    parser.add_argument("--simulate", help="path of the rrr_simulate binary (for --world)")
+    parser.add_argument("--sim-max-scans", type=int, default=None,
+                        help="with --world: rrr_simulate's --max-scans (shorter sessions)")
+    parser.add_argument("--map-resolution", type=float, default=0.1,
+                        help="with --world: m per cell of the rendered maps (default 0.1, the bundled world's)")
     parser.add_argument("extra", nargs=argparse.REMAINDER, help="-- then options for rrr_slam_offline")
     args = parser.parse_args(argv)
     if args.sessions < 1:
         parser.error("--sessions must be at least 1")
+    if args.world and not args.simulate:
+        parser.error("--world needs --simulate (the rrr_simulate binary)")
+    if (args.changes or args.route or args.sim_max_scans) and not args.world:
+        parser.error("--changes, --route and --sim-max-scans need --world")
+    if args.map_resolution <= 0:
+        parser.error("--map-resolution must be positive")
     criteria = Criteria(args.false_m, args.false_deg)
     tools = Tools(args.slam_offline, args.map_info, args.optimize, [a for a in args.extra if a != "--"],
                   args.reuse or args.no_run, args.repeats)
     tools.no_run = args.no_run
+    count = max(args.sessions, args.untrimmed_sessions or 0)
+
+    def sessions():
+        """(name, data, seed, output folder, the sessions' logs) of every log and seed asked for."""
+        for name in args.logs:
+            data = log_data_or_skip(name, args.data)
+            if data is None:
+                continue
+            for seed in args.seeds:
+                out = os.path.join(args.cache, name, f"seed{seed}")
+                os.makedirs(out, exist_ok=True)
+                yield name, data, seed, out, write_moved_logs(data.log, out, count, seed, tools.reuse)
+        if args.world:
+            name = world_name(args.world)
+            for seed in args.seeds:
+                out = os.path.join(args.cache, name, f"seed{seed}")
+                world = SimulatedWorld(args.simulate, args.world, os.path.join(out, "sim"), count, seed,
+                                       args.changes, args.route, tools.reuse, args.sim_max_scans)
+                yield name, world, seed, out, world.logs
+
     failed = 0
-    for name in args.logs:
-        try:
-            data = LogData(name, args.data)
-        except FileNotFoundError as e:
-            print(f"{name}: {e}; skipped", file=sys.stderr)
-            continue
-        for seed in args.seeds:
-            out = os.path.join(args.cache, name, f"seed{seed}")
-            os.makedirs(out, exist_ok=True)
-            logs = write_moved_logs(data.log, out, max(args.sessions, args.untrimmed_sessions or 0), seed,
-                                    args.reuse)
-            runs = {}
-            for config in args.configs:
-                print(f"{name}, seed {seed}: {config}, {args.sessions} sessions ...", file=sys.stderr)
-                count = args.untrimmed_sessions if config == "untrimmed" and args.untrimmed_sessions else args.sessions
-                runs[config] = run_config(tools, logs[:count], os.path.join(out, config), config)
-            # Ground truth between corrected scans moved by the first session's motion (one run).
-            data.use_local_motion(runs[args.configs[0]][0][0] + ".traj.txt")
-            results = {c: evaluate_config(tools, data, runs[c], c, criteria) for c in args.configs}
-            title = f"{name}, seed {seed}, " + ", ".join(f"{c} {len(runs[c])}" for c in args.configs) + " sessions"
-            print(f"### {title}\n")
-            print(table([r for c in args.configs for r in results[c]]))
+    for name, data, seed, out, logs in sessions():
+        runs = {}
+        for config in args.configs:
+            print(f"{name}, seed {seed}: {config}, {args.sessions} sessions ...", file=sys.stderr)
+            n = args.untrimmed_sessions if config == "untrimmed" and args.untrimmed_sessions else args.sessions
+            runs[config] = run_config(tools, logs[:n], os.path.join(out, config), config)
+        # Ground truth between corrected scans moved by the first session's motion (one run).
+        data.use_local_motion(runs[args.configs[0]][0][0] + ".traj.txt")
+        results = {c: evaluate_config(tools, data, runs[c], c, criteria, args.map_resolution) for c in args.configs}
+        title = f"{name}, seed {seed}, " + ", ".join(f"{c} {len(runs[c])}" for c in args.configs) + " sessions"
+        print(f"### {title}\n")
+        print(table([r for c in args.configs for r in results[c]]))
+        print()
+        if isinstance(data, SimulatedWorld):
+            print(world_table([r for c in args.configs for r in results[c]]))
             print()
-            for c in args.configs:
-                for r in results[c]:
-                    if r.loops is not None and r.loops.worst:
-                        print(f"- {c}, session {r.session + 1}: accepted loops beyond {args.false_m} m / "
-                              f"{args.false_deg}°: " + ", ".join(f"{m:.2f} m {d:.1f}° (nodes {a}-{b})"
-                                                                 for m, d, a, b in r.loops.worst[:6]))
-            for c in args.configs:
-                for t in check_targets(c, results[c], args.max_trim_ms):
-                    print("- " + t.line())
-                    failed += t.passed is False
-            prefix = args.plots.replace("{log}", name).replace("{seed}", str(seed)) if args.plots \
-                else os.path.join(out, "lifelong")
-            for p in plot(results, prefix, title):
-                print(f"- plot: {p}")
-            print()
+        for c in args.configs:
+            for r in results[c]:
+                if r.loops is not None and r.loops.worst:
+                    print(f"- {c}, session {r.session + 1}: accepted loops beyond {args.false_m} m / "
+                          f"{args.false_deg}°: " + ", ".join(f"{m:.2f} m {d:.1f}° (nodes {a}-{b})"
+                                                             for m, d, a, b in r.loops.worst[:6]))
+        targets = [t for c in args.configs for t in check_targets(c, results[c], args.max_trim_ms)]
+        targets += check_world_targets(results)
+        for t in targets:
+            print("- " + t.line())
+            failed += t.passed is False
+        prefix = args.plots.replace("{log}", name).replace("{seed}", str(seed)) if args.plots \
+            else os.path.join(out, "lifelong")
+        paths = plot(results, prefix, title)
+        if isinstance(data, SimulatedWorld):
+            finals = [(f"{c}, session {results[c][-1].session + 1}",
+                       os.path.join(out, c, f"s{results[c][-1].session}.map_{layering}.yaml"),
+                       results[c][-1].world[layering].world_from_map)
+                      for c in args.configs if results[c] for layering in LAYERINGS[-1:]]
+            paths.append(plot_final_maps(finals, data.world_files[:len(results[args.configs[0]])],
+                                         prefix + "_world.png", f"{title}: the final maps (newest session per cell)"))
+        for p in paths:
+            print(f"- plot: {p}")
+        print()
     print(f"{failed} target checks failed", file=sys.stderr)
     return 0
 

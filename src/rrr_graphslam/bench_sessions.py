@@ -656,6 +656,15 @@ class LogData:
         self.truth = GroundTruth(self.raw, self.corrected, local)
 
 
+def log_data_or_skip(name: str, dirs: Sequence[str]) -> Optional[LogData]:
+    """The log's LogData, or None (said on stderr) when one of its files is missing."""
+    try:
+        return LogData(name, dirs)
+    except FileNotFoundError as e:
+        print(f"{name}: {e}; skipped", file=sys.stderr)
+        return None
+
+
 def session_of_stamp_from_parts(parts: Sequence[str]):
     """stamp -> the part whose FLASER lines hold it (None if none)."""
     stamps, sessions = [], []
@@ -805,10 +814,8 @@ def main(argv=None):
     lines = [HEADER, "|" + "---|" * HEADER.count(" | ") + "---|"]
     notes = []
     for name in args.logs:
-        try:
-            data = LogData(name, args.data)
-        except FileNotFoundError as e:
-            print(f"{name}: {e}; skipped", file=sys.stderr)
+        data = log_data_or_skip(name, args.data)
+        if data is None:
             continue
         print(f"{name}: one run ...", file=sys.stderr)
         odometry_truth = data.truth

@@ -195,11 +195,32 @@ def observed_cells(world: GridMap, scans, poses, laser_offset: Pose = (0.0, 0.0,
     return seen
 
 
-def compare(slam_map: GridMap, worlds: Sequence[GridMap], world_from_map: Pose,
-            tolerance_cells: int = 1, observed: np.ndarray = None) -> WorldComparison:
-    """The map (in its frame) against the worlds of the sessions (all the same grid), the last
-    being the world now; `world_from_map` from align(); `observed`, the cells the last session
-    observed (observed_cells), if known."""
+def observed_by_log(world: GridMap, log_path: str, true_pose) -> np.ndarray:
+    """observed_cells of a CARMEN log's scans placed at their true poses (`true_pose(stamp)`:
+    the pose, or None for a scan without one)."""
+    from .carmen import read_carmen
+    log = read_carmen(log_path)
+    placed = [(r, true_pose(r.timestamp)) for r in log.lasers]
+    placed = [(r, p) for r, p in placed if p is not None]
+    if not placed:
+        raise ValueError(f"no scan of {log_path} has a true pose")
+    return observed_cells(world, [(r.angle_min, r.angle_increment, r.max_range, r.ranges) for r, _ in placed],
+                          [p for _, p in placed], log.laser_offset())
+
+
+def map_in_world(slam_map: GridMap, world: GridMap, world_from_map: Pose) -> np.ndarray:
+    """The map's state at the centre of every cell of `world`'s grid (`world_from_map` from
+    align())."""
+    x, y = world.centres()
+    tx, ty, th = world_from_map
+    c, s = math.cos(th), math.sin(th)
+    dx, dy = x - tx, y - ty
+    return slam_map.state_at(c * dx + s * dy, -s * dx + c * dy)
+
+
+def changed_cells(worlds: Sequence[GridMap]) -> np.ndarray:
+    """The cells of the last world whose state an earlier world had otherwise and that a laser can
+    see now: free ones, and occupied ones next to a free one."""
     last = worlds[-1]
     for w in worlds:
         if w.cells.shape != last.cells.shape or w.resolution != last.resolution or w.origin != last.origin:
@@ -207,20 +228,27 @@ def compare(slam_map: GridMap, worlds: Sequence[GridMap], world_from_map: Pose,
     changed = np.zeros(last.cells.shape, dtype=bool)
     for w in worlds[:-1]:
         changed |= (w.cells != last.cells) & (w.cells != UNKNOWN) & (last.cells != UNKNOWN)
-    # Every world cell's centre, in the map frame.
-    x, y = last.centres()
-    tx, ty, th = world_from_map
-    c, s = math.cos(th), math.sin(th)
-    dx, dy = x - tx, y - ty
-    mx, my = c * dx + s * dy, -s * dx + c * dy
-    seen = slam_map.state_at(mx, my)
-
     free_now = last.cells == FREE
-    visible = free_now | ((last.cells == OCCUPIED) & _dilate(free_now, 1))
-    changed &= visible
+    return changed & (free_now | ((last.cells == OCCUPIED) & _dilate(free_now, 1)))
+
+
+def agreement(seen: np.ndarray, world: GridMap, tolerance_cells: int = 1) -> np.ndarray:
+    """Where the map (`seen`, on the world's grid) has the world's state: a free cell seen free, an
+    occupied one seen occupied within `tolerance_cells`."""
+    return np.where(world.cells == OCCUPIED, _dilate(seen == OCCUPIED, tolerance_cells), seen == FREE)
+
+
+def compare(slam_map: GridMap, worlds: Sequence[GridMap], world_from_map: Pose,
+            tolerance_cells: int = 1, observed: np.ndarray = None) -> WorldComparison:
+    """The map (in its frame) against the worlds of the sessions (all the same grid), the last
+    being the world now; `world_from_map` from align(); `observed`, the cells the last session
+    observed (observed_cells), if known."""
+    last = worlds[-1]
+    changed = changed_cells(worlds)
+    seen = map_in_world(slam_map, last, world_from_map)
     near_seen_occ = _dilate(seen == OCCUPIED, tolerance_cells)
     near_seen_free = _dilate(seen == FREE, tolerance_cells)
-    agrees = np.where(last.cells == OCCUPIED, near_seen_occ, seen == FREE)
+    agrees = agreement(seen, last, tolerance_cells)
     n_changed = int(changed.sum())
     agree = int((agrees & changed).sum())
     unknown = int(((seen == UNKNOWN) & changed).sum())
@@ -267,14 +295,10 @@ def main(argv=None) -> int:
     worlds = [read_map_server(w) for w in args.worlds]
     observed = None
     if args.observed_by:
-        from .carmen import read_carmen
-        log = read_carmen(args.observed_by)
-        placed = [(r, truth[r.timestamp]) for r in log.lasers if r.timestamp in truth]
-        if not placed:
-            parser.error(f"no scan of {args.observed_by} has a pose in --truth")
-        observed = observed_cells(
-            worlds[-1], [(r.angle_min, r.angle_increment, r.max_range, r.ranges) for r, _ in placed],
-            [p for _, p in placed], log.laser_offset())
+        try:
+            observed = observed_by_log(worlds[-1], args.observed_by, truth.get)
+        except ValueError as e:
+            parser.error(str(e))
     result = compare(read_map_server(args.map), worlds, transform, args.tolerance_cells, observed)
     print(f"changed_cells {result.changed_cells}")
     print(f"changed_agree {result.changed_agree}")

@@ -2,6 +2,7 @@
 the map's trusted graph (candidates RRR did not accept left out), node stamps for the loop check,
 the issue's targets and the table."""
 import math
+import os
 
 import pytest
 from rrr_graphslam.bench_lifelong import (HEADER, ONLINE_TRIM, SessionResult, Trim, TrimRecord, check_targets,
@@ -11,6 +12,8 @@ from rrr_graphslam.bench_lifelong import (HEADER, ONLINE_TRIM, SessionResult, Tr
 from rrr_graphslam.bench_sessions import LoopCheck, RunSummary, parse_map_info
 from rrr_graphslam.evaluation import Decision
 from rrr_graphslam.relations import RelationError
+
+REPO = os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", ".."))
 
 RUN = """\
 lifelong       trimmed 2 submaps (overlap ratio >= 0.900000, clt): 480 nodes marginalized into 34 marginal edges in 0.22 s; 0 submaps wait for pending loops
@@ -238,3 +241,119 @@ def test_plots_are_written(tmp_path):
     for p in paths:
         with open(p, "rb") as f:
             assert f.read(8) == b"\x89PNG\r\n\x1a\n"
+
+
+# ---------------------------------------------------------------------------------------------
+# The simulated changing world (--world)
+
+
+def world_score(agree, cells, stale=0, unknown=0, f1=0.99, observed=-1, observed_agree=-1):
+    from rrr_graphslam.lifelong_world import WorldScore
+    from rrr_graphslam.world_compare import WorldComparison
+    return WorldScore("all", WorldComparison(cells, agree, unknown, 0.99, 0.99, f1, 5000, stale, observed,
+                                             observed_agree), (0.0, 0.0, 0.0))
+
+
+def test_world_targets_judge_the_last_sessions_map_and_the_ate_against_the_untrimmed_run():
+    from rrr_graphslam.bench_lifelong import check_world_targets
+    untrimmed = [result(k, 10, 10, 1.0, 1.0) for k in range(3)]
+    clt = [result(k, 10, 10, 1.0, 1.0) for k in range(3)]
+    for k, (a, b) in enumerate(zip(untrimmed, clt)):
+        a.config = "untrimmed"
+        a.ate_map, b.ate_map = 0.02, 0.02 + 0.035 * k  # session 3: 9 cm against 2 cm
+    untrimmed[-1].world["all"] = world_score(96, 100, observed=90, observed_agree=90)
+    clt[-1].world["all"] = world_score(80, 100, stale=5, unknown=15, f1=0.94)
+    clt[0].world["all"] = world_score(0, 0)  # only the last session's map is judged
+    targets = check_world_targets({"untrimmed": untrimmed, "clt": clt})
+    lines = [t.line() for t in targets]
+    assert "PASS  untrimmed: changed world after 3 sessions (all): the map agrees with the world now in >= 95% " \
+           "of the changed cells: 96 of 100 = 0.960 (stale 0, unknown 0; of the 90 the last session's laser " \
+           "swept 90 = 1.000)" in lines
+    assert any(x.startswith("FAIL  clt: changed world after 3 sessions (all)") and "80 of 100 = 0.800 (stale 5, "
+               "unknown 15)" in x for x in lines)
+    assert any(x.startswith("FAIL  clt: static cells' occupancy F1 >= 0.95") and "0.940" in x for x in lines)
+    ate = [t for t in targets if t.what.startswith("ATE")]
+    assert len(ate) == 1 and ate[0].passed is False
+    assert ate[0].measured == "worst session 3: 9.00 cm against 2.00 cm"
+    clt[-1].ate_map = 0.079  # 5.9 cm more: within the 6 cm
+    assert [t for t in check_world_targets({"untrimmed": untrimmed, "clt": clt})
+            if t.what.startswith("ATE")][0].passed
+    # No changed cell in sight: the target cannot be judged; no world, no world target.
+    clt[-1].world["all"] = world_score(0, 0)
+    assert [t for t in check_world_targets({"clt": clt}) if t.what.startswith("changed")][0].passed is None
+    assert check_world_targets({"clt": [result(0, 10, 10, 1.0, 1.0)]}) == []
+
+
+def test_world_table_rows_have_the_headers_columns():
+    from rrr_graphslam.bench_lifelong import WORLD_HEADER, world_table
+    rows = [result(0, 10, 10, 1.0, 1.0), result(1, 10, 10, 1.0, 1.0)]
+    rows[1].ate_map, rows[1].ate_session = 0.0175, 0.0151
+    rows[1].world["all"] = world_score(82, 181, stale=24, unknown=75, observed=124, observed_agree=69)
+    rows[1].world["newest-session"] = world_score(85, 181, stale=20, unknown=76, f1=0.98, observed=124,
+                                                  observed_agree=71)
+    lines = world_table(rows).splitlines()
+    assert lines[0] == WORLD_HEADER and len(lines) == 4
+    assert all(line.count("|") == WORLD_HEADER.count("|") for line in lines)
+    assert lines[2] == "| clt | 1 | – / – | – | – | – / – of – | – / – |"
+    assert lines[3] == "| clt | 2 | 1.75 / 1.51 | 82 / 24 / 75 of 181 | 85 / 20 / 76 of 181 | 69 / 71 of 124 | " \
+                       "0.990 / 0.980 |"
+
+
+def write_tum(path, rows):
+    with open(path, "w") as f:
+        for t, x, y, yaw in rows:
+            f.write(f"{t:.6f} {x} {y} 0 0 0 {math.sin(yaw / 2)} {math.cos(yaw / 2)}\n")
+
+
+def test_simulated_truth_finds_every_sessions_scans_and_the_ate_aligns_the_map_frame(tmp_path):
+    from rrr_graphslam.lifelong_world import SimulatedTruth, trajectory_ate
+    a, b = str(tmp_path / "s0.txt"), str(tmp_path / "s1.txt")
+    write_tum(a, [(1700000000.0 + 0.2 * k, 0.5 * k, 0.0, 0.0) for k in range(10)])
+    write_tum(b, [(1700086400.0 + 0.2 * k, 0.0, 0.5 * k, 1.0) for k in range(10)])
+    truth = SimulatedTruth([a, b])
+    assert truth.pose(1700000000.4004) == pytest.approx((1.0, 0.0, 0.0))  # within 1 ms
+    assert truth.pose(1700086401.0) == pytest.approx((0.0, 2.5, 1.0))
+    assert truth.pose(1700000000.1) is None
+    # Session 1 seen from a frame turned by 0.7 rad and moved: no error once aligned.
+    c, s = math.cos(0.7), math.sin(0.7)
+    moved = str(tmp_path / "m.txt")
+    write_tum(moved, [(1700086400.0 + 0.2 * k, 3 + c * 0.0 - s * 0.5 * k, -1 + s * 0.0 + c * 0.5 * k, 1.7)
+                      for k in range(10)] + [(5.0, 0.0, 0.0, 0.0)])  # a stamp without truth is left out
+    ate, pairs = trajectory_ate(moved, truth)
+    assert pairs == 10 and ate == pytest.approx(0.0, abs=1e-9)
+    # Two of ten poses 0.1 m off sideways (opposite ends, the fit cannot absorb them all).
+    off = str(tmp_path / "off.txt")
+    write_tum(off, [(1700000000.0 + 0.2 * k, 0.5 * k, 0.1 if k in (0, 9) else 0.0, 0.0) for k in range(10)])
+    assert 0.02 < trajectory_ate(off, truth)[0] < 0.045
+
+
+@pytest.mark.skipif(not all(os.environ.get(v) for v in ("RRR_SIMULATE", "RRR_SLAM_OFFLINE", "RRR_MAP_INFO",
+                                                         "RRR_OPTIMIZE")),
+                    reason="needs the built tools (RRR_SIMULATE, RRR_SLAM_OFFLINE, RRR_MAP_INFO, RRR_OPTIMIZE)")
+def test_the_simulated_world_runs_end_to_end(tmp_path, capsys):
+    from rrr_graphslam.bench_lifelong import main
+    world = os.path.join(REPO, "worlds", "intel_lab")
+    argv = ["--slam-offline", os.environ["RRR_SLAM_OFFLINE"], "--map-info", os.environ["RRR_MAP_INFO"],
+            "--optimize", os.environ["RRR_OPTIMIZE"], "--simulate", os.environ["RRR_SIMULATE"],
+            "--data", str(tmp_path), "--cache", str(tmp_path / "cache"), "--logs", "--sessions", "2",
+            "--configs", "untrimmed", "clt", "--repeats", "1", "--world", os.path.join(world, "intel_lab.yaml"),
+            "--changes", os.path.join(world, "furniture.yaml"), "--sim-max-scans", "600"]
+    assert main(argv) == 0
+    out = capsys.readouterr().out
+    assert "### sim_intel_lab, seed 1, untrimmed 2, clt 2 sessions" in out
+    rows = [line for line in out.splitlines() if line.startswith("| untrimmed | 2 |") or line.startswith("| clt | 2 |")]
+    assert len(rows) == 4  # the size table's rows and the world table's
+    from rrr_graphslam.bench_lifelong import WORLD_HEADER
+    world_rows = [line for line in rows if line.count("|") == WORLD_HEADER.count("|")]
+    assert len(world_rows) == 2
+    for line in world_rows:
+        ate_map = float(line.split("|")[3].split("/")[0])
+        assert 0.0 < ate_map < 10.0  # cm: two short sessions mapped from their own odometry frames
+    assert "PASS  clt: ATE of the map within 6 cm of the untrimmed one's in every session (2)" in out
+    assert any(line.startswith("- ") and "changed world after 2 sessions (newest-session)" in line
+               for line in out.splitlines())
+    png = tmp_path / "cache" / "sim_intel_lab" / "seed1" / "lifelong_world.png"
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    # Run again with --no-run: the same figures from the runs kept.
+    assert main(argv + ["--no-run"]) == 0
+    assert capsys.readouterr().out == out

@@ -1,0 +1,172 @@
+"""The simulated changing world as a source of sessions for the lifelong benchmark
+(scripts/bench_lifelong --world, issue 20): rrr_simulate's sessions of one world whose furniture
+and doors change between them, their true poses, and what a saved map is scored by there: the ATE
+of the map's nodes against the true poses, and the map rendered (rrr_map_info --map) against the
+true worlds of the sessions so far (world_compare: the changed cells, the static cells' F1).
+
+Unlike the replayed logs, every session drives its own route in its own world; the sessions'
+stamps are a day apart (rrr_simulate's --session-gap), so one stamp names one scan of one
+session."""
+
+import math
+import os
+import subprocess
+import sys
+from dataclasses import dataclass
+from typing import List, Optional, Sequence, Tuple
+
+import numpy as np
+
+from .bench_sessions import StampIndex
+from .evaluation import alignment_errors
+from .graph_io import Pose, write_text_atomically
+from .relations import read_tum
+from .world_compare import (FREE, OCCUPIED, UNKNOWN, WorldComparison, agreement, align, changed_cells,
+                            compare, map_in_world, observed_by_log, read_map_server)
+
+
+class SimulatedTruth:
+    """The true pose of every scan of every session, by stamp (within 1 ms)."""
+
+    def __init__(self, truth_files: Sequence[str]):
+        self.stamps: List[float] = []
+        self.poses: List[Pose] = []
+        for path in truth_files:
+            stamps, poses = read_tum(path)
+            self.stamps.extend(stamps)
+            self.poses.extend(poses)
+        self.index = StampIndex(self.stamps)
+
+    def pose(self, t: float) -> Optional[Pose]:
+        i = self.index.find(t)
+        return None if i is None else self.poses[i]
+
+
+def world_name(world: str) -> str:
+    """sim_STEM for WORLD/STEM.yaml: the benchmark's name of a simulated world."""
+    return "sim_" + os.path.splitext(os.path.basename(world))[0]
+
+
+class SimulatedWorld:
+    """rrr_simulate WORLD --sessions N [--changes ...] [--route R] [--max-scans M] --seed S --out DIR, run once
+    (again when the command differs from the one DIR was made by); the sessions' logs, true poses
+    and true worlds."""
+
+    relations = None  # no relation file: scored by ATE against the true poses
+
+    def __init__(self, simulate: str, world: str, out_dir: str, sessions: int, seed: int,
+                 changes: Sequence[str] = (), route: Optional[str] = None, reuse: bool = False,
+                 max_scans: Optional[int] = None):
+        self.name = world_name(world)
+        cmd = [simulate, os.path.abspath(world), "--sessions", str(sessions), "--seed", str(seed),
+               "--out", os.path.abspath(out_dir)]
+        for c in changes:
+            cmd += ["--changes", os.path.abspath(c)]
+        if route:
+            cmd += ["--route", os.path.abspath(route)]
+        if max_scans:
+            cmd += ["--max-scans", str(max_scans)]
+        os.makedirs(out_dir, exist_ok=True)
+        stamp = os.path.join(out_dir, "simulate.cmd")
+        made = ""
+        if os.path.exists(stamp):
+            with open(stamp) as f:
+                made = f.read()
+        wanted = " ".join(cmd[1:]) + "\n"  # the binary's path may move between builds
+        if not (reuse and made == wanted):
+            print("  " + " ".join(os.path.basename(c) if k == 0 else c for k, c in enumerate(cmd)),
+                  file=sys.stderr)
+            result = subprocess.run(cmd, capture_output=True, text=True)
+            if result.returncode != 0:
+                raise RuntimeError(f"{' '.join(cmd)} failed:\n{result.stderr}")
+            write_text_atomically(stamp, wanted)
+        self.logs = [os.path.join(out_dir, f"session_{k:02d}.clf") for k in range(sessions)]
+        self.truth_files = [os.path.join(out_dir, f"session_{k:02d}_truth.txt") for k in range(sessions)]
+        self.world_files = [os.path.join(out_dir, f"session_{k:02d}_world.yaml") for k in range(sessions)]
+        for path in self.logs + self.truth_files + self.world_files:
+            if not os.path.exists(path):
+                raise RuntimeError(f"rrr_simulate wrote no {path}")
+        self.truth = SimulatedTruth(self.truth_files)
+
+    def use_local_motion(self, trajectory: str) -> None:
+        """The true poses need no help from a run (bench_sessions' corrected logs do)."""
+
+
+def trajectory_ate(trajectory: str, truth: SimulatedTruth) -> Tuple[float, int]:
+    """RMSE (m) of a TUM trajectory's positions against the true poses at its stamps, after a
+    rigid SE(2) alignment; and how many of its poses had a true pose."""
+    stamps, poses = read_tum(trajectory)
+    pairs = [(p, truth.pose(t)) for t, p in zip(stamps, poses)]
+    pairs = [(p, q) for p, q in pairs if q is not None]
+    if len(pairs) < 2:
+        return math.nan, len(pairs)
+    errors = alignment_errors([p[:2] for p, _ in pairs], [q[:2] for _, q in pairs])
+    return float(np.sqrt(np.mean(errors ** 2))), len(pairs)
+
+
+@dataclass
+class WorldScore:
+    """A saved map against the worlds of the sessions that made it."""
+    layering: str                   # rrr_map_info --map-layering
+    comparison: WorldComparison
+    world_from_map: Pose
+
+
+def score_map(map_yaml: str, trajectory: str, truth: SimulatedTruth, world_files: Sequence[str],
+              last_log: Optional[str], layering: str) -> WorldScore:
+    """The rendered map `map_yaml` against `world_files` (the sessions so far, the last being the
+    world now), aligned by `trajectory` (map frame) and the true poses; with `last_log`, the
+    changed cells the last session's laser swept are scored apart."""
+    stamps, poses = read_tum(trajectory)
+    pairs = [(p, truth.pose(t)) for t, p in zip(stamps, poses)]
+    pairs = [(p, q) for p, q in pairs if q is not None]
+    if len(pairs) < 2:
+        raise ValueError(f"{trajectory}: fewer than two poses with a true pose")
+    transform = align([p for p, _ in pairs], [q for _, q in pairs])
+    worlds = [read_map_server(w) for w in world_files]
+    observed = observed_by_log(worlds[-1], last_log, truth.pose) if last_log else None
+    return WorldScore(layering, compare(read_map_server(map_yaml), worlds, transform, observed=observed),
+                      transform)
+
+
+def plot_final_maps(maps: Sequence[Tuple[str, str, Pose]], world_files: Sequence[str], path: str,
+                    title: str) -> str:
+    """PATH (PNG): the last session's true world, then each (label, map YAML, world_from_map)
+    resampled on the world's grid, the changed cells coloured by what the map shows there (the
+    world now: green; an earlier world's state: red; unknown: orange)."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.colors import ListedColormap
+    worlds = [read_map_server(w) for w in world_files]
+    last = worlds[-1]
+    changed = changed_cells(worlds)
+
+    def grey(cells):
+        return np.where(cells == OCCUPIED, 0.0, np.where(cells == FREE, 1.0, 0.75))
+
+    fig, axes = plt.subplots(1, 1 + len(maps), figsize=(4.6 * (1 + len(maps)), 4.9))
+    axes = np.atleast_1d(axes)
+    axes[0].imshow(grey(last.cells), cmap="gray", vmin=0, vmax=1, interpolation="nearest")
+    axes[0].imshow(np.ma.masked_where(~changed, np.zeros(changed.shape)), cmap=ListedColormap(["tab:blue"]),
+                   alpha=0.8, interpolation="nearest")
+    axes[0].set_title("true world now\n(blue: cells that changed)", fontsize=8)
+    for ax, (label, map_yaml, transform) in zip(axes[1:], maps):
+        seen = map_in_world(read_map_server(map_yaml), last, transform)
+        ax.imshow(grey(seen), cmap="gray", vmin=0, vmax=1, interpolation="nearest")
+        agrees = agreement(seen, last)
+        marks = np.full(changed.shape, -1)
+        marks[changed & agrees] = 0
+        marks[changed & ~agrees & (seen != UNKNOWN)] = 1
+        marks[changed & (seen == UNKNOWN)] = 2
+        ax.imshow(np.ma.masked_where(marks < 0, marks), cmap=ListedColormap(["tab:green", "tab:red", "tab:orange"]),
+                  vmin=0, vmax=2, alpha=0.9, interpolation="nearest")
+        ax.set_title(f"{label}\n(changed cells: green now, red stale, orange unknown)", fontsize=8)
+    for ax in axes:
+        ax.set_xticks([])
+        ax.set_yticks([])
+    fig.suptitle(title, fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path
