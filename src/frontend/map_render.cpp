@@ -30,7 +30,12 @@ mrpt::maps::COccupancyGridMap2D renderOccupancyMap(const MapInputs& inputs, doub
       static_cast<float>(low.x() - 1.0), static_cast<float>(high.x() + 1.0),
       static_cast<float>(low.y() - 1.0), static_cast<float>(high.y() + 1.0),
       static_cast<float>(resolution_m));
-  configureInsertion(grid, inputs.insertion);
+  SubmapParams insertion = inputs.insertion;
+  if (inputs.render) {
+    insertion.hit_probability = static_cast<float>(inputs.render->hit_probability);
+    insertion.miss_probability = static_cast<float>(inputs.render->miss_probability);
+  }
+  configureInsertion(grid, insertion);
   const std::size_t nodes = std::min(inputs.scans.size(), map.size());
   auto insert = [&](mrpt::maps::COccupancyGridMap2D& into, std::size_t k) {
     const core::Pose2& x = map[k];
@@ -49,7 +54,7 @@ mrpt::maps::COccupancyGridMap2D renderOccupancyMap(const MapInputs& inputs, doub
   for (int session = last; session >= first; --session) {
     mrpt::maps::COccupancyGridMap2D own(grid.getXMin(), grid.getXMax(), grid.getYMin(),
                                         grid.getYMax(), grid.getResolution());
-    configureInsertion(own, inputs.insertion);
+    configureInsertion(own, insertion);
     bool any = false;
     for (std::size_t k = 0; k < nodes; ++k) {
       if (inputs.sessions[k] != session) continue;

@@ -218,6 +218,7 @@ void GraphSlamRos::offerMap() {
   last_map_ = std::chrono::steady_clock::now();
   frontend::MapInputs inputs = slam_->mapInputs();
   inputs.layering = params_.map_layering;
+  inputs.render = params_.map_render;
   map_publisher_->offer(std::move(inputs));
 }
 

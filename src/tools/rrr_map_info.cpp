@@ -11,6 +11,7 @@
 #include <string>
 
 #include "command_line.h"
+#include "params_cli.h"
 #include "rrr_graphslam/core/graph_io.h"
 #include "rrr_graphslam/frontend/map_file.h"
 #include "rrr_graphslam/frontend/map_io.h"
@@ -27,6 +28,7 @@ namespace rrr = rrr_graphslam::rrr;
 const char* const kUsage =
     "usage: rrr_map_info MAP.rrrmap [--graph OUT.g2o] [--trajectory OUT.txt] [--map OUT]\n"
     "                    [--map-resolution M] [--map-layering all|newest-session]\n"
+    "                    [--map-hit-probability P] [--map-miss-probability P]\n"
     "  MAP             a map saved by rrr_slam_offline --save-map (or the node's ~save_map)\n"
     "  --graph         writes the graph: nodes at their map poses, odometry and every loop\n"
     "                  candidate (g2o, or TORO for .graph/.toro)\n"
@@ -37,6 +39,9 @@ const char* const kUsage =
     "  --map-layering  all (default): every scan weighs alike; newest-session: each cell as the\n"
     "                  newest session that observed it saw it (a world that changed between\n"
     "                  sessions shown as it is now)\n"
+    "  --map-hit-probability P, --map-miss-probability P  per-ray update of the map's cells a\n"
+    "                  ray ends in / passes through (default 0.65 / 0.45; the submaps use 0.55 /\n"
+    "                  0.49, which leave cells seen by one pass unknown)\n"
     "Prints 'key value' lines: format_version, sessions, nodes, edges, odometry_edges,\n"
     "loop_edges, loop_edges_accepted, loop_edges_rejected, loop_edges_pending, marginal_edges,\n"
     "submaps, scans, trimmed_submaps, marginalized_nodes, bytes, then 'session K nodes N "
@@ -57,6 +62,7 @@ int main(int argc, char** argv) {
   std::string path, graph_out, trajectory_out, map_out;
   double resolution = 0.05;
   frontend::MapLayering layering = frontend::MapLayering::kAllScans;
+  frontend::MapRenderParams render;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--graph") {
@@ -73,7 +79,9 @@ int main(int argc, char** argv) {
       } catch (const std::invalid_argument& e) {
         cli.fail(e.what());
       }
-    } else {
+    } else if (!tools::readTableParam(cli, i, argv, render, [](auto& r, auto&& f) {
+                 frontend::forEachMapRenderParam(r, f);
+               })) {
       cli.positional(a, path);
     }
   }
@@ -142,6 +150,7 @@ int main(int argc, char** argv) {
         inputs.sessions.push_back(node.session);
       }
       inputs.layering = layering;
+      inputs.render = render;
       const std::string range = paramOf(map, "scan_max_range");
       if (!range.empty()) {
         char* end = nullptr;

@@ -282,7 +282,7 @@ int main(int argc, char** argv) {
                   core::secondsSince(save_start));
     }
     if (!args.map.empty()) {
-      const auto grid = slam.renderMap(args.map_resolution, args.map_layering);
+      const auto grid = slam.renderMap(args.map_resolution, args.map_layering, args.map_render);
       frontend::writeMapServerFiles(grid, args.map);
       frontend::writeMapPng(grid, args.map + ".png", slam.rrr().mapPoses(), loopLines(slam));
       std::printf("map            %s.pgm, %s.yaml, %s.png\n", args.map.c_str(), args.map.c_str(),

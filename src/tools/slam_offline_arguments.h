@@ -61,6 +61,7 @@ inline const std::string& usage() {
       "usage: rrr_slam_offline LOG.clf[.gz] [--output GRAPH.g2o] [--decisions DECISIONS.tsv]\n"
       "                        [--trajectory TRAJ.txt] [--map MAP] [--map-resolution M]\n"
       "                        [--map-layering all|newest-session]\n"
+      "                        [--map-hit-probability P] [--map-miss-probability P]\n"
       "                        [--refine-resolution M] [--max-scans N] [--quiet]\n"
       "                        [--decision-stream STREAM.tsv]\n"
       "                        [--load-map IN.rrrmap] [--save-map OUT.rrrmap]\n"
@@ -92,6 +93,9 @@ inline const std::string& usage() {
       "  --map-resolution  m per cell of the written map (default 0.05)\n"
       "  --map-layering all|newest-session  the written map from every scan alike (default), or\n"
       "                    each cell as the newest session that observed it saw it\n"
+      "  --map-hit-probability P, --map-miss-probability P  per-ray update of the written map's\n"
+      "                    cells a ray ends in / passes through (default 0.65 / 0.45; the submaps\n"
+      "                    use 0.55 / 0.49, which leave cells seen by one pass unknown)\n"
       "  --refine-resolution M  before --trajectory is written, every scan is matched once more\n"
       "                    against the final map rendered at M m per cell (default 0.04; 0 = off:\n"
       "                    scans follow their nodes rigidly)\n"
@@ -157,6 +161,7 @@ struct Arguments {
   std::string map;
   double map_resolution = 0.05;
   frontend::MapLayering map_layering = frontend::MapLayering::kAllScans;
+  frontend::MapRenderParams map_render;
   bool quiet = false;
   frontend::TrajectoryRefinementParams refinement;
   std::size_t max_scans = 0;  ///< 0: all
@@ -304,7 +309,10 @@ inline Arguments parseArguments(int argc, char** argv) {
       tools::parseParam(cli, a, core::ParamInfo{"--initial-pose", -1e6, 1e6, ""}, cli.value(i, a),
                         pose);
       args.initial_pose = core::Pose2(pose[0], pose[1], core::normalizeAngle(pose[2]));
-    } else if (tools::readTableParam(cli, i, argv, p, slamTable) ||
+    } else if (tools::readTableParam(
+                   cli, i, argv, args.map_render,
+                   [](auto& r, auto&& f) { frontend::forEachMapRenderParam(r, f); }) ||
+               tools::readTableParam(cli, i, argv, p, slamTable) ||
                tools::readRrrParam(cli, i, argv, p.rrr.rrr) || readAlias(cli, i, argv, p) ||
                tools::readVerifierArgument(cli, i, argv, verifier)) {
       continue;

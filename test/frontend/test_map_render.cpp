@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <memory>
 #include <stdexcept>
 
@@ -61,6 +62,29 @@ TEST(MapRender, TheNewestSessionShowsTheWorldAsItIsNow) {
   inputs.sessions.assign(inputs.sessions.size(), 0);
   const auto one = renderOccupancyMap(inputs, 0.05);
   EXPECT_NEAR(occupancyAt(one, 7.8, 2.5), occupancyAt(all, 7.8, 2.5), 1e-6);
+}
+
+// One glimpse of a room: a few scans from one place. With the submaps' weak updates (no render
+// parameters: what the matcher sees) the floor they saw through stays undecided for map_server;
+// the rendered map's own updates call it free, and the walls occupied, after those few rays.
+TEST(MapRender, TheMapsOwnUpdatesDecideWhatOnePassSaw) {
+  MapInputs inputs;
+  const RangeScanParams params;
+  for (int k = 0; k < 3; ++k) {
+    inputs.poses.push_back(truthAt(0));
+    inputs.scans.push_back(std::make_shared<mrpt::obs::CObservation2DRangeScan>(
+        toObservation(castScan(room(), truthAt(0)), params)));
+  }
+  const core::Pose2 at = truthAt(0);
+  const double fx = at.x() + 1.0 * std::cos(at.z());  // 1 m ahead: a few rays pass through
+  const double fy = at.y() + 1.0 * std::sin(at.z());
+  const auto matcher = renderOccupancyMap(inputs, 0.05);
+  EXPECT_GT(occupancyAt(matcher, fx, fy), 0.196);  // unknown for map_server
+  EXPECT_LT(occupancyAt(matcher, fx, fy), 0.5);
+  inputs.render = MapRenderParams{};
+  const auto rendered = renderOccupancyMap(inputs, 0.05);
+  EXPECT_LT(occupancyAt(rendered, fx, fy), 0.196);
+  EXPECT_GT(occupancyAt(rendered, 12.0, 2.5), 0.65);  // the wall the scans end on
 }
 
 // A run continuing a map hands its nodes' sessions to the renderer, as the map file has them.

@@ -622,3 +622,25 @@ def test_lifelong_flags_are_checked(tmp_path):
               tmp_path / "s.tsv"), "cannot be combined with --decision-stream")):
         result = run(SLAM_OFFLINE, ACES_HEAD, *args)
         assert result.returncode != 0 and message in result.stderr, (args, result.stderr)
+
+
+@needs_map_info
+def test_map_render_flags_are_checked_and_written_maps_use_them(tmp_path):
+    for tool, first in ((SLAM_OFFLINE, ACES_HEAD), (MAP_INFO, tmp_path / "none.rrrmap")):
+        for args, message in ((("--map-miss-probability", 0.6),
+                               "map_miss_probability = 0.6 is out of range: must be in [0.01, 0.499]"),
+                              (("--map-hit-probability", "high"), "--map-hit-probability must be a number")):
+            result = run(tool, first, *args)
+            assert result.returncode != 0 and message in result.stderr, (tool, args, result.stderr)
+    # The same run's map, rendered with the submaps' weak updates and with the default ones:
+    # more cells decided free by the latter.
+    saved = tmp_path / "m.rrrmap"
+    assert run(SLAM_OFFLINE, ACES_HEAD, "--save-map", saved, "--quiet").returncode == 0
+    free = {}
+    for name, args in (("weak", ("--map-hit-probability", 0.55, "--map-miss-probability", 0.49)),
+                       ("default", ())):
+        assert run(MAP_INFO, saved, "--map", tmp_path / name, *args).returncode == 0
+        with open(tmp_path / f"{name}.pgm", "rb") as f:
+            data = f.read()
+        free[name] = data.count(bytes([254]))
+    assert free["default"] > 1.2 * free["weak"], free

@@ -37,6 +37,7 @@ BAD = [
     ({"lifelong": True, "trim_every_n_nodes": 10, "sparsification": "delete"},
      "online trimming needs sparsification clt"),
     ({"map_layering": "newest"}, "map_layering must be all or newest-session"),
+    ({"map_miss_probability": 0.6}, "map_miss_probability = 0.6 is out of range: must be in [0.01, 0.499]"),
     ({"verifier": "ransac"}, "verifier must be rrr, pcm, scgp or gnc, not 'ransac'"),
     ({"gnc_loss": "huber"}, "gnc_loss must be tls or gm, not 'huber'"),
     ({"scgp_ratio": 0.5}, "scgp_ratio must be at least 1, got 0.5"),
@@ -71,6 +72,7 @@ class Parameters(unittest.TestCase):
                                    "joint_link_check": False, "preset": "paper",
                                    "loop_search_threads": 1, "lifelong": True,
                                    "trim_every_n_nodes": 50, "map_layering": "newest-session",
+                                   "map_hit_probability": 0.7, "map_miss_probability": 0.4,
                                    "verifier": "gnc", "gnc_loss": "gm", "scgp_ratio": 3}, 3)
         self.assertIsNone(code, output)
 

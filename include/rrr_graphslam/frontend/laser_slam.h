@@ -196,11 +196,14 @@ class LaserSlam {
   /// What the occupancy map is made of now (the scans shared, not copied); in localization, the
   /// loaded map's nodes only.
   MapInputs mapInputs() const;
-  /// The occupancy map: every node's scan inserted at its map pose (layered as map_render.h says).
-  mrpt::maps::COccupancyGridMap2D renderMap(double resolution_m,
-                                            MapLayering layering = MapLayering::kAllScans) const {
+  /// The occupancy map: every node's scan inserted at its map pose (layered and weighed as
+  /// map_render.h says; without `render`, as the submaps weigh a ray).
+  mrpt::maps::COccupancyGridMap2D renderMap(
+      double resolution_m, MapLayering layering = MapLayering::kAllScans,
+      const std::optional<MapRenderParams>& render = std::nullopt) const {
     MapInputs inputs = mapInputs();
     inputs.layering = layering;
+    inputs.render = render;
     return renderOccupancyMap(inputs, resolution_m);
   }
 

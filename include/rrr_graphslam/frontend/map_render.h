@@ -8,8 +8,15 @@
 // the newest session that decided it (occupied or free by map_server's default thresholds): the map
 // shows the world as the last robot to look saw it (a lifelong map's choice; within a session the
 // world is taken to be still).
+//
+// Evidence: a rendered map weighs each ray more than a submap does. The submaps keep
+// Cartographer's weak updates (hit 0.55, miss 0.49), which the matcher wants, but at those a cell
+// needs about 35 rays through it before map_server's free threshold (0.196) calls it free: cells
+// of one pass stay unknown, and where the world changed the newest session's view rarely decides
+// a cell. The map's own probabilities (MapRenderParams) decide a cell in a few rays.
 
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -28,12 +35,32 @@ inline core::Choices<MapLayering> choices(MapLayering /*tag*/) {
   return {{MapLayering::kAllScans, "all"}, {MapLayering::kNewestSession, "newest-session"}};
 }
 
+/// Per-ray update of a rendered map's cells (MRPT's maxOccupancyUpdateCertainty and 1 -
+/// maxFreenessUpdateCertainty); the other insertion options are the submaps'.
+struct MapRenderParams {
+  double hit_probability = 0.65;   ///< in (0.5, 1): a ray ending in the cell
+  double miss_probability = 0.45;  ///< in (0, 0.5): a ray passing through it
+};
+
+/// The ROS parameters and command-line flags (--map-hit-probability, --map-miss-probability).
+template <class Params, class F>
+void forEachMapRenderParam(Params& p, F&& f) {
+  f(core::ParamInfo{"map_hit_probability", 0.501, 0.99,
+                    "per-ray update of a map cell a ray ends in (the submaps': 0.55)"},
+    p.hit_probability);
+  f(core::ParamInfo{"map_miss_probability", 0.01, 0.499,
+                    "per-ray update of a map cell a ray passes through (the submaps': 0.49)"},
+    p.miss_probability);
+}
+
 struct MapInputs {
   std::vector<core::Pose2> poses;  ///< map pose of every node
   std::vector<std::shared_ptr<const mrpt::obs::CObservation2DRangeScan>> scans;  ///< per node
   SubmapParams insertion;     ///< how a scan is inserted (ranges, occupancy probabilities)
   std::vector<int> sessions;  ///< per node, for kNewestSession (empty: one session)
   MapLayering layering = MapLayering::kAllScans;
+  /// Unset: the submaps' own updates (a map to match scans against, as the matcher sees them).
+  std::optional<MapRenderParams> render;
 };
 
 /// "all" or "newest-session".

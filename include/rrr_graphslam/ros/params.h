@@ -43,7 +43,8 @@ struct NodeParams {
   /// How the published map layers the sessions' scans (map_render.h): every scan alike, or each
   /// cell as the newest session that observed it saw it (a world that changed between sessions).
   frontend::MapLayering map_layering = frontend::MapLayering::kAllScans;
-  std::string map_file;  ///< slam mode: a saved map (*.rrrmap) to continue at start
+  frontend::MapRenderParams map_render;  ///< map_hit_probability, map_miss_probability
+  std::string map_file;                  ///< slam mode: a saved map (*.rrrmap) to continue at start
   /// slam mode with a map (map_file, ~load_map): "mapping" extends it, "localization" tracks the
   /// robot in it and leaves it as it was loaded.
   std::string mode = "mapping";
