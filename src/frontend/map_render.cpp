@@ -13,7 +13,15 @@ namespace {
 constexpr unsigned char kUnknownPixel = 205;  // map_io.h's mapServerPixel
 }  // namespace
 
+void validate(const MapRenderParams& params) {
+  MapRenderParams checked = params;
+  forEachMapRenderParam(checked, [](const core::ParamInfo& info, const auto& value) {
+    core::checkRange(info, value);
+  });
+}
+
 mrpt::maps::COccupancyGridMap2D renderOccupancyMap(const MapInputs& inputs, double resolution_m) {
+  if (inputs.render) validate(*inputs.render);
   const std::vector<core::Pose2>& map = inputs.poses;
   // Start from the trajectory's bounding box (MRPT grows the grid to fit the rays); the log's
   // odometry origin may lie hundreds of metres away.

@@ -141,22 +141,17 @@ NodeParams loadParams(const ros::NodeHandle& private_nh) {
   // Front end (slam mode): every parameter of laser_slam_params.h under its own name.
   frontend::forEachSlamParam(
       p.slam, [&](const core::ParamInfo& info, auto& value) { r.read(info, value); });
+  frontend::forEachMapRenderParam(
+      p.map_render, [&](const core::ParamInfo& info, auto& value) { r.read(info, value); });
   try {
     rrr::validate(p.rrr);
     frontend::validate(p.slam);
+    frontend::validate(p.map_render);
   } catch (const std::invalid_argument& e) {
     throw std::invalid_argument("parameter " + private_nh.resolveName("") + ": " + e.what());
   }
   r.positive("map_resolution", p.map_resolution);
   r.read(core::ParamInfo{"map_layering", 0, 0, ""}, p.map_layering);
-  frontend::forEachMapRenderParam(p.map_render, [&](const core::ParamInfo& info, auto& value) {
-    r.read(info, value);
-    try {
-      core::checkRange(info, value);
-    } catch (const std::invalid_argument& e) {
-      throw std::invalid_argument("parameter " + private_nh.resolveName("") + ": " + e.what());
-    }
-  });
   r.read<std::string>(
       "map_file", p.map_file, [](const std::string&) { return true; }, "a path");
   r.read<std::string>(

@@ -50,8 +50,8 @@ from .bench_sessions import (LOGS, Criteria, LoopCheck, MapInfo, RunSummary, che
 from .carmen import write_moved_log
 from .evaluation import read_decisions
 from .graph_io import Pose, write_text_atomically
-from .lifelong_world import (SimulatedWorld, WorldScore, plot_final_maps, score_map, trajectory_ate,
-                             world_name)
+from .lifelong_world import (SimulatedWorld, WorldScore, plot_final_maps, score_map, simulation_key,
+                             trajectory_ate, world_name)
 from .relations import RelationError, read_tum, relation_error
 
 CONFIGS = {
@@ -341,6 +341,10 @@ def check_targets(config: str, rows: Sequence[SessionResult], max_trim_ms: float
                           f"p99 {percentile(big, 99):.1f} ms, max {max(ms):.1f} ms over {len(ms)} trims "
                           f"({len(ms) - len(big)} with a blanket over 100)" if ms else "no trims",
                           percentile(big, 99) < max_trim_ms if big else None))
+    untied = [r.session + 1 for r in rows[1:] if r.summary.relocalized not in (None, "at", "final")]
+    out.append(Target(config, "every session after the first tied to the map",
+                      "sessions never tied: " + ", ".join(map(str, untied)) if untied else
+                      f"{n - 1} of {n - 1} tied", not untied))
     false_loops = sum(r.loops.inter_session_false for r in rows if r.loops is not None)
     inter = sum(r.loops.inter_session for r in rows if r.loops is not None)
     out.append(Target(config, "no false inter-session loop accepted",
@@ -358,10 +362,12 @@ def check_world_targets(results: Dict[str, List[SessionResult]], ate_margin_m: f
         if not rows or not rows[-1].world:
             continue
         n = len(rows)
-        for layering, w in rows[-1].world.items():
-            c = w.comparison
-            seen = (f"; of the {c.changed_observed} the last session's laser swept "
-                    f"{c.changed_observed_agree} = {c.changed_observed_agreement:.3f}" if c.changed_observed >= 0 else "")
+        w = rows[-1].world.get("newest-session")  # the lifelong map's layering; "all": in the table only
+        if w is not None:
+            layering, c = w.layering, w.comparison
+            seen = "" if c.changed_observed < 0 else (
+                f"; of the {c.changed_observed} the last session's laser swept "
+                f"{c.changed_observed_agree} = {c.changed_observed_agreement:.3f}")
             out.append(Target(config, f"changed world after {n} sessions ({layering}): the map agrees with the "
                                       f"world now in >= {changed_min:.0%} of the changed cells",
                               f"{c.changed_agree} of {c.changed_cells} = {c.changed_agreement:.3f} (stale "
@@ -419,9 +425,9 @@ def table(rows: Sequence[SessionResult]) -> str:
     return "\n".join(lines)
 
 
-WORLD_HEADER = ("| config | session | ATE of the map / of the session's scans (cm) | changed cells: agree / stale / "
-                "unknown of N, every scan alike | the same, newest session per cell | changed cells the session's laser "
-                "swept: agree of N (alike / newest) | static cells' F1 (alike / newest) |")
+WORLD_HEADER = ("| config | session | ATE of the map / of the session's scans (cm) | changed cells: agree / "
+                "stale / unknown of N, every scan alike | the same, newest session per cell | changed cells the "
+                "session's laser swept: agree of N (alike / newest) | static cells' F1 (alike / newest) |")
 
 
 def world_table(rows: Sequence[SessionResult]) -> str:
@@ -571,14 +577,28 @@ class Tools:
     def render_map(self, path: str, out: str, resolution: float, layering: str) -> str:
         """rrr_map_info PATH --map OUT (map_server pair; reused with --reuse while newer than the
         map); returns OUT.yaml."""
-        yaml = out + ".yaml"
-        if self.reuse and os.path.exists(yaml) and os.path.getmtime(yaml) >= os.path.getmtime(path):
+        yaml, stamp = out + ".yaml", out + ".args"
+        args = ["--map-resolution", str(resolution), "--map-layering", layering] + self.render_flags()
+        made = ""
+        if os.path.exists(stamp):
+            with open(stamp) as f:
+                made = f.read()
+        if self.reuse and made == " ".join(args) + "\n" and os.path.exists(yaml) and \
+                os.path.getmtime(yaml) >= os.path.getmtime(path):
             return yaml
-        result = subprocess.run([self.map_info, path, "--map", out, "--map-resolution", str(resolution),
-                                 "--map-layering", layering], capture_output=True, text=True)
+        result = subprocess.run([self.map_info, path, "--map", out] + args, capture_output=True, text=True)
         if result.returncode != 0:
             raise RuntimeError(f"rrr_map_info {path} --map {out} failed:\n{result.stderr}")
+        write_text_atomically(stamp, " ".join(args) + "\n")
         return yaml
+
+    def render_flags(self) -> List[str]:
+        """The map evidence flags given to rrr_slam_offline (after --), for the maps scored too."""
+        out = []
+        for k, a in enumerate(self.extra[:-1]):
+            if a in ("--map-hit-probability", "--map-miss-probability"):
+                out += [a, self.extra[k + 1]]
+        return out
 
     def _optimize_cpu(self, graph: str, args: Sequence[str]) -> float:
         """CPU seconds (user + system) of one rrr_optimize process, the least of `repeats` runs."""
@@ -601,8 +621,10 @@ class Tools:
         """CPU seconds of rrr_optimize --init INIT beyond those of reading and writing the graph
         (--max-iterations 0 --init file): its process CPU time rather than the wall time it prints,
         which other processes on a loaded machine stretch."""
-        return max(0.0, self._optimize_cpu(graph, ["--init", init]) -
-                   self._optimize_cpu(graph, ["--init", "file", "--max-iterations", "0"]))
+        work = self._optimize_cpu(graph, ["--init", init])
+        if math.isnan(work):  # not timed (a disconnected graph): not 0
+            return math.nan
+        return max(0.0, work - self._optimize_cpu(graph, ["--init", "file", "--max-iterations", "0"]))
 
 
 def write_moved_logs(log: str, out_dir: str, count: int, seed: int, reuse: bool) -> List[str]:
@@ -781,8 +803,9 @@ def main(argv=None):
                 yield name, data, seed, out, write_moved_logs(data.log, out, count, seed, tools.reuse)
         if args.world:
             name = world_name(args.world)
+            key = simulation_key(args.world, args.changes, args.route, args.sim_max_scans)
             for seed in args.seeds:
-                out = os.path.join(args.cache, name, f"seed{seed}")
+                out = os.path.join(args.cache, name, f"seed{seed}_{key}")
                 world = SimulatedWorld(args.simulate, args.world, os.path.join(out, "sim"), count, seed,
                                        args.changes, args.route, tools.reuse, args.sim_max_scans)
                 yield name, world, seed, out, world.logs
@@ -795,7 +818,8 @@ def main(argv=None):
             n = args.untrimmed_sessions if config == "untrimmed" and args.untrimmed_sessions else args.sessions
             runs[config] = run_config(tools, logs[:n], os.path.join(out, config), config)
         # Ground truth between corrected scans moved by the first session's motion (one run).
-        data.use_local_motion(runs[args.configs[0]][0][0] + ".traj.txt")
+        if runs[args.configs[0]]:
+            data.use_local_motion(runs[args.configs[0]][0][0] + ".traj.txt")
         results = {c: evaluate_config(tools, data, runs[c], c, criteria, args.map_resolution) for c in args.configs}
         title = f"{name}, seed {seed}, " + ", ".join(f"{c} {len(runs[c])}" for c in args.configs) + " sessions"
         print(f"### {title}\n")
@@ -818,13 +842,12 @@ def main(argv=None):
         prefix = args.plots.replace("{log}", name).replace("{seed}", str(seed)) if args.plots \
             else os.path.join(out, "lifelong")
         paths = plot(results, prefix, title)
-        if isinstance(data, SimulatedWorld):
-            finals = [(f"{c}, session {results[c][-1].session + 1}",
-                       os.path.join(out, c, f"s{results[c][-1].session}.map_{layering}.yaml"),
-                       results[c][-1].world[layering].world_from_map)
-                      for c in args.configs if results[c] for layering in LAYERINGS[-1:]]
-            paths.append(plot_final_maps(finals, data.world_files[:len(results[args.configs[0]])],
-                                         prefix + "_world.png", f"{title}: the final maps (newest session per cell)"))
+        if isinstance(data, SimulatedWorld) and any(results.values()):
+            finals = [(f"{c}, session {r.session + 1}", os.path.join(out, c, f"s{r.session}.map_newest-session.yaml"),
+                       r.world["newest-session"].world_from_map, data.world_files[:r.session + 1])
+                      for c in args.configs if results[c] for r in results[c][-1:]]
+            paths.append(plot_final_maps(finals, prefix + "_world.png",
+                                         f"{title}: the final maps (newest session per cell)"))
         for p in paths:
             print(f"- plot: {p}")
         print()

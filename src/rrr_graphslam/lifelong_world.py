@@ -8,6 +8,7 @@ Unlike the replayed logs, every session drives its own route in its own world; t
 stamps are a day apart (rrr_simulate's --session-gap), so one stamp names one scan of one
 session."""
 
+import hashlib
 import math
 import os
 import subprocess
@@ -47,6 +48,24 @@ def world_name(world: str) -> str:
     return "sim_" + os.path.splitext(os.path.basename(world))[0]
 
 
+def simulation_key(world: str, changes: Sequence[str] = (), route: Optional[str] = None,
+                   max_scans: Optional[int] = None) -> str:
+    """8 hex digits that change with anything that changes the sessions (the files' contents, not
+    only their names): runs of other sessions are kept apart, never reused for these."""
+    digest = hashlib.sha1()
+    for path in [world] + list(changes) + ([route] if route else []):
+        digest.update(os.path.abspath(path).encode() + b"\0")
+        with open(path, "rb") as f:
+            digest.update(f.read())
+    digest.update(f"max_scans={max_scans}".encode())
+    return digest.hexdigest()[:8]
+
+
+def session_stem(k: int, sessions: int) -> str:
+    """rrr_simulate's name of session k of `sessions`: at least two digits, as many as the last."""
+    return f"session_{k:0{max(2, len(str(sessions - 1)))}d}"
+
+
 class SimulatedWorld:
     """rrr_simulate WORLD --sessions N [--changes ...] [--route R] [--max-scans M] --seed S --out DIR, run once
     (again when the command differs from the one DIR was made by); the sessions' logs, true poses
@@ -74,15 +93,18 @@ class SimulatedWorld:
                 made = f.read()
         wanted = " ".join(cmd[1:]) + "\n"  # the binary's path may move between builds
         if not (reuse and made == wanted):
+            if os.path.exists(stamp):
+                os.remove(stamp)  # a run that fails leaves no stamp to match
             print("  " + " ".join(os.path.basename(c) if k == 0 else c for k, c in enumerate(cmd)),
                   file=sys.stderr)
             result = subprocess.run(cmd, capture_output=True, text=True)
             if result.returncode != 0:
                 raise RuntimeError(f"{' '.join(cmd)} failed:\n{result.stderr}")
             write_text_atomically(stamp, wanted)
-        self.logs = [os.path.join(out_dir, f"session_{k:02d}.clf") for k in range(sessions)]
-        self.truth_files = [os.path.join(out_dir, f"session_{k:02d}_truth.txt") for k in range(sessions)]
-        self.world_files = [os.path.join(out_dir, f"session_{k:02d}_world.yaml") for k in range(sessions)]
+        stems = [os.path.join(out_dir, session_stem(k, sessions)) for k in range(sessions)]
+        self.logs = [s + ".clf" for s in stems]
+        self.truth_files = [s + "_truth.txt" for s in stems]
+        self.world_files = [s + "_world.yaml" for s in stems]
         for path in self.logs + self.truth_files + self.world_files:
             if not os.path.exists(path):
                 raise RuntimeError(f"rrr_simulate wrote no {path}")
@@ -129,29 +151,32 @@ def score_map(map_yaml: str, trajectory: str, truth: SimulatedTruth, world_files
                       transform)
 
 
-def plot_final_maps(maps: Sequence[Tuple[str, str, Pose]], world_files: Sequence[str], path: str,
-                    title: str) -> str:
-    """PATH (PNG): the last session's true world, then each (label, map YAML, world_from_map)
-    resampled on the world's grid, the changed cells coloured by what the map shows there (the
-    world now: green; an earlier world's state: red; unknown: orange)."""
+def plot_final_maps(maps: Sequence[Tuple[str, str, Pose, Sequence[str]]], path: str, title: str) -> str:
+    """PATH (PNG): the newest true world, then each (label, map YAML, world_from_map, the true
+    worlds of the sessions that made it) resampled on the world's grid, the changed cells
+    coloured by what the map shows there against its own last world (that world now: green; an
+    earlier world's state: red; unknown: orange)."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     from matplotlib.colors import ListedColormap
-    worlds = [read_map_server(w) for w in world_files]
+    newest = max((m[3] for m in maps), key=len)
+    worlds = [read_map_server(w) for w in newest]
     last = worlds[-1]
-    changed = changed_cells(worlds)
 
     def grey(cells):
         return np.where(cells == OCCUPIED, 0.0, np.where(cells == FREE, 1.0, 0.75))
 
     fig, axes = plt.subplots(1, 1 + len(maps), figsize=(4.6 * (1 + len(maps)), 4.9))
     axes = np.atleast_1d(axes)
+    changed = changed_cells(worlds)
     axes[0].imshow(grey(last.cells), cmap="gray", vmin=0, vmax=1, interpolation="nearest")
     axes[0].imshow(np.ma.masked_where(~changed, np.zeros(changed.shape)), cmap=ListedColormap(["tab:blue"]),
                    alpha=0.8, interpolation="nearest")
-    axes[0].set_title("true world now\n(blue: cells that changed)", fontsize=8)
-    for ax, (label, map_yaml, transform) in zip(axes[1:], maps):
+    axes[0].set_title(f"true world of session {len(newest)}\n(blue: cells that changed)", fontsize=8)
+    for ax, (label, map_yaml, transform, world_files) in zip(axes[1:], maps):
+        own = [read_map_server(w) for w in world_files]
+        last, changed = own[-1], changed_cells(own)
         seen = map_in_world(read_map_server(map_yaml), last, transform)
         ax.imshow(grey(seen), cmap="gray", vmin=0, vmax=1, interpolation="nearest")
         agrees = agreement(seen, last)

@@ -85,6 +85,17 @@ TEST(MapRender, TheMapsOwnUpdatesDecideWhatOnePassSaw) {
   const auto rendered = renderOccupancyMap(inputs, 0.05);
   EXPECT_LT(occupancyAt(rendered, fx, fy), 0.196);
   EXPECT_GT(occupancyAt(rendered, 12.0, 2.5), 0.65);  // the wall the scans end on
+  // Out of range: a miss that would mark cells occupied, a hit that would clear them.
+  inputs.render->miss_probability = 0.6;
+  EXPECT_THROW(renderOccupancyMap(inputs, 0.05), std::invalid_argument);
+  inputs.render = MapRenderParams{};
+  inputs.render->hit_probability = 0.4;
+  try {
+    validate(*inputs.render);
+    ADD_FAILURE() << "no error";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_STREQ(e.what(), "map_hit_probability = 0.4 is out of range: must be in [0.501, 0.99]");
+  }
 }
 
 // A run continuing a map hands its nodes' sessions to the renderer, as the map file has them.

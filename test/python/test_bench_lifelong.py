@@ -247,10 +247,11 @@ def test_plots_are_written(tmp_path):
 # The simulated changing world (--world)
 
 
-def world_score(agree, cells, stale=0, unknown=0, f1=0.99, observed=-1, observed_agree=-1):
+def world_score(agree, cells, stale=0, unknown=0, f1=0.99, observed=-1, observed_agree=-1,
+                layering="newest-session"):
     from rrr_graphslam.lifelong_world import WorldScore
     from rrr_graphslam.world_compare import WorldComparison
-    return WorldScore("all", WorldComparison(cells, agree, unknown, 0.99, 0.99, f1, 5000, stale, observed,
+    return WorldScore(layering, WorldComparison(cells, agree, unknown, 0.99, 0.99, f1, 5000, stale, observed,
                                              observed_agree), (0.0, 0.0, 0.0))
 
 
@@ -261,16 +262,18 @@ def test_world_targets_judge_the_last_sessions_map_and_the_ate_against_the_untri
     for k, (a, b) in enumerate(zip(untrimmed, clt)):
         a.config = "untrimmed"
         a.ate_map, b.ate_map = 0.02, 0.02 + 0.035 * k  # session 3: 9 cm against 2 cm
-    untrimmed[-1].world["all"] = world_score(96, 100, observed=90, observed_agree=90)
-    clt[-1].world["all"] = world_score(80, 100, stale=5, unknown=15, f1=0.94)
-    clt[0].world["all"] = world_score(0, 0)  # only the last session's map is judged
+    untrimmed[-1].world["newest-session"] = world_score(96, 100, observed=90, observed_agree=90)
+    clt[-1].world["newest-session"] = world_score(80, 100, stale=5, unknown=15, f1=0.94)
+    clt[-1].world["all"] = world_score(10, 100, layering="all")  # every scan alike: in the table only
+    clt[0].world["newest-session"] = world_score(0, 0)  # only the last session's map is judged
     targets = check_world_targets({"untrimmed": untrimmed, "clt": clt})
     lines = [t.line() for t in targets]
-    assert "PASS  untrimmed: changed world after 3 sessions (all): the map agrees with the world now in >= 95% " \
+    assert "PASS  untrimmed: changed world after 3 sessions (newest-session): the map agrees with the world now in >= 95% " \
            "of the changed cells: 96 of 100 = 0.960 (stale 0, unknown 0; of the 90 the last session's laser " \
            "swept 90 = 1.000)" in lines
-    assert any(x.startswith("FAIL  clt: changed world after 3 sessions (all)") and "80 of 100 = 0.800 (stale 5, "
-               "unknown 15)" in x for x in lines)
+    assert any(x.startswith("FAIL  clt: changed world after 3 sessions (newest-session)") and "80 of 100 = 0.800 "
+               "(stale 5, unknown 15)" in x for x in lines)
+    assert not any("(all)" in x for x in lines)
     assert any(x.startswith("FAIL  clt: static cells' occupancy F1 >= 0.95") and "0.940" in x for x in lines)
     ate = [t for t in targets if t.what.startswith("ATE")]
     assert len(ate) == 1 and ate[0].passed is False
@@ -279,7 +282,7 @@ def test_world_targets_judge_the_last_sessions_map_and_the_ate_against_the_untri
     assert [t for t in check_world_targets({"untrimmed": untrimmed, "clt": clt})
             if t.what.startswith("ATE")][0].passed
     # No changed cell in sight: the target cannot be judged; no world, no world target.
-    clt[-1].world["all"] = world_score(0, 0)
+    clt[-1].world["newest-session"] = world_score(0, 0)
     assert [t for t in check_world_targets({"clt": clt}) if t.what.startswith("changed")][0].passed is None
     assert check_world_targets({"clt": [result(0, 10, 10, 1.0, 1.0)]}) == []
 
@@ -288,7 +291,8 @@ def test_world_table_rows_have_the_headers_columns():
     from rrr_graphslam.bench_lifelong import WORLD_HEADER, world_table
     rows = [result(0, 10, 10, 1.0, 1.0), result(1, 10, 10, 1.0, 1.0)]
     rows[1].ate_map, rows[1].ate_session = 0.0175, 0.0151
-    rows[1].world["all"] = world_score(82, 181, stale=24, unknown=75, observed=124, observed_agree=69)
+    rows[1].world["all"] = world_score(82, 181, stale=24, unknown=75, observed=124, observed_agree=69,
+                                       layering="all")
     rows[1].world["newest-session"] = world_score(85, 181, stale=20, unknown=76, f1=0.98, observed=124,
                                                   observed_agree=71)
     lines = world_table(rows).splitlines()
@@ -338,9 +342,10 @@ def test_the_simulated_world_runs_end_to_end(tmp_path, capsys):
             "--data", str(tmp_path), "--cache", str(tmp_path / "cache"), "--logs", "--sessions", "2",
             "--configs", "untrimmed", "clt", "--repeats", "1", "--world", os.path.join(world, "intel_lab.yaml"),
             "--changes", os.path.join(world, "furniture.yaml"), "--sim-max-scans", "600"]
-    assert main(argv) == 0
+    main(argv)
     out = capsys.readouterr().out
     assert "### sim_intel_lab, seed 1, untrimmed 2, clt 2 sessions" in out
+    assert "PASS  clt: every session after the first tied to the map: 1 of 1 tied" in out
     rows = [line for line in out.splitlines() if line.startswith("| untrimmed | 2 |") or line.startswith("| clt | 2 |")]
     assert len(rows) == 4  # the size table's rows and the world table's
     from rrr_graphslam.bench_lifelong import WORLD_HEADER
@@ -352,8 +357,38 @@ def test_the_simulated_world_runs_end_to_end(tmp_path, capsys):
     assert "PASS  clt: ATE of the map within 6 cm of the untrimmed one's in every session (2)" in out
     assert any(line.startswith("- ") and "changed world after 2 sessions (newest-session)" in line
                for line in out.splitlines())
-    png = tmp_path / "cache" / "sim_intel_lab" / "seed1" / "lifelong_world.png"
-    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-    # Run again with --no-run: the same figures from the runs kept.
-    assert main(argv + ["--no-run"]) == 0
+    pngs = list((tmp_path / "cache" / "sim_intel_lab").glob("seed1_*/lifelong_world.png"))
+    assert len(pngs) == 1 and pngs[0].read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    # Run again with --no-run: the same figures from the runs kept (the maps not rendered again).
+    renders = sorted(pngs[0].parent.glob("*/s1.map_*.yaml"))
+    assert len(renders) == 4
+    stamps = [r.stat().st_mtime_ns for r in renders]
+    main(argv + ["--no-run"])
     assert capsys.readouterr().out == out
+    assert [r.stat().st_mtime_ns for r in renders] == stamps
+    # Other sessions (a change set more) are kept apart, never scored with these runs.
+    main(argv + ["--changes", os.path.join(world, "doors.yaml"), "--no-run"])
+    assert "### sim_intel_lab, seed 1, untrimmed 0, clt 0 sessions" in capsys.readouterr().out
+    assert len(list((tmp_path / "cache" / "sim_intel_lab").glob("seed1_*"))) == 2
+
+
+def test_a_session_that_never_tied_fails_its_target_and_its_graph_is_not_timed(tmp_path):
+    from rrr_graphslam.bench_lifelong import Tools
+    fake = tmp_path / "rrr_optimize"
+    fake.write_text("#!/bin/sh\necho 'rrr_optimize: g.g2o: graph is disconnected: 2 components: {0..9}, "
+                    "{10..19}' >&2\nexit 1\n")
+    fake.chmod(0o755)
+    tools = Tools("rrr_slam_offline", "rrr_map_info", str(fake), [], False, 1)
+    assert math.isnan(tools.optimize_time(str(tmp_path / "g.g2o"), "lago"))
+    fake.write_text("#!/bin/sh\necho 'rrr_optimize: g.g2o:3: bad vertex' >&2\nexit 1\n")
+    with pytest.raises(RuntimeError, match="bad vertex"):
+        tools.optimize_time(str(tmp_path / "g.g2o"), "lago")
+    rows = [result(0, 10, 10, 1.0, 1.0), result(1, 20, 20, 1.0, math.nan), result(2, 20, 20, 1.0, 1.0)]
+    rows[1].summary.relocalized = "no"
+    rows[2].summary.relocalized = "at"
+    def tied():
+        return [x for x in check_targets("clt", rows) if x.what == "every session after the first tied to the map"][0]
+    assert tied().passed is False and tied().measured == "sessions never tied: 2"
+    assert by_what(check_targets("clt", rows))["re-optimization from LAGO"].passed  # session 3 measured
+    rows[1].summary.relocalized = "final"  # tied by the final decision only: tied
+    assert tied().passed and tied().measured == "2 of 2 tied"

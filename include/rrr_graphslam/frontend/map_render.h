@@ -38,8 +38,8 @@ inline core::Choices<MapLayering> choices(MapLayering /*tag*/) {
 /// Per-ray update of a rendered map's cells (MRPT's maxOccupancyUpdateCertainty and 1 -
 /// maxFreenessUpdateCertainty); the other insertion options are the submaps'.
 struct MapRenderParams {
-  double hit_probability = 0.65;   ///< in (0.5, 1): a ray ending in the cell
-  double miss_probability = 0.45;  ///< in (0, 0.5): a ray passing through it
+  double hit_probability = 0.65;   ///< in [0.501, 0.99]: a ray ending in the cell
+  double miss_probability = 0.45;  ///< in [0.01, 0.499]: a ray passing through it
 };
 
 /// The ROS parameters and command-line flags (--map-hit-probability, --map-miss-probability).
@@ -52,6 +52,9 @@ void forEachMapRenderParam(Params& p, F&& f) {
                     "per-ray update of a map cell a ray passes through (the submaps': 0.49)"},
     p.miss_probability);
 }
+
+/// Throws std::invalid_argument (the table's message) for a value outside its range.
+void validate(const MapRenderParams& params);
 
 struct MapInputs {
   std::vector<core::Pose2> poses;  ///< map pose of every node
@@ -68,7 +71,8 @@ std::string toString(MapLayering layering);
 /// Parses "all" or "newest-session"; std::invalid_argument otherwise.
 MapLayering parseMapLayering(const std::string& text);
 
-/// The grid spans the trajectory's bounding box and grows to fit the rays.
+/// The grid spans the trajectory's bounding box and grows to fit the rays. Throws
+/// std::invalid_argument for render parameters out of range.
 mrpt::maps::COccupancyGridMap2D renderOccupancyMap(const MapInputs& inputs, double resolution_m);
 
 }  // namespace rrr_graphslam::frontend
