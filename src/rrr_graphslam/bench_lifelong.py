@@ -671,7 +671,7 @@ def score_world(tools: Tools, world: SimulatedWorld, row: SessionResult, stem: s
     for layering in LAYERINGS:
         rendered = tools.render_map(stem + ".rrrmap", f"{stem}.map_{layering}", resolution, layering)
         row.world[layering] = score_map(rendered, stem + ".map.traj.txt", world.truth, world.world_files[:k + 1],
-                                        world.logs[k], layering)
+                                        world.observed(k), layering)
 
 
 def evaluate_config(tools: Tools, data, runs, config: str, criteria: Criteria,

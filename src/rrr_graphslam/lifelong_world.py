@@ -14,7 +14,7 @@ import os
 import subprocess
 import sys
 from dataclasses import dataclass
-from typing import List, Optional, Sequence, Tuple
+from typing import Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -109,6 +109,14 @@ class SimulatedWorld:
             if not os.path.exists(path):
                 raise RuntimeError(f"rrr_simulate wrote no {path}")
         self.truth = SimulatedTruth(self.truth_files)
+        self._observed: Dict[int, np.ndarray] = {}
+
+    def observed(self, k: int) -> np.ndarray:
+        """The cells of session k's world its laser swept at its true poses (computed once)."""
+        if k not in self._observed:
+            self._observed[k] = observed_by_log(read_map_server(self.world_files[k]), self.logs[k],
+                                                self.truth.pose)
+        return self._observed[k]
 
     def use_local_motion(self, trajectory: str) -> None:
         """The true poses need no help from a run (bench_sessions' corrected logs do)."""
@@ -135,10 +143,11 @@ class WorldScore:
 
 
 def score_map(map_yaml: str, trajectory: str, truth: SimulatedTruth, world_files: Sequence[str],
-              last_log: Optional[str], layering: str) -> WorldScore:
+              observed: Optional[np.ndarray], layering: str) -> WorldScore:
     """The rendered map `map_yaml` against `world_files` (the sessions so far, the last being the
-    world now), aligned by `trajectory` (map frame) and the true poses; with `last_log`, the
-    changed cells the last session's laser swept are scored apart."""
+    world now), aligned by `trajectory` (map frame) and the true poses; with `observed` (the cells
+    the last session's laser swept, SimulatedWorld.observed), those changed cells are scored
+    apart."""
     stamps, poses = read_tum(trajectory)
     pairs = [(p, truth.pose(t)) for t, p in zip(stamps, poses)]
     pairs = [(p, q) for p, q in pairs if q is not None]
@@ -146,7 +155,6 @@ def score_map(map_yaml: str, trajectory: str, truth: SimulatedTruth, world_files
         raise ValueError(f"{trajectory}: fewer than two poses with a true pose")
     transform = align([p for p, _ in pairs], [q for _, q in pairs])
     worlds = [read_map_server(w) for w in world_files]
-    observed = observed_by_log(worlds[-1], last_log, truth.pose) if last_log else None
     return WorldScore(layering, compare(read_map_server(map_yaml), worlds, transform, observed=observed),
                       transform)
 
