@@ -199,7 +199,7 @@ def plot_final_maps(maps: Sequence[Tuple[str, str, Pose, Sequence[str]]], path: 
         ax.set_xticks([])
         ax.set_yticks([])
     fig.suptitle(title, fontsize=9)
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, 0, 1, 0.94))  # the panels' titles below the figure's
     fig.savefig(path, dpi=100)
     plt.close(fig)
     return path
