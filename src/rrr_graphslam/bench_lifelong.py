@@ -292,8 +292,11 @@ class Target:
 
 def _ratio_target(config: str, what: str, first: float, last: float, limit: float, unit: str = "",
                   fmt: str = "{:.0f}") -> Target:
-    if not (first > 0) or math.isnan(last):
-        return Target(config, f"{what} <= {limit}x session 1", "not measured", None)
+    # A CPU time of 0 is one below the timer's resolution (optimize_time), not a measurement.
+    if not (first > 0 and last > 0):
+        return Target(config, f"{what} <= {limit}x session 1",
+                      "not measured" if math.isnan(first) or math.isnan(last) else
+                      f"{fmt.format(first)}{unit} -> {fmt.format(last)}{unit}: below the timer's resolution", None)
     r = last / first
     return Target(config, f"{what} <= {limit}x session 1",
                   f"{fmt.format(first)}{unit} -> {fmt.format(last)}{unit} = {r:.2f}x", r <= limit)

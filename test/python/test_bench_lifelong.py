@@ -198,6 +198,10 @@ def test_unmeasured_targets_are_not_passed():
     rows = [result(0, 10, 10, 1.0, math.nan), result(1, 10, 10, 1.0, math.nan)]
     t = by_what(check_targets("clt", rows))
     assert t["re-optimization from LAGO"].passed is None and t["re-optimization from LAGO"].line().startswith("n/a")
+    # A time of 0 (the work below the timer's resolution) passes nothing either.
+    rows = [result(0, 10, 10, 1.0, 1.5), result(1, 10, 10, 1.0, 0.0)]
+    t = by_what(check_targets("clt", rows))["re-optimization from LAGO"]
+    assert t.passed is None and t.measured == "1.5 ms -> 0.0 ms: below the timer's resolution"
     assert check_targets("clt", []) == []
 
 
