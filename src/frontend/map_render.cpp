@@ -14,8 +14,7 @@ constexpr unsigned char kUnknownPixel = 205;  // map_io.h's mapServerPixel
 }  // namespace
 
 void validate(const MapRenderParams& params) {
-  MapRenderParams checked = params;
-  forEachMapRenderParam(checked, [](const core::ParamInfo& info, const auto& value) {
+  forEachMapRenderParam(params, [](const core::ParamInfo& info, const auto& value) {
     core::checkRange(info, value);
   });
 }

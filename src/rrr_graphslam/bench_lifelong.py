@@ -51,7 +51,7 @@ from .carmen import write_moved_log
 from .evaluation import read_decisions
 from .graph_io import Pose, write_text_atomically
 from .lifelong_world import (SimulatedWorld, WorldScore, plot_final_maps, score_map, simulation_key,
-                             trajectory_ate, world_name)
+                             trajectory_ate, world_from_map, world_name)
 from .relations import RelationError, read_tum, relation_error
 
 CONFIGS = {
@@ -671,10 +671,11 @@ def score_world(tools: Tools, world: SimulatedWorld, row: SessionResult, stem: s
     k = row.session
     row.ate_map = trajectory_ate(stem + ".map.traj.txt", world.truth)[0]
     row.ate_session = trajectory_ate(stem + ".session.txt", world.truth)[0]
+    transform = world_from_map(stem + ".map.traj.txt", world.truth)
+    worlds = [world.world(j) for j in range(k + 1)]
     for layering in LAYERINGS:
         rendered = tools.render_map(stem + ".rrrmap", f"{stem}.map_{layering}", resolution, layering)
-        row.world[layering] = score_map(rendered, stem + ".map.traj.txt", world.truth, world.world_files[:k + 1],
-                                        world.observed(k), layering)
+        row.world[layering] = score_map(rendered, transform, worlds, world.observed(k), layering)
 
 
 def evaluate_config(tools: Tools, data, runs, config: str, criteria: Criteria,

@@ -22,8 +22,8 @@ from .bench_sessions import StampIndex
 from .evaluation import alignment_errors
 from .graph_io import Pose, write_text_atomically
 from .relations import read_tum
-from .world_compare import (FREE, OCCUPIED, UNKNOWN, WorldComparison, agreement, align, changed_cells,
-                            compare, map_in_world, observed_by_log, read_map_server)
+from .world_compare import (FREE, OCCUPIED, UNKNOWN, GridMap, WorldComparison, agreement, align,
+                            changed_cells, compare, map_in_world, observed_by_log, read_map_server)
 
 
 class SimulatedTruth:
@@ -109,25 +109,36 @@ class SimulatedWorld:
             if not os.path.exists(path):
                 raise RuntimeError(f"rrr_simulate wrote no {path}")
         self.truth = SimulatedTruth(self.truth_files)
+        self._worlds: Dict[int, GridMap] = {}
         self._observed: Dict[int, np.ndarray] = {}
+
+    def world(self, k: int) -> GridMap:
+        """Session k's true world (read once)."""
+        if k not in self._worlds:
+            self._worlds[k] = read_map_server(self.world_files[k])
+        return self._worlds[k]
 
     def observed(self, k: int) -> np.ndarray:
         """The cells of session k's world its laser swept at its true poses (computed once)."""
         if k not in self._observed:
-            self._observed[k] = observed_by_log(read_map_server(self.world_files[k]), self.logs[k],
-                                                self.truth.pose)
+            self._observed[k] = observed_by_log(self.world(k), self.logs[k], self.truth.pose)
         return self._observed[k]
 
     def use_local_motion(self, trajectory: str) -> None:
         """The true poses need no help from a run (bench_sessions' corrected logs do)."""
 
 
+def truth_pairs(trajectory: str, truth: SimulatedTruth) -> List[Tuple[Pose, Pose]]:
+    """(pose, true pose) for every pose of a TUM trajectory whose stamp has a true pose."""
+    stamps, poses = read_tum(trajectory)
+    pairs = [(p, truth.pose(t)) for t, p in zip(stamps, poses)]
+    return [(p, q) for p, q in pairs if q is not None]
+
+
 def trajectory_ate(trajectory: str, truth: SimulatedTruth) -> Tuple[float, int]:
     """RMSE (m) of a TUM trajectory's positions against the true poses at its stamps, after a
     rigid SE(2) alignment; and how many of its poses had a true pose."""
-    stamps, poses = read_tum(trajectory)
-    pairs = [(p, truth.pose(t)) for t, p in zip(stamps, poses)]
-    pairs = [(p, q) for p, q in pairs if q is not None]
+    pairs = truth_pairs(trajectory, truth)
     if len(pairs) < 2:
         return math.nan, len(pairs)
     errors = alignment_errors([p[:2] for p, _ in pairs], [q[:2] for _, q in pairs])
@@ -142,19 +153,20 @@ class WorldScore:
     world_from_map: Pose
 
 
-def score_map(map_yaml: str, trajectory: str, truth: SimulatedTruth, world_files: Sequence[str],
-              observed: Optional[np.ndarray], layering: str) -> WorldScore:
-    """The rendered map `map_yaml` against `world_files` (the sessions so far, the last being the
-    world now), aligned by `trajectory` (map frame) and the true poses; with `observed` (the cells
-    the last session's laser swept, SimulatedWorld.observed), those changed cells are scored
-    apart."""
-    stamps, poses = read_tum(trajectory)
-    pairs = [(p, truth.pose(t)) for t, p in zip(stamps, poses)]
-    pairs = [(p, q) for p, q in pairs if q is not None]
+def world_from_map(trajectory: str, truth: SimulatedTruth) -> Pose:
+    """The rigid transform from a map's frame into the world's, fitted to a trajectory in the map
+    frame (TUM) and the true poses at its stamps."""
+    pairs = truth_pairs(trajectory, truth)
     if len(pairs) < 2:
         raise ValueError(f"{trajectory}: fewer than two poses with a true pose")
-    transform = align([p for p, _ in pairs], [q for _, q in pairs])
-    worlds = [read_map_server(w) for w in world_files]
+    return align([p for p, _ in pairs], [q for _, q in pairs])
+
+
+def score_map(map_yaml: str, transform: Pose, worlds: Sequence[GridMap], observed: Optional[np.ndarray],
+              layering: str) -> WorldScore:
+    """The rendered map `map_yaml` against `worlds` (the sessions so far, the last being the world
+    now), placed in the world by `transform` (world_from_map); with `observed` (the cells the last
+    session's laser swept, SimulatedWorld.observed), those changed cells are scored apart."""
     return WorldScore(layering, compare(read_map_server(map_yaml), worlds, transform, observed=observed),
                       transform)
 

@@ -232,10 +232,14 @@ def changed_cells(worlds: Sequence[GridMap]) -> np.ndarray:
     return changed & (free_now | ((last.cells == OCCUPIED) & _dilate(free_now, 1)))
 
 
-def agreement(seen: np.ndarray, world: GridMap, tolerance_cells: int = 1) -> np.ndarray:
+def agreement(seen: np.ndarray, world: GridMap, tolerance_cells: int = 1,
+              near_seen_occupied: np.ndarray = None) -> np.ndarray:
     """Where the map (`seen`, on the world's grid) has the world's state: a free cell seen free, an
-    occupied one seen occupied within `tolerance_cells`."""
-    return np.where(world.cells == OCCUPIED, _dilate(seen == OCCUPIED, tolerance_cells), seen == FREE)
+    occupied one seen occupied within `tolerance_cells` (`near_seen_occupied`: that dilation, if
+    the caller has it)."""
+    if near_seen_occupied is None:
+        near_seen_occupied = _dilate(seen == OCCUPIED, tolerance_cells)
+    return np.where(world.cells == OCCUPIED, near_seen_occupied, seen == FREE)
 
 
 def compare(slam_map: GridMap, worlds: Sequence[GridMap], world_from_map: Pose,
@@ -248,7 +252,7 @@ def compare(slam_map: GridMap, worlds: Sequence[GridMap], world_from_map: Pose,
     seen = map_in_world(slam_map, last, world_from_map)
     near_seen_occ = _dilate(seen == OCCUPIED, tolerance_cells)
     near_seen_free = _dilate(seen == FREE, tolerance_cells)
-    agrees = agreement(seen, last, tolerance_cells)
+    agrees = agreement(seen, last, tolerance_cells, near_seen_occ)
     n_changed = int(changed.sum())
     agree = int((agrees & changed).sum())
     unknown = int(((seen == UNKNOWN) & changed).sum())
