@@ -13,12 +13,12 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
 #include <filesystem>
 #include <iostream>
 #include <string>
 #include <vector>
 
+#include "../tools/command_line.h"
 #include "rrr_graphslam/core/optimizer.h"
 #include "rrr_graphslam/core/pose_graph.h"
 #include "rrr_graphslam/core/quantile.h"
@@ -38,15 +38,11 @@ struct Options {
   std::vector<std::string> maps;
 };
 
-[[noreturn]] void usage(const std::string& problem) {
-  std::cerr << "rrr_bench_trim: " << problem
-            << "\nusage: rrr_bench_trim [--sparsification clt|delete] [--trim-overlap R] "
-               "[--keep-recent-submaps N] [--keep-current-session true|false] "
-               "[--clt-conservative true|false] [--clt-per-edge-scaling true|false] "
-               "[--group-neighbours] [--no-kl] [--repeat N] "
-               "MAP.rrrmap...\n";
-  std::exit(2);
-}
+constexpr const char* kUsage =
+    "usage: rrr_bench_trim [--sparsification clt|delete] [--trim-overlap R] "
+    "[--keep-recent-submaps N] [--keep-current-session true|false] "
+    "[--clt-conservative true|false] [--clt-per-edge-scaling true|false] "
+    "[--group-neighbours] [--no-kl] [--repeat N] MAP.rrrmap...\n";
 
 // Nearest rank over every trim (0 for none).
 double quantile(std::vector<double> v, double q) {
@@ -68,48 +64,45 @@ double optimizeOnce(const frontend::MapSnapshot& map) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  const rrr_graphslam::tools::CommandLine cli(argc, argv, "rrr_bench_trim", kUsage);
   Options options;
   options.trim.report_kl = true;
+  auto integer = [&](const std::string& a, int& i, double low) {
+    const double v = cli.number(a, cli.value(i, a), low, 1e9);
+    if (v != std::floor(v)) cli.fail(a + " must be an integer");
+    return static_cast<int>(v);
+  };
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
-    auto value = [&]() -> std::string {
-      if (i + 1 >= argc) usage(a + " needs a value");
-      return argv[++i];
-    };
-    auto boolean = [&] {
-      const std::string v = value();
-      if (v != "true" && v != "false") usage(a + " must be true or false");
-      return v == "true";
-    };
-    try {
-      if (a == "--sparsification") {
-        options.trim.sparsification = frontend::parseSparsification(value());
-      } else if (a == "--trim-overlap") {
-        options.trim.trim_overlap_ratio = std::stod(value());
-      } else if (a == "--keep-recent-submaps") {
-        options.trim.keep_recent_submaps = std::stoi(value());
-      } else if (a == "--keep-current-session") {
-        options.trim.keep_current_session = boolean();
-      } else if (a == "--clt-conservative") {
-        options.trim.chow_liu.conservative = boolean();
-      } else if (a == "--clt-per-edge-scaling") {
-        options.trim.chow_liu.per_edge_scaling = boolean();
-      } else if (a == "--group-neighbours") {
-        options.trim.group_neighbours = true;
-      } else if (a == "--no-kl") {
-        options.trim.report_kl = false;
-      } else if (a == "--repeat") {
-        options.repeat = std::max(1, std::stoi(value()));
-      } else if (!a.empty() && a[0] == '-') {
-        usage("unknown option " + a);
-      } else {
-        options.maps.push_back(a);
+    if (a == "--sparsification") {
+      try {
+        options.trim.sparsification = frontend::parseSparsification(cli.value(i, a));
+      } catch (const std::invalid_argument& e) {
+        cli.fail(a + ": " + e.what());
       }
-    } catch (const std::invalid_argument& e) {
-      usage(a + ": " + e.what());
+    } else if (a == "--trim-overlap") {
+      options.trim.trim_overlap_ratio = cli.number(a, cli.value(i, a), 1e-6, 1.0);
+    } else if (a == "--keep-recent-submaps") {
+      options.trim.keep_recent_submaps = integer(a, i, 1);
+    } else if (a == "--keep-current-session") {
+      options.trim.keep_current_session = cli.boolean(a, cli.value(i, a));
+    } else if (a == "--clt-conservative") {
+      options.trim.chow_liu.conservative = cli.boolean(a, cli.value(i, a));
+    } else if (a == "--clt-per-edge-scaling") {
+      options.trim.chow_liu.per_edge_scaling = cli.boolean(a, cli.value(i, a));
+    } else if (a == "--group-neighbours") {
+      options.trim.group_neighbours = true;
+    } else if (a == "--no-kl") {
+      options.trim.report_kl = false;
+    } else if (a == "--repeat") {
+      options.repeat = integer(a, i, 1);
+    } else if (!a.empty() && a[0] == '-') {
+      cli.fail("unknown option " + a);
+    } else {
+      options.maps.push_back(a);
     }
   }
-  if (options.maps.empty()) usage("no map given");
+  if (options.maps.empty()) cli.fail("no map given");
   try {
     frontend::validate(options.trim);
     const frontend::SubmapParams submap = frontend::LaserSlamParams{}.local.submap;
