@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <string>
 
 #include "rrr_graphslam/core/input_error.h"
 #include "rrr_graphslam/frontend/carmen_log.h"
@@ -141,6 +142,27 @@ TEST(SessionSimulator, FollowsAGivenRouteInItsOwnWorld) {
   block.size_m = {3.0, 3.0};
   applyChange(walled, block);
   EXPECT_THROW(simulateSession(walled, 0, p, 1, &pillar), core::InputError);
+}
+
+TEST(SessionSimulator, TheBundledRingRouteGoesRoundEveryDayOfTheFurniture) {
+  const std::string dir = std::string(RRR_TEST_DATA_DIR) + "/../../worlds/intel_lab/";
+  const World base = readWorld(dir + "intel_lab.yaml");
+  const Route ring = readRoute(dir + "ring.yaml");
+  const ChangeSet furniture = readChanges(dir + "furniture.yaml");
+  SimulationParams p;
+  p.max_scans = 0;
+  for (int session = 0; session <= 3; ++session) {
+    SCOPED_TRACE(session);
+    const SimulatedSession s =
+        simulateSession(worldOfSession(base, furniture, session), session, p, 1, &ring);
+    // At the last waypoint (moved to its nearest traversable cell: within a few cm).
+    EXPECT_LT((s.truth.back().head<2>() - ring.waypoints_m.back()).norm(), 0.2);
+    EXPECT_GT(s.length_m, 70.0);  // once round: 74 m
+    EXPECT_LT(s.length_m, 80.0);
+  }
+  // The doors cut the ring in session 2, as the route's file says.
+  const ChangeSet doors = readChanges(dir + "doors.yaml");
+  EXPECT_THROW(simulateSession(worldOfSession(base, doors, 2), 2, p, 1, &ring), core::InputError);
 }
 
 TEST(SessionSimulator, WritesALogTheProductReads) {
