@@ -11,7 +11,6 @@
 // built with them).
 
 #include <algorithm>
-#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
@@ -67,11 +66,6 @@ int main(int argc, char** argv) {
   const rrr_graphslam::tools::CommandLine cli(argc, argv, "rrr_bench_trim", kUsage);
   Options options;
   options.trim.report_kl = true;
-  auto integer = [&](const std::string& a, int& i, double low) {
-    const double v = cli.number(a, cli.value(i, a), low, 1e9);
-    if (v != std::floor(v)) cli.fail(a + " must be an integer");
-    return static_cast<int>(v);
-  };
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--sparsification") {
@@ -83,7 +77,7 @@ int main(int argc, char** argv) {
     } else if (a == "--trim-overlap") {
       options.trim.trim_overlap_ratio = cli.number(a, cli.value(i, a), 1e-6, 1.0);
     } else if (a == "--keep-recent-submaps") {
-      options.trim.keep_recent_submaps = integer(a, i, 1);
+      options.trim.keep_recent_submaps = static_cast<int>(cli.integer(a, cli.value(i, a), 1, 1e9));
     } else if (a == "--keep-current-session") {
       options.trim.keep_current_session = cli.boolean(a, cli.value(i, a));
     } else if (a == "--clt-conservative") {
@@ -95,7 +89,7 @@ int main(int argc, char** argv) {
     } else if (a == "--no-kl") {
       options.trim.report_kl = false;
     } else if (a == "--repeat") {
-      options.repeat = integer(a, i, 1);
+      options.repeat = static_cast<int>(cli.integer(a, cli.value(i, a), 1, 1e9));
     } else if (!a.empty() && a[0] == '-') {
       cli.fail("unknown option " + a);
     } else {

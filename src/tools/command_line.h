@@ -1,6 +1,7 @@
 #pragma once
 // The small command-line plumbing the tools share: usage errors (exit 2) and typed values.
 
+#include <cmath>
 #include <cstdlib>
 #include <iostream>
 #include <string>
@@ -48,6 +49,13 @@ class CommandLine {
            "], not '" + text + "'");
     }
     return v;
+  }
+
+  /// `text` as an integer in [low, high], or a usage error naming `option`.
+  long integer(const std::string& option, const std::string& text, double low, double high) const {
+    const double v = number(option, text, low, high);
+    if (v != std::floor(v)) fail(option + " must be an integer, not '" + text + "'");
+    return static_cast<long>(v);
   }
 
   /// `text` as true or false, or a usage error naming `option`.

@@ -3,7 +3,6 @@
 // writing nothing, when the optimization does not converge (the stop reason is printed).
 
 #include <chrono>
-#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
@@ -70,9 +69,7 @@ Arguments parseArguments(int argc, char** argv) {
         cli.fail("--init must be auto, file or lago, not '" + m + "'");
       }
     } else if (a == "--max-iterations") {
-      const double n = cli.number(a, cli.value(i, a), 0.0, 1e9);
-      if (n != static_cast<int>(n)) cli.fail("--max-iterations must be an integer");
-      args.params.max_iterations = static_cast<int>(n);
+      args.params.max_iterations = static_cast<int>(cli.integer(a, cli.value(i, a), 0.0, 1e9));
     } else {
       cli.positional(a, args.input);
     }

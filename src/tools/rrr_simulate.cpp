@@ -76,14 +76,6 @@ std::vector<double> numberList(const tools::CommandLine& cli, const std::string&
   return out;
 }
 
-// `text` as an integer in [low, high], or a usage error naming `option`.
-long integer(const tools::CommandLine& cli, const std::string& option, const std::string& text,
-             double low, double high) {
-  const double v = cli.number(option, text, low, high);
-  if (v != std::floor(v)) cli.fail(option + " must be an integer, not '" + text + "'");
-  return static_cast<long>(v);
-}
-
 std::string sessionName(int k, int sessions) {
   const int digits = std::max(2, static_cast<int>(std::to_string(sessions - 1).size()));
   std::string number = std::to_string(k);
@@ -119,16 +111,16 @@ int main(int argc, char** argv) {
     } else if (a == "--changes") {
       changes_paths.push_back(cli.value(i, a));
     } else if (a == "--sessions") {
-      sessions = static_cast<int>(integer(cli, a, cli.value(i, a), 1, 1000));
+      sessions = static_cast<int>(cli.integer(a, cli.value(i, a), 1, 1000));
     } else if (a == "--seed") {
-      seed = static_cast<std::uint64_t>(integer(cli, a, cli.value(i, a), 0, 4294967295.0));
+      seed = static_cast<std::uint64_t>(cli.integer(a, cli.value(i, a), 0, 4294967295.0));
     } else if (a == "--waypoints") {
-      params.waypoints = static_cast<int>(integer(cli, a, cli.value(i, a), 1, 1e5));
+      params.waypoints = static_cast<int>(cli.integer(a, cli.value(i, a), 1, 1e5));
       waypoints_given = true;
     } else if (a == "--route") {
       route_path = cli.value(i, a);
     } else if (a == "--max-scans") {
-      params.max_scans = static_cast<std::size_t>(integer(cli, a, cli.value(i, a), 0, 1e8));
+      params.max_scans = static_cast<std::size_t>(cli.integer(a, cli.value(i, a), 0, 1e8));
     } else if (a == "--scan-rate") {
       params.scan_rate_hz = cli.number(a, cli.value(i, a), 0.1, 1000.0);
     } else if (a == "--speed") {
@@ -137,7 +129,7 @@ int main(int argc, char** argv) {
       params.planner.clearance_m = cli.number(a, cli.value(i, a), 0.0, 10.0);
       params.planner.comfort_m = std::max(params.planner.comfort_m, params.planner.clearance_m);
     } else if (a == "--beams") {
-      params.laser.beam_count = static_cast<int>(integer(cli, a, cli.value(i, a), 2, 100000));
+      params.laser.beam_count = static_cast<int>(cli.integer(a, cli.value(i, a), 2, 100000));
     } else if (a == "--angle-increment-deg") {
       params.laser.angle_increment_rad = cli.number(a, cli.value(i, a), 1e-3, 180.0) * M_PI / 180;
     } else if (a == "--max-range") {

@@ -263,9 +263,7 @@ inline Arguments parseArguments(int argc, char** argv) {
       args.trim.trim_overlap_ratio = cli.number(a, cli.value(i, a), 1e-6, 1.0);
       trim_flags.push_back(a);
     } else if (a == "--keep-recent-submaps") {
-      const double v = cli.number(a, cli.value(i, a), 1, 1e9);
-      if (v != std::floor(v)) cli.fail(a + " must be an integer");
-      args.trim.keep_recent_submaps = static_cast<int>(v);
+      args.trim.keep_recent_submaps = static_cast<int>(cli.integer(a, cli.value(i, a), 1, 1e9));
       trim_flags.push_back(a);
     } else if (a == "--keep-current-session") {
       args.trim.keep_current_session = cli.boolean(a, cli.value(i, a));
@@ -280,9 +278,7 @@ inline Arguments parseArguments(int argc, char** argv) {
       args.trim.chow_liu.per_edge_scaling = cli.boolean(a, cli.value(i, a));
       trim_flags.push_back(a);
     } else if (a == "--trim-every-n-nodes") {
-      const double v = cli.number(a, cli.value(i, a), 1, 1e9);
-      if (v != std::floor(v)) cli.fail(a + " must be an integer");
-      args.trim_every_n_nodes = static_cast<int>(v);
+      args.trim_every_n_nodes = static_cast<int>(cli.integer(a, cli.value(i, a), 1, 1e9));
       trim_flags.push_back(a);
     } else if (a == "--trim-group-neighbours") {
       args.trim.group_neighbours = true;
@@ -297,9 +293,8 @@ inline Arguments parseArguments(int argc, char** argv) {
     } else if (a == "--false-loops") {
       args.false_loops.fraction = cli.number(a, cli.value(i, a), 0.0, 0.9);
     } else if (a == "--false-loops-seed") {
-      const double v = cli.number(a, cli.value(i, a), 0, 4294967295.0);
-      if (v != std::floor(v)) cli.fail(a + " must be an integer");
-      args.false_loops.seed = static_cast<unsigned>(v);
+      args.false_loops.seed =
+          static_cast<unsigned>(cli.integer(a, cli.value(i, a), 0, 4294967295.0));
     } else if (a == "--session-name") {
       args.session_name = cli.value(i, a);
     } else if (a == "--session-trajectory") {
