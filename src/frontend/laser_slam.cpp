@@ -350,8 +350,9 @@ MapInputs LaserSlam::mapInputs() const {
                          ? static_cast<std::size_t>(sessions_[s + 1].first_node)
                          : node_scans_.size();
     inputs.sessions.resize(std::max(inputs.sessions.size(), std::min(end, node_scans_.size())),
-                           static_cast<int>(s));
+                           sessions_[s].number);
   }
+  inputs.memory = memory_;
   if (mode_ == SessionMode::kLocalization) {  // the loaded map alone
     const auto loaded = static_cast<std::size_t>(sessions_.back().first_node);
     inputs.poses.resize(loaded);

@@ -97,6 +97,7 @@ MapSnapshot LaserSlam::snapshot() const {
     map.submaps.push_back({active->anchorNode(), active->lastNode()});
   }
   map.lifelong = lifelong_;
+  map.memory = memory_;
   return map;
 }
 
@@ -186,7 +187,8 @@ std::unique_ptr<LaserSlam> LaserSlam::fromMap(const MapSnapshot& map, const Lase
   slam->mode_ = mode;
   slam->load(map, map.submaps.size());
   const int n = static_cast<int>(map.nodes.size());
-  slam->sessions_.push_back({session_name, 0.0, n});
+  slam->sessions_.push_back(
+      {session_name, 0.0, n, map.sessions.empty() ? 0 : map.sessions.back().number + 1});
   slam->session_first_submap_ = static_cast<int>(map.submaps.size());
   slam->session_first_scan_ = static_cast<std::size_t>(n);
   slam->local_ = LocalSlam(params.local, n, static_cast<int>(map.submaps.size()));
@@ -256,6 +258,7 @@ void LaserSlam::load(const MapSnapshot& map, std::size_t finished_submaps, bool 
   finished_spans_.assign(map.submaps.begin(),
                          map.submaps.begin() + static_cast<std::ptrdiff_t>(finished_submaps));
   lifelong_ = map.lifelong;
+  memory_ = map.memory;
   sessions_ = map.sessions;
   search_state_.resize(finished_submaps);
   stats_.nodes = n;

@@ -19,6 +19,8 @@ constexpr char kMagic[8] = {'R', 'R', 'R', 'M', 'A', 'P', '\n', '\0'};
 constexpr std::size_t kHeaderBytes = 8 + 4 + 8 + 8 + 4;
 // Payloads are held in memory whole; beyond this a file is refused rather than allocated.
 constexpr std::uint64_t kMaxPayloadBytes = std::uint64_t{1} << 31;
+// A remembered patch is one submap's view: a few tens of metres.
+constexpr double kMaxPatchExtent = 1e4;
 
 static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__,
               "map files are little-endian; a big-endian build needs byte swaps in Writer/Reader");
@@ -76,6 +78,14 @@ class Reader {
   core::Pose2 pose() {
     const double x = get<double>(), y = get<double>(), z = get<double>();
     return {x, y, z};
+  }
+  /// `n` raw bytes (checked against the bytes left).
+  std::vector<std::uint8_t> raw(std::size_t n, const char* what) {
+    need(n, what);
+    std::vector<std::uint8_t> out(bytes_.begin() + static_cast<std::ptrdiff_t>(pos_),
+                                  bytes_.begin() + static_cast<std::ptrdiff_t>(pos_ + n));
+    pos_ += n;
+    return out;
   }
   /// A count of items of at least `item_bytes` each, checked against the bytes left.
   std::size_t count(std::size_t item_bytes, const char* what) {
@@ -166,6 +176,7 @@ std::string encodePayload(const MapSnapshot& map) {
     out.put(s.name);
     out.put(s.start_time);
     out.put<std::int64_t>(s.first_node);
+    if (map.format_version >= 3) out.put<std::int64_t>(s.number);
   }
   out.put<std::uint64_t>(map.nodes.size());
   for (const auto& n : map.nodes) {
@@ -197,6 +208,19 @@ std::string encodePayload(const MapSnapshot& map) {
     out.put<std::int64_t>(map.lifelong.trimmed_submaps);
     out.put<std::int64_t>(map.lifelong.marginalized_nodes);
   }
+  if (map.format_version >= 3) {
+    out.put<std::uint64_t>(map.memory.size());
+    for (const RememberedCells& patch : map.memory) {
+      out.put<std::int64_t>(patch.session);
+      out.put<std::int64_t>(patch.anchor_node);
+      out.put(patch.origin);
+      out.put(patch.resolution_m);
+      out.put<std::int64_t>(patch.width);
+      out.put<std::int64_t>(patch.height);
+      out.put<std::uint64_t>(patch.cells->size());
+      for (std::uint8_t v : *patch.cells) out.put(v);
+    }
+  }
   return out.bytes();
 }
 
@@ -225,6 +249,7 @@ MapSnapshot decodePayload(const std::vector<std::uint8_t>& bytes, std::uint32_t 
     s.name = in.text();
     s.start_time = in.get<double>();
     s.first_node = toInt(in.get<std::int64_t>(), "session first node");
+    s.number = version >= 3 ? toInt(in.get<std::int64_t>(), "session number") : static_cast<int>(k);
   }
   const std::size_t nodes = in.count(153, "node");
   for (std::size_t k = 0; k < nodes; ++k) {
@@ -263,6 +288,21 @@ MapSnapshot decodePayload(const std::vector<std::uint8_t>& bytes, std::uint32_t 
   if (version >= 2) {
     map.lifelong.trimmed_submaps = toInt(in.get<std::int64_t>(), "trimmed submap count");
     map.lifelong.marginalized_nodes = toInt(in.get<std::int64_t>(), "marginalized node count");
+  }
+  if (version >= 3) {
+    const std::size_t patches = in.count(72, "remembered patch");
+    for (std::size_t k = 0; k < patches; ++k) {
+      RememberedCells& patch = map.memory.emplace_back();
+      patch.session = toInt(in.get<std::int64_t>(), "remembered patch session");
+      patch.anchor_node = toInt(in.get<std::int64_t>(), "remembered patch anchor node");
+      patch.origin = in.pose();
+      patch.resolution_m = in.get<double>();
+      patch.width = toInt(in.get<std::int64_t>(), "remembered patch width");
+      patch.height = toInt(in.get<std::int64_t>(), "remembered patch height");
+      const std::size_t cells = in.count(1, "remembered patch cell");
+      patch.cells = std::make_shared<const std::vector<std::uint8_t>>(
+          in.raw(cells, "remembered patch cells"));
+    }
   }
   in.expectEnd();
   return map;
@@ -308,6 +348,35 @@ void MapSnapshot::check() const {
     if (first < 0 || first >= next || next > n) {
       fail("session " + std::to_string(k) + " starts at node " + std::to_string(first) +
            ", not before the next session or the end");
+    }
+    const int number = sessions[k].number;
+    if (number < 0 || (k > 0 && number <= sessions[k - 1].number)) {
+      fail("session " + std::to_string(k) + " has number " + std::to_string(number) +
+           ", not above the session before's (numbers grow over the map's life)");
+    }
+    if (format_version < 3 && number != static_cast<int>(k)) {
+      fail("session " + std::to_string(k) + " has number " + std::to_string(number) +
+           ", which format version " + std::to_string(format_version) +
+           " cannot hold (it numbers sessions in order)");
+    }
+  }
+  if (format_version < 3 && !memory.empty()) {
+    fail("format version " + std::to_string(format_version) +
+         " cannot hold the memory of trimmed submaps");
+  }
+  for (std::size_t k = 0; k < memory.size(); ++k) {
+    const RememberedCells& patch = memory[k];
+    try {
+      patch.check(n);
+      if (patch.origin.head<2>().cwiseAbs().maxCoeff() > kMaxCoordinate ||
+          std::max(patch.width, patch.height) * patch.resolution_m > kMaxPatchExtent) {
+        fail("it lies beyond 1e6 m of its anchor or spans more than 10 km");
+      }
+      if (!sessions.empty() && patch.session > sessions.back().number) {
+        fail("its session " + std::to_string(patch.session) + " is newer than the map's newest");
+      }
+    } catch (const std::invalid_argument& e) {
+      fail("remembered patch " + std::to_string(k) + ": " + e.what());
     }
   }
   if (n > 0 && (sessions.empty() || sessions.front().first_node != 0)) {

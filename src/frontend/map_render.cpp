@@ -1,7 +1,11 @@
 #include "rrr_graphslam/frontend/map_render.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <functional>
+#include <limits>
+#include <set>
 #include <stdexcept>
 
 #include <mrpt/poses/CPose3D.h>
@@ -11,17 +15,94 @@
 namespace rrr_graphslam::frontend {
 namespace {
 constexpr unsigned char kUnknownPixel = 205;  // map_io.h's mapServerPixel
-}  // namespace
 
-void validate(const MapRenderParams& params) {
-  forEachMapRenderParam(params, [](const core::ParamInfo& info, const auto& value) {
-    core::checkRange(info, value);
-  });
+// Whether a map_server reader sees the cell occupied or free (MRPT's getCell(): p(free)).
+bool decides(float free_probability) {
+  return mapServerPixel(1.0F - free_probability) != kUnknownPixel;
 }
 
-mrpt::maps::COccupancyGridMap2D renderOccupancyMap(const MapInputs& inputs, double resolution_m) {
+// A patch of the memory placed in the map at its anchor's map pose.
+struct PlacedPatch {
+  const RememberedCells* patch = nullptr;
+  core::Pose2 pose = core::Pose2::Zero();  // the patch frame in the map frame
+  Eigen::Vector2d low, high;               // its footprint's bounding box
+};
+
+PlacedPatch place(const RememberedCells& patch, const std::vector<core::Pose2>& poses) {
+  PlacedPatch placed;
+  placed.patch = &patch;
+  placed.pose = patchPose(patch, poses.at(static_cast<std::size_t>(patch.anchor_node)));
+  const double w = patch.width * patch.resolution_m;
+  const double h = patch.height * patch.resolution_m;
+  const double c = std::cos(placed.pose.z());
+  const double s = std::sin(placed.pose.z());
+  placed.low = placed.high = placed.pose.head<2>();
+  for (const auto& [u, v] : {std::pair{w, 0.0}, std::pair{0.0, h}, std::pair{w, h}}) {
+    const Eigen::Vector2d corner(placed.pose.x() + c * u - s * v, placed.pose.y() + s * u + c * v);
+    placed.low = placed.low.cwiseMin(corner);
+    placed.high = placed.high.cwiseMax(corner);
+  }
+  return placed;
+}
+
+// A grid cell's view of a patch: the decided patch cells under it (index in the patch, value).
+struct Samples {
+  std::size_t n = 0;
+  std::array<std::pair<std::size_t, std::uint8_t>, 16> cells;
+};
+
+// Calls f(cx, cy, samples) for every grid cell over which the patch has decided cells: the patch
+// is sampled from the grid's side (so a patch turned by the graph's re-optimization leaves no
+// holes) at 1 point per cell, or, where the grid is coarser than the patch, at up to 4 x 4 points
+// spread over the cell, so that a thin wall of the patch is not missed between them.
+template <class F>
+void forEachRemembered(const mrpt::maps::COccupancyGridMap2D& grid, const PlacedPatch& placed,
+                       F&& f) {
+  const RememberedCells& patch = *placed.patch;
+  const int x0 = std::max(0, grid.x2idx(placed.low.x()));
+  const int x1 = std::min(static_cast<int>(grid.getSizeX()) - 1, grid.x2idx(placed.high.x()));
+  const int y0 = std::max(0, grid.y2idx(placed.low.y()));
+  const int y1 = std::min(static_cast<int>(grid.getSizeY()) - 1, grid.y2idx(placed.high.y()));
+  const double c = std::cos(placed.pose.z());
+  const double s = std::sin(placed.pose.z());
+  const double r = grid.getResolution();
+  const int per_side = std::clamp(static_cast<int>(std::ceil(r / patch.resolution_m - 1e-6)), 1, 4);
+  const std::vector<std::uint8_t>& cells = *patch.cells;
+  Samples samples;
+  for (int cy = y0; cy <= y1; ++cy) {
+    for (int cx = x0; cx <= x1; ++cx) {
+      samples.n = 0;
+      for (int a = 0; a < per_side; ++a) {
+        for (int b = 0; b < per_side; ++b) {
+          // The sample point in the map frame, then in the patch frame.
+          const double dx = grid.idx2x(cx) + r * ((a + 0.5) / per_side - 0.5) - placed.pose.x();
+          const double dy = grid.idx2y(cy) + r * ((b + 0.5) / per_side - 0.5) - placed.pose.y();
+          const double i = std::floor((c * dx + s * dy) / patch.resolution_m);
+          const double j = std::floor((-s * dx + c * dy) / patch.resolution_m);
+          if (i < 0 || j < 0 || i >= patch.width || j >= patch.height) continue;
+          const std::size_t k =
+              static_cast<std::size_t>(j) * static_cast<std::size_t>(patch.width) +
+              static_cast<std::size_t>(i);
+          if (cells[k] != RememberedCells::kUnknown) samples.cells[samples.n++] = {k, cells[k]};
+        }
+      }
+      if (samples.n > 0) f(cx, cy, samples);
+    }
+  }
+}
+
+// The rendering; with `superseded`, per patch of the memory, its cells that a newer layer (a
+// newer session's scans or patch, or a later patch of the same session) decides, and that show
+// nowhere.
+mrpt::maps::COccupancyGridMap2D render(const MapInputs& inputs, double resolution_m,
+                                       std::vector<std::vector<char>>* superseded) {
   if (inputs.render) validate(*inputs.render);
   const std::vector<core::Pose2>& map = inputs.poses;
+  for (const RememberedCells& patch : inputs.memory) {
+    patch.check(static_cast<int>(map.size()));
+  }
+  std::vector<PlacedPatch> placed;
+  for (const RememberedCells& patch : inputs.memory) placed.push_back(place(patch, map));
   // Start from the trajectory's bounding box (MRPT grows the grid to fit the rays); the log's
   // odometry origin may lie hundreds of metres away.
   Eigen::Vector2d low(-1.0, -1.0);
@@ -32,6 +113,10 @@ mrpt::maps::COccupancyGridMap2D renderOccupancyMap(const MapInputs& inputs, doub
       low = low.cwiseMin(x.head<2>());
       high = high.cwiseMax(x.head<2>());
     }
+  }
+  for (const PlacedPatch& p : placed) {
+    low = low.cwiseMin(p.low);
+    high = high.cwiseMax(p.high);
   }
   mrpt::maps::COccupancyGridMap2D grid(
       static_cast<float>(low.x() - 1.0), static_cast<float>(high.x() + 1.0),
@@ -49,39 +134,223 @@ mrpt::maps::COccupancyGridMap2D renderOccupancyMap(const MapInputs& inputs, doub
     into.insertObservation(*inputs.scans[k], mrpt::poses::CPose3D(x.x(), x.y(), 0.0, x.z(), 0, 0));
   };
   for (std::size_t k = 0; k < nodes; ++k) insert(grid, k);
-  if (inputs.layering == MapLayering::kAllScans || inputs.sessions.size() < nodes) return grid;
-  const int first = *std::min_element(inputs.sessions.begin(), inputs.sessions.begin() + nodes);
-  const int last = *std::max_element(inputs.sessions.begin(), inputs.sessions.begin() + nodes);
-  if (first == last) return grid;
+  const bool by_session = inputs.layering == MapLayering::kNewestSession || superseded;
+  const bool one_session = inputs.sessions.size() < nodes;
+  std::set<int, std::greater<>> session_numbers;  // newest first
+  if (!one_session)
+    session_numbers.insert(inputs.sessions.begin(), inputs.sessions.begin() + nodes);
+  if (placed.empty() && (!by_session || session_numbers.size() < 2)) return grid;
 
-  // Newest session first; a cell keeps the first (newest) session's state that observed it. Every
-  // session's grid has the whole map's bounds (the rays already fit in them).
+  // Layers, newest first: each session's kept scans, then its patches (the newest first). A cell
+  // keeps the first layer that decides it (a map_server reader would see it occupied or free: a
+  // glimpse does not overrule an older session's clear view).
+  std::vector<int> patch_order(placed.size());
+  for (std::size_t p = 0; p < placed.size(); ++p) patch_order[p] = static_cast<int>(p);
+  std::stable_sort(patch_order.begin(), patch_order.end(), [&](int a, int b) {
+    const int sa = inputs.memory[static_cast<std::size_t>(a)].session;
+    const int sb = inputs.memory[static_cast<std::size_t>(b)].session;
+    return sa != sb ? sa > sb : a > b;
+  });
   mrpt::maps::COccupancyGridMap2D layered = grid;
   std::vector<char> taken(static_cast<std::size_t>(grid.getSizeX()) * grid.getSizeY(), 0);
-  for (int session = last; session >= first; --session) {
+  auto cell = [&](int cx, int cy) -> char& {
+    return taken[static_cast<std::size_t>(cy) * grid.getSizeX() + static_cast<std::size_t>(cx)];
+  };
+  if (!by_session) {  // every scan alike: the memory fills what the scans leave unknown
+    for (unsigned cy = 0; cy < grid.getSizeY(); ++cy) {
+      for (unsigned cx = 0; cx < grid.getSizeX(); ++cx)
+        cell(cx, cy) = decides(grid.getCell(cx, cy));
+    }
+  }
+  std::vector<std::vector<char>> won(placed.size());
+  std::vector<std::vector<char>> lost(placed.size());
+  auto paintPatch = [&](int p) {
+    const auto index = static_cast<std::size_t>(p);
+    won[index].assign(inputs.memory[index].cells->size(), 0);
+    lost[index].assign(inputs.memory[index].cells->size(), 0);
+    forEachRemembered(grid, placed[index], [&](int cx, int cy, const Samples& samples) {
+      char& t = cell(cx, cy);
+      std::vector<char>& marked = t ? lost[index] : won[index];
+      // The cell as a scan would leave it: occupied where a wall of the patch lies in it.
+      float most_occupied = 1.0F;
+      for (std::size_t n = 0; n < samples.n; ++n) {
+        marked[samples.cells[n].first] = 1;
+        most_occupied = std::min(most_occupied, freeProbability(samples.cells[n].second));
+      }
+      if (t) return;
+      layered.setCell(cx, cy, most_occupied);
+      t = 1;
+    });
+  };
+  auto paintSession = [&](int session) {
     mrpt::maps::COccupancyGridMap2D own(grid.getXMin(), grid.getXMax(), grid.getYMin(),
                                         grid.getYMax(), grid.getResolution());
     configureInsertion(own, insertion);
     bool any = false;
     for (std::size_t k = 0; k < nodes; ++k) {
-      if (inputs.sessions[k] != session) continue;
+      if (!one_session && inputs.sessions[k] != session) continue;
       insert(own, k);
       any = true;
     }
-    if (!any || own.getSizeX() != grid.getSizeX() || own.getSizeY() != grid.getSizeY()) continue;
+    if (!any || own.getSizeX() != grid.getSizeX() || own.getSizeY() != grid.getSizeY()) return;
     for (unsigned cy = 0; cy < own.getSizeY(); ++cy) {
       for (unsigned cx = 0; cx < own.getSizeX(); ++cx) {
-        char& t = taken[static_cast<std::size_t>(cy) * grid.getSizeX() + cx];
+        char& t = cell(cx, cy);
         const float p = own.getCell(cx, cy);
-        // Taken by a newer session, or not decided by this one (a map_server reader would see
-        // it unknown: a glimpse does not overrule an older session's clear view).
-        if (t || mapServerPixel(1.0F - p) == kUnknownPixel) continue;
+        if (t || !decides(p)) continue;
         layered.setCell(cx, cy, p);
         t = 1;
       }
     }
+  };
+  auto next_patch = patch_order.begin();
+  if (by_session) {
+    if (one_session) session_numbers.insert(std::numeric_limits<int>::max());
+    for (int session : session_numbers) {
+      // Patches of newer sessions than this one (a session that left the map whole).
+      for (; next_patch != patch_order.end() &&
+             inputs.memory[static_cast<std::size_t>(*next_patch)].session > session;
+           ++next_patch) {
+        paintPatch(*next_patch);
+      }
+      paintSession(session);
+    }
+  }
+  for (; next_patch != patch_order.end(); ++next_patch) paintPatch(*next_patch);
+  if (superseded) {
+    superseded->assign(placed.size(), {});
+    for (std::size_t p = 0; p < placed.size(); ++p) {
+      std::vector<char>& out = (*superseded)[p];
+      out.assign(inputs.memory[p].cells->size(), 0);
+      for (std::size_t k = 0; k < out.size(); ++k) out[k] = lost[p][k] && !won[p][k];
+    }
   }
   return layered;
+}
+
+// The patch of `grid`'s decided cells within [x0, x1] x [y0, y1], anchored as asked.
+RememberedCells patchOf(const mrpt::maps::COccupancyGridMap2D& grid, int x0, int x1, int y0, int y1,
+                        int session, int anchor_node, const core::Pose2& anchor_map_pose) {
+  RememberedCells patch;
+  patch.session = session;
+  patch.anchor_node = anchor_node;
+  patch.resolution_m = grid.getResolution();
+  patch.width = x1 - x0 + 1;
+  patch.height = y1 - y0 + 1;
+  const double r = grid.getResolution();
+  const core::Pose2 corner(grid.getXMin() + x0 * r, grid.getYMin() + y0 * r, 0.0);
+  patch.origin = core::between(anchor_map_pose, corner);
+  auto cells = std::make_shared<std::vector<std::uint8_t>>(
+      static_cast<std::size_t>(patch.width) * static_cast<std::size_t>(patch.height),
+      RememberedCells::kUnknown);
+  for (int cy = y0; cy <= y1; ++cy) {
+    for (int cx = x0; cx <= x1; ++cx) {
+      const float p = grid.getCell(cx, cy);
+      if (!decides(p)) continue;
+      (*cells)[static_cast<std::size_t>(cy - y0) * static_cast<std::size_t>(patch.width) +
+               static_cast<std::size_t>(cx - x0)] = rememberedValue(p);
+    }
+  }
+  patch.cells = std::move(cells);
+  return patch;
+}
+
+}  // namespace
+
+void validate(const MapRenderParams& params) {
+  forEachMapRenderParam(params, [](const core::ParamInfo& info, const auto& value) {
+    core::checkRange(info, value);
+  });
+}
+
+mrpt::maps::COccupancyGridMap2D renderOccupancyMap(const MapInputs& inputs, double resolution_m) {
+  return render(inputs, resolution_m, nullptr);
+}
+
+std::optional<RememberedCells> rememberScans(const MapInputs& inputs, double resolution_m,
+                                             int session, int anchor_node,
+                                             const core::Pose2& anchor_map_pose) {
+  MapInputs scans = inputs;
+  scans.memory.clear();
+  scans.sessions.clear();
+  scans.layering = MapLayering::kAllScans;
+  if (!scans.render) scans.render = MapRenderParams{};
+  const mrpt::maps::COccupancyGridMap2D grid = renderOccupancyMap(scans, resolution_m);
+  int x0 = static_cast<int>(grid.getSizeX()), x1 = -1;
+  int y0 = static_cast<int>(grid.getSizeY()), y1 = -1;
+  for (int cy = 0; cy < static_cast<int>(grid.getSizeY()); ++cy) {
+    for (int cx = 0; cx < static_cast<int>(grid.getSizeX()); ++cx) {
+      if (!decides(grid.getCell(cx, cy))) continue;
+      x0 = std::min(x0, cx);
+      x1 = std::max(x1, cx);
+      y0 = std::min(y0, cy);
+      y1 = std::max(y1, cy);
+    }
+  }
+  if (x1 < 0) return std::nullopt;
+  return patchOf(grid, x0, x1, y0, y1, session, anchor_node, anchor_map_pose);
+}
+
+std::vector<RememberedCells> forgetSuperseded(const std::vector<RememberedCells>& memory,
+                                              const std::vector<core::Pose2>& poses) {
+  if (memory.empty()) return {};
+  double resolution = memory.front().resolution_m;
+  for (const RememberedCells& patch : memory) resolution = std::min(resolution, patch.resolution_m);
+  // The patches alone, newest first. The kept scans are left out: a remembered cell a kept
+  // session decides is hidden while that session's scans stay, but their own patches may not
+  // decide it when they are trimmed (each holds one submap's leaving scans, not the session's).
+  MapInputs patches;
+  patches.poses = poses;
+  patches.memory = memory;
+  patches.layering = MapLayering::kNewestSession;
+  std::vector<std::vector<char>> superseded;
+  render(patches, resolution, &superseded);
+  std::vector<RememberedCells> kept;
+  for (std::size_t p = 0; p < memory.size(); ++p) {
+    const RememberedCells& patch = memory[p];
+    const std::vector<std::uint8_t>& cells = *patch.cells;
+    int x0 = patch.width, x1 = -1, y0 = patch.height, y1 = -1;
+    for (int j = 0; j < patch.height; ++j) {
+      for (int i = 0; i < patch.width; ++i) {
+        const std::size_t k = static_cast<std::size_t>(j) * patch.width + i;
+        if (cells[k] == RememberedCells::kUnknown || superseded[p][k]) continue;
+        x0 = std::min(x0, i);
+        x1 = std::max(x1, i);
+        y0 = std::min(y0, j);
+        y1 = std::max(y1, j);
+      }
+    }
+    if (x1 < 0) continue;  // all of it newer sessions decide
+    RememberedCells out = patch;
+    out.width = x1 - x0 + 1;
+    out.height = y1 - y0 + 1;
+    out.origin = core::compose(patch.origin,
+                               core::Pose2(x0 * patch.resolution_m, y0 * patch.resolution_m, 0.0));
+    auto left = std::make_shared<std::vector<std::uint8_t>>(
+        static_cast<std::size_t>(out.width) * static_cast<std::size_t>(out.height),
+        RememberedCells::kUnknown);
+    for (int j = y0; j <= y1; ++j) {
+      for (int i = x0; i <= x1; ++i) {
+        const std::size_t k = static_cast<std::size_t>(j) * patch.width + i;
+        if (superseded[p][k]) continue;
+        (*left)[static_cast<std::size_t>(j - y0) * out.width + (i - x0)] = cells[k];
+      }
+    }
+    out.cells = std::move(left);
+    kept.push_back(std::move(out));
+  }
+  return kept;
+}
+
+MapInputs renderInputs(const MapSnapshot& map) {
+  MapInputs inputs;
+  for (const MapSnapshot::Node& node : map.nodes) {
+    inputs.poses.push_back(node.map_pose);
+    inputs.scans.push_back(node.scan);
+    inputs.sessions.push_back(map.sessions.at(static_cast<std::size_t>(node.session)).number);
+  }
+  inputs.memory = map.memory;
+  return inputs;
 }
 
 std::string toString(MapLayering layering) { return core::choiceName(layering); }

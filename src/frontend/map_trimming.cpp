@@ -5,7 +5,9 @@
 #include <cstdint>
 #include <deque>
 #include <exception>
+#include <limits>
 #include <map>
+#include <optional>
 #include <stdexcept>
 #include <unordered_set>
 
@@ -41,6 +43,11 @@ void validate(const TrimParams& params) {
     fail("coverage_resolution_m = " + std::to_string(params.coverage_resolution_m) +
          " is out of range: must be in (0, 10] m");
   }
+  if (!(params.memory_resolution_m > 0.0 && params.memory_resolution_m <= 10.0)) {
+    fail("memory_resolution_m = " + std::to_string(params.memory_resolution_m) +
+         " is out of range: must be in (0, 10] m");
+  }
+  validate(params.memory_evidence);
   if (params.threads < 1) fail("threads must be at least 1");
   if (params.revisit_gap_nodes < 0) {
     fail("revisit_gap_nodes = " + std::to_string(params.revisit_gap_nodes) +
@@ -207,6 +214,80 @@ void measureKl(const std::vector<Trusted>& trusted, const std::vector<char>& ali
   record.kl_seconds = core::secondsSince(watch);
 }
 
+// The node that stays nearest to `at` (map frame); -1 if none stays.
+int nearestStaying(const Eigen::Vector2d& at, const std::vector<core::Pose2>& poses,
+                   const std::vector<char>& stays) {
+  int best = -1;
+  double best_d2 = std::numeric_limits<double>::infinity();
+  for (std::size_t k = 0; k < poses.size(); ++k) {
+    if (!stays[k]) continue;
+    const double d2 = (poses[k].head<2>() - at).squaredNorm();
+    if (d2 < best_d2) {
+      best_d2 = d2;
+      best = static_cast<int>(k);
+    }
+  }
+  return best;
+}
+
+Eigen::Vector2d patchCentre(const RememberedCells& patch, const core::Pose2& anchor_map_pose) {
+  const core::Pose2 centre = core::compose(
+      patchPose(patch, anchor_map_pose), core::Pose2(0.5 * patch.width * patch.resolution_m,
+                                                     0.5 * patch.height * patch.resolution_m, 0.0));
+  return centre.head<2>();
+}
+
+// Step 5's patches: per trimmed submap, the cells its leaving nodes' scans decide at `poses`,
+// anchored to the nearest node that stays (submaps without leaving nodes: none).
+std::vector<RememberedCells> rememberLeaving(
+    const MapSnapshot& map, const std::vector<core::Pose2>& poses, const std::vector<int>& owner,
+    const std::vector<char>& leaves, const TrimParams& params, const SubmapParams& submap_params) {
+  const std::size_t n = map.nodes.size();
+  std::vector<char> stays(n, 0);
+  for (std::size_t k = 0; k < n; ++k) stays[k] = !leaves[k];
+  std::vector<std::vector<std::size_t>> of_submap(map.submaps.size());
+  for (std::size_t k = 0; k < n; ++k) {
+    if (leaves[k]) of_submap[static_cast<std::size_t>(owner[k])].push_back(k);
+  }
+  const int submaps = static_cast<int>(map.submaps.size());
+  std::vector<std::optional<RememberedCells>> made(map.submaps.size());
+  std::vector<std::exception_ptr> failed(map.submaps.size());
+#pragma omp parallel for schedule(dynamic) num_threads(params.threads) if (submaps > 1)
+  for (int s = 0; s < submaps; ++s) {
+    const std::vector<std::size_t>& nodes = of_submap[static_cast<std::size_t>(s)];
+    if (nodes.empty()) continue;
+    try {
+      MapInputs inputs;
+      inputs.insertion = submap_params;
+      inputs.render = params.memory_evidence;
+      Eigen::Vector2d centre = Eigen::Vector2d::Zero();
+      for (std::size_t k : nodes) {
+        inputs.poses.push_back(poses[k]);
+        inputs.scans.push_back(map.nodes[k].scan);
+        centre += poses[k].head<2>();
+      }
+      centre /= static_cast<double>(nodes.size());
+      const int anchor = nearestStaying(centre, poses, stays);
+      if (anchor < 0) continue;  // nothing stays: nothing to render the memory with either
+      const int session =
+          map.sessions[static_cast<std::size_t>(map.nodes[nodes.front()].session)].number;
+      made[static_cast<std::size_t>(s)] =
+          rememberScans(inputs, params.memory_resolution_m, session, anchor,
+                        poses[static_cast<std::size_t>(anchor)]);
+    } catch (...) {
+      failed[static_cast<std::size_t>(s)] = std::current_exception();
+    }
+  }
+  for (const std::exception_ptr& e : failed) {
+    if (e) std::rethrow_exception(e);
+  }
+  std::vector<RememberedCells> patches;
+  for (std::optional<RememberedCells>& patch : made) {
+    if (patch) patches.push_back(std::move(*patch));
+  }
+  return patches;
+}
+
 }  // namespace
 
 TrimResult trimMap(const MapSnapshot& map, const TrimParams& params,
@@ -354,6 +435,31 @@ TrimResult trimMap(const MapSnapshot& map, const TrimParams& params,
   const core::Clock::time_point optimize_watch = core::Clock::now();
   if (!groups.empty()) optimizeTrusted(trusted, alive, poses);
   report.optimize_seconds = core::secondsSince(optimize_watch);
+
+  // 5. Memory, at the same estimate: the leaving scans' patches; the map's patches whose anchor
+  // leaves move to the nearest node that stays.
+  const core::Clock::time_point memory_watch = core::Clock::now();
+  std::vector<RememberedCells> memory;
+  std::vector<char> stays(n, 0);
+  for (std::size_t k = 0; k < n; ++k) stays[k] = !leaves[k];
+  for (const RememberedCells& patch : map.memory) {
+    const auto anchor = static_cast<std::size_t>(patch.anchor_node);
+    if (stays[anchor]) {
+      memory.push_back(patch);
+      continue;
+    }
+    const int to = nearestStaying(patchCentre(patch, poses[anchor]), poses, stays);
+    if (to >= 0)
+      memory.push_back(reanchored(patch, poses[anchor], to, poses[static_cast<std::size_t>(to)]));
+  }
+  if (params.remember_trimmed_cells && !groups.empty()) {
+    std::vector<RememberedCells> made =
+        rememberLeaving(map, poses, owner, leaves, params, submap_params);
+    report.remembered_patches = static_cast<int>(made.size());
+    memory.insert(memory.end(), std::make_move_iterator(made.begin()),
+                  std::make_move_iterator(made.end()));
+  }
+  report.memory_seconds = core::secondsSince(memory_watch);
   std::vector<char> in_group(n, 0);
   for (const std::vector<NodeId>& group : groups) {
     const core::Clock::time_point watch = core::Clock::now();
@@ -505,6 +611,20 @@ TrimResult trimMap(const MapSnapshot& map, const TrimParams& params,
                            new_index[static_cast<std::size_t>(span.last_node)]});
   }
   out.lifelong = map.lifelong;
+  for (RememberedCells& patch : memory) {
+    patch.anchor_node = new_index[static_cast<std::size_t>(patch.anchor_node)];
+  }
+  out.memory = std::move(memory);
+  if (report.remembered_patches > 0) {
+    const core::Clock::time_point watch = core::Clock::now();
+    std::vector<core::Pose2> anchors;
+    for (const MapSnapshot::Node& node : out.nodes) anchors.push_back(node.map_pose);
+    const std::size_t before = rememberedCells(out.memory);
+    out.memory = forgetSuperseded(out.memory, anchors);
+    report.forgotten_cells = before - rememberedCells(out.memory);
+    report.memory_seconds += core::secondsSince(watch);
+  }
+  report.remembered_cells = rememberedCells(out.memory);
   report.trimmed_submaps = submaps - static_cast<int>(out.submaps.size());
   out.lifelong.trimmed_submaps += report.trimmed_submaps;
   out.lifelong.marginalized_nodes += static_cast<int>(n - out.nodes.size());

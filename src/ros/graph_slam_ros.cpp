@@ -495,6 +495,7 @@ void GraphSlamRos::publishStatus() {
   if (slam_) {
     msg.trimmed_submaps = static_cast<std::uint32_t>(slam_->lifelong().trimmed_submaps);
     msg.marginalized_nodes = static_cast<std::uint32_t>(slam_->lifelong().marginalized_nodes);
+    msg.remembered_cells = static_cast<std::uint32_t>(frontend::rememberedCells(slam_->memory()));
     if (trimmer_) {
       msg.online_trims = static_cast<std::uint32_t>(trimmer_->replaced());
       if (const frontend::OnlineTrimRecord* last = trimmer_->last()) {

@@ -168,6 +168,10 @@ NodeParams loadParams(const ros::NodeHandle& private_nh) {
   r.read<bool>(
       "keep_current_session", p.trim.keep_current_session, [](const bool&) { return true; },
       "a boolean");
+  r.read<bool>(
+      "remember_trimmed_cells", p.trim.remember_trimmed_cells, [](const bool&) { return true; },
+      "a boolean");
+  p.trim.memory_evidence = p.map_render;
   std::string sparsification = frontend::toString(p.trim.sparsification);
   r.read<std::string>(
       "sparsification", sparsification,

@@ -29,12 +29,15 @@ const char* const kUsage =
     "usage: rrr_map_info MAP.rrrmap [--graph OUT.g2o] [--trajectory OUT.txt] [--map OUT]\n"
     "                    [--map-resolution M] [--map-layering all|newest-session]\n"
     "                    [--map-hit-probability P] [--map-miss-probability P]\n"
+    "                    [--remembered-cells true|false]\n"
     "  MAP             a map saved by rrr_slam_offline --save-map (or the node's ~save_map)\n"
     "  --graph         writes the graph: nodes at their map poses, odometry and every loop\n"
     "                  candidate (g2o, or TORO for .graph/.toro)\n"
     "  --trajectory    writes every node's map pose with its scan's timestamp (TUM format, as\n"
     "                  rrr_slam_offline --trajectory)\n"
-    "  --map           writes OUT.pgm + OUT.yaml (map_server) from every node's scan\n"
+    "  --map           writes OUT.pgm + OUT.yaml (map_server) from every node's scan and\n"
+    "                  the cells remembered of trimmed submaps (doc/lifelong.md)\n"
+    "  --remembered-cells  false: --map from the nodes' scans alone (default true)\n"
     "  --map-resolution  m per cell of --map (default 0.05)\n"
     "  --map-layering  all (default): every scan weighs alike; newest-session: each cell as the\n"
     "                  newest session that observed it saw it (a world that changed between\n"
@@ -44,8 +47,10 @@ const char* const kUsage =
     "                  0.49, which leave cells seen by one pass unknown)\n"
     "Prints 'key value' lines: format_version, sessions, nodes, edges, odometry_edges,\n"
     "loop_edges, loop_edges_accepted, loop_edges_rejected, loop_edges_pending, marginal_edges,\n"
-    "submaps, scans, trimmed_submaps, marginalized_nodes, bytes, then 'session K nodes N "
-    "start_time T name NAME' per session and every parameter the\n"
+    "submaps, scans, trimmed_submaps, marginalized_nodes, remembered_patches, remembered_cells,\n"
+    "bytes, then 'session K nodes N start_time T number M name NAME' per session (M: its\n"
+    "place in the map's life, kept when trimming removes earlier sessions) and every parameter "
+    "the\n"
     "map was made with as 'param NAME VALUE'.\n";
 
 std::string paramOf(const frontend::MapSnapshot& map, const std::string& name) {
@@ -63,6 +68,7 @@ int main(int argc, char** argv) {
   double resolution = 0.05;
   frontend::MapLayering layering = frontend::MapLayering::kAllScans;
   frontend::MapRenderParams render;
+  bool remembered = true;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--graph") {
@@ -73,6 +79,8 @@ int main(int argc, char** argv) {
       map_out = cli.value(i, a);
     } else if (a == "--map-resolution") {
       resolution = cli.number(a, cli.value(i, a), 0.005, 10.0);
+    } else if (a == "--remembered-cells") {
+      remembered = cli.boolean(a, cli.value(i, a));
     } else if (a == "--map-layering") {
       try {
         layering = frontend::parseMapLayering(cli.value(i, a));
@@ -117,13 +125,15 @@ int main(int argc, char** argv) {
     std::printf("scans %zu\n", map.nodes.size());  // one scan per node
     std::printf("trimmed_submaps %d\n", map.lifelong.trimmed_submaps);
     std::printf("marginalized_nodes %d\n", map.lifelong.marginalized_nodes);
+    std::printf("remembered_patches %zu\n", map.memory.size());
+    std::printf("remembered_cells %zu\n", frontend::rememberedCells(map.memory));
     std::printf("bytes %lld\n", bytes);
     for (std::size_t s = 0; s < map.sessions.size(); ++s) {
       const int end = s + 1 < map.sessions.size() ? map.sessions[s + 1].first_node
                                                   : static_cast<int>(map.nodes.size());
-      std::printf("session %zu nodes %d start_time %.6f name %s\n", s,
+      std::printf("session %zu nodes %d start_time %.6f number %d name %s\n", s,
                   end - map.sessions[s].first_node, map.sessions[s].start_time,
-                  map.sessions[s].name.c_str());
+                  map.sessions[s].number, map.sessions[s].name.c_str());
     }
     for (const auto& [name, value] : map.params) {
       std::printf("param %s %s\n", name.c_str(), value.c_str());
@@ -143,12 +153,8 @@ int main(int argc, char** argv) {
       std::printf("trajectory %s\n", trajectory_out.c_str());
     }
     if (!map_out.empty()) {
-      frontend::MapInputs inputs;
-      for (const auto& node : map.nodes) {
-        inputs.poses.push_back(node.map_pose);
-        inputs.scans.push_back(node.scan);
-        inputs.sessions.push_back(node.session);
-      }
+      frontend::MapInputs inputs = frontend::renderInputs(map);
+      if (!remembered) inputs.memory.clear();
       inputs.layering = layering;
       inputs.render = render;
       const std::string range = paramOf(map, "scan_max_range");

@@ -130,6 +130,9 @@ inline const std::string& usage() {
       "  --trim-kl         measure each trim's KL divergence (tree and deletion against the\n"
       "                    exact marginal: the trim_kl lines; slow on large maps); without it\n"
       "                    they say nan\n"
+      "  --remember-trimmed-cells true|false  the cells a trimmed submap's scans decided\n"
+      "                    stay in the written map where no newer session decides them\n"
+      "                    (default true; false: they leave with the scans)\n"
       "  --trim-group-neighbours  marginalize the leaving nodes of neighbouring trimmed submaps\n"
       "                    together (one tree for all; larger blankets) instead of submap by\n"
       "                    submap\n"
@@ -280,6 +283,9 @@ inline Arguments parseArguments(int argc, char** argv) {
     } else if (a == "--trim-every-n-nodes") {
       args.trim_every_n_nodes = static_cast<int>(cli.integer(a, cli.value(i, a), 1, 1e9));
       trim_flags.push_back(a);
+    } else if (a == "--remember-trimmed-cells") {
+      args.trim.remember_trimmed_cells = cli.boolean(a, cli.value(i, a));
+      trim_flags.push_back(a);
     } else if (a == "--trim-group-neighbours") {
       args.trim.group_neighbours = true;
       trim_flags.push_back(a);
@@ -326,6 +332,8 @@ inline Arguments parseArguments(int argc, char** argv) {
     cli.fail("--localization-only leaves the loaded map as it is: there is nothing to --save-map");
   }
   if (!trim_flags.empty() && !args.lifelong) cli.fail(trim_flags.front() + " needs --lifelong");
+  // The memory's cells are decided as the written map decides its cells.
+  args.trim.memory_evidence = args.map_render;
   if (args.lifelong && args.save_map.empty()) {
     cli.fail("--lifelong trims the map when it is saved: it needs --save-map");
   }

@@ -59,6 +59,11 @@ inline void printTrimReport(const frontend::TrimReport& report,
       report.marginal_edges_kept, report.dropped_rejected_loops, report.seconds,
       report.coverage_seconds, quantile(0.5), quantile(0.99), kl, kl_clt, kl_delete, worst_ratio,
       report.optimize_seconds, kl_seconds);
+  std::printf(
+      "trim_remembered_patches %d\ntrim_remembered_cells %zu\ntrim_forgotten_cells %zu\n"
+      "trim_memory_seconds %.4f\n",
+      report.remembered_patches, report.remembered_cells, report.forgotten_cells,
+      report.memory_seconds);
   for (const frontend::TrimRecord& t : report.trims) {
     std::printf(
         "trim_record submap %d submaps %d nodes %d blanket %d constraints %d edges %d "

@@ -17,6 +17,7 @@
 #include <random>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include "rrr_graphslam/core/input_error.h"
 #include "rrr_graphslam/frontend/laser_slam.h"
@@ -137,13 +138,13 @@ TEST(MapFile, DamagedFilesAreRefusedNamingFileAndFault) {
   refused("flipped.rrrmap", flipped, "checksum mismatch");
   std::string newer = good;
   newer[8] = 99;  // the version's low byte
-  refused("newer.rrrmap", newer, "format version 99 is newer than this build reads (2)");
+  refused("newer.rrrmap", newer, "format version 99 is newer than this build reads (3)");
   refused("text.rrrmap", "VERTEX_SE2 0 0 0 0\n", "not an rrr_graphslam map file");
   refused("empty.rrrmap", "", "not an rrr_graphslam map file");
   EXPECT_THROW(readMapFile(tempPath("does_not_exist.rrrmap")), core::InputError);
 }
 
-TEST(MapFile, AVersionOneMapIsReadAsItIsAndContinuedAsVersionTwo) {
+TEST(MapFile, AVersionOneMapIsReadAsItIsAndContinuedAsTheNewest) {
   MapSnapshot old = readMapFile(savedMap());
   old.format_version = 1;
   const std::string path = tempPath("version1.rrrmap");
@@ -164,6 +165,94 @@ TEST(MapFile, AVersionOneMapIsReadAsItIsAndContinuedAsVersionTwo) {
   MapSnapshot counted = old;
   counted.lifelong.trimmed_submaps = 3;
   EXPECT_THROW(writeMapFile(counted, tempPath("bad_version1.rrrmap")), std::invalid_argument);
+}
+
+// A patch of remembered cells (map_memory.h) anchored to node `anchor`.
+RememberedCells patchAt(int anchor, int session) {
+  RememberedCells patch;
+  patch.session = session;
+  patch.anchor_node = anchor;
+  patch.origin = core::Pose2(0.5, -0.25, 0.1);
+  patch.resolution_m = 0.05;
+  patch.width = 3;
+  patch.height = 2;
+  patch.cells = std::make_shared<const std::vector<std::uint8_t>>(
+      std::vector<std::uint8_t>{0, 1, 255, 200, 0, 17});
+  return patch;
+}
+
+TEST(MapFile, VersionThreeKeepsSessionNumbersAndTheMemory) {
+  MapSnapshot map = readMapFile(savedMap());
+  ASSERT_EQ(map.format_version, kMapFormatVersion);
+  ASSERT_EQ(map.sessions.size(), 1u);
+  map.sessions[0].number = 7;  // six earlier sessions left the map whole
+  map.memory = {patchAt(2, 3), patchAt(5, 7)};
+  const std::string path = tempPath("version3.rrrmap");
+  writeMapFile(map, path);
+  const MapSnapshot read = readMapFile(path);
+  EXPECT_EQ(read.sessions[0].number, 7);
+  ASSERT_EQ(read.memory.size(), 2u);
+  for (std::size_t p = 0; p < 2; ++p) {
+    EXPECT_EQ(read.memory[p].session, map.memory[p].session);
+    EXPECT_EQ(read.memory[p].anchor_node, map.memory[p].anchor_node);
+    EXPECT_EQ(read.memory[p].origin, map.memory[p].origin);
+    EXPECT_EQ(read.memory[p].resolution_m, 0.05);
+    EXPECT_EQ(read.memory[p].width, 3);
+    EXPECT_EQ(read.memory[p].height, 2);
+    EXPECT_EQ(*read.memory[p].cells, *map.memory[p].cells);
+  }
+  EXPECT_EQ(rememberedCells(read.memory), 8u);
+  // A continuation numbers its session after the map's newest and carries the memory on.
+  auto slam = LaserSlam::fromMap(read, smallMaps(), "next");
+  EXPECT_EQ(slam->sessions().back().number, 8);
+  drive(*slam, core::Pose2(1.0, 2.0, 0.3), 40, 500.0);
+  const MapSnapshot continued = slam->snapshot();
+  EXPECT_EQ(continued.sessions.back().number, 8);
+  EXPECT_EQ(rememberedCells(continued.memory), 8u);
+
+  // Version 2 numbers its sessions in order and holds no memory: written as version 2, the
+  // numbers are refused unless they are the indices, and so is a memory.
+  MapSnapshot two = readMapFile(savedMap());
+  two.format_version = 2;
+  writeMapFile(two, tempPath("version2.rrrmap"));
+  const MapSnapshot read2 = readMapFile(tempPath("version2.rrrmap"));
+  EXPECT_EQ(read2.format_version, 2u);
+  EXPECT_EQ(read2.sessions[0].number, 0);
+  EXPECT_TRUE(read2.memory.empty());
+  auto refused = [](const MapSnapshot& bad, const char* fault) {
+    try {
+      bad.check();
+      ADD_FAILURE() << fault << ": accepted";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find(fault), std::string::npos) << e.what();
+    }
+  };
+  MapSnapshot numbered = two;
+  numbered.sessions[0].number = 4;
+  refused(numbered, "session 0 has number 4, which format version 2 cannot hold");
+  MapSnapshot remembering = two;
+  remembering.memory = {patchAt(2, 0)};
+  refused(remembering, "format version 2 cannot hold the memory of trimmed submaps");
+
+  // Broken memory and numbers in a version-3 map.
+  MapSnapshot bad = map;
+  bad.memory[1].anchor_node = static_cast<int>(map.nodes.size());
+  refused(bad, "remembered patch 1: its anchor node");
+  bad = map;
+  bad.memory[0].width = 4;
+  refused(bad, "remembered patch 0: it holds 6 cells, not 4 x 2");
+  bad = map;
+  bad.memory[0].resolution_m = std::nan("");
+  refused(bad, "remembered patch 0: its resolution");
+  bad = map;
+  bad.memory[0].origin.x() = 1e300;
+  refused(bad, "remembered patch 0: it lies beyond 1e6 m of its anchor");
+  bad = map;
+  bad.memory[1].session = 8;
+  refused(bad, "remembered patch 1: its session 8 is newer than the map's newest");
+  bad = map;
+  bad.sessions[0].number = -1;
+  refused(bad, "session 0 has number -1, not above the session before's");
 }
 
 TEST(MapFile, ImplausibleContentIsRefusedBeforeAnyGridIsBuiltFromIt) {

@@ -5,7 +5,11 @@
 
 #include <cmath>
 #include <memory>
+#include <optional>
 #include <stdexcept>
+#include <tuple>
+#include <utility>
+#include <vector>
 
 #include "rrr_graphslam/frontend/map_render.h"
 #include "synthetic_room.h"
@@ -111,10 +115,181 @@ TEST(MapRender, LaserSlamNamesEachNodesSession) {
   const MapSnapshot map = second->snapshot();
   ASSERT_EQ(inputs.sessions.size(), map.nodes.size());
   for (std::size_t k = 0; k < map.nodes.size(); ++k) {
-    EXPECT_EQ(inputs.sessions[k], map.nodes[k].session) << k;
+    EXPECT_EQ(inputs.sessions[k],
+              map.sessions[static_cast<std::size_t>(map.nodes[k].session)].number)
+        << k;
   }
   EXPECT_EQ(inputs.sessions.front(), 0);
   EXPECT_EQ(inputs.sessions.back(), 1);
+  EXPECT_EQ(map.sessions.back().number, 1);
+}
+
+// One lap of `world` (every third scan) as nodes of session `session`.
+MapInputs lapOf(const std::vector<Segment>& world, int session) {
+  MapInputs inputs;
+  const RangeScanParams params;
+  for (int k = 0; k < 105; k += 3) {
+    inputs.poses.push_back(truthAt(k));
+    inputs.scans.push_back(std::make_shared<mrpt::obs::CObservation2DRangeScan>(
+        toObservation(castScan(world, truthAt(k)), params)));
+    inputs.sessions.push_back(session);
+  }
+  return inputs;
+}
+
+std::vector<Segment> roomWithBox() {
+  std::vector<Segment> world = room();
+  world.push_back({{7.2, 2.2}, {7.8, 2.2}});
+  world.push_back({{7.8, 2.2}, {7.8, 2.8}});
+  world.push_back({{7.8, 2.8}, {7.2, 2.8}});
+  world.push_back({{7.2, 2.8}, {7.2, 2.2}});
+  return world;
+}
+
+// A lap of session 1 saw a box that the kept lap (session `kept_session`) did not: the lap's
+// scans left the map, its decided cells are remembered, anchored to the kept lap's node 5.
+MapInputs keptLapAndRememberedBox(int kept_session) {
+  MapInputs inputs = lapOf(room(), kept_session);
+  std::optional<RememberedCells> box =
+      rememberScans(lapOf(roomWithBox(), 1), 0.05, 1, 5, inputs.poses[5]);
+  EXPECT_TRUE(box.has_value());
+  if (box) inputs.memory.push_back(*box);
+  inputs.render = MapRenderParams{};
+  inputs.layering = MapLayering::kNewestSession;
+  return inputs;
+}
+
+TEST(MapRender, RememberedCellsShowWhereNoNewerSessionDecidesThem) {
+  // The box's session is newer than the kept lap's: the box shows.
+  MapInputs inputs = keptLapAndRememberedBox(0);
+  ASSERT_EQ(inputs.memory.size(), 1u);
+  EXPECT_EQ(inputs.memory[0].anchor_node, 5);
+  EXPECT_GT(inputs.memory[0].decidedCells(), 1000u);
+  EXPECT_GT(occupancyAt(renderOccupancyMap(inputs, 0.05), 7.2, 2.5), 0.65);
+  // Without the memory the kept lap shows the floor there.
+  MapInputs forgotten = inputs;
+  forgotten.memory.clear();
+  EXPECT_LT(occupancyAt(renderOccupancyMap(forgotten, 0.05), 7.2, 2.5), 0.196);
+  // Older than the kept lap: the kept lap's floor wins; every scan alike: the scans decide the
+  // floor, the memory only fills what they leave unknown.
+  inputs = keptLapAndRememberedBox(2);
+  EXPECT_LT(occupancyAt(renderOccupancyMap(inputs, 0.05), 7.2, 2.5), 0.196);
+  inputs.layering = MapLayering::kAllScans;
+  EXPECT_LT(occupancyAt(renderOccupancyMap(inputs, 0.05), 7.2, 2.5), 0.196);
+  // No scans left at all: the memory alone is the map (its walls and the box).
+  inputs.scans.clear();
+  const auto alone = renderOccupancyMap(inputs, 0.05);
+  EXPECT_GT(occupancyAt(alone, 7.2, 2.5), 0.65);
+  EXPECT_GT(occupancyAt(alone, 12.0, 2.5), 0.65);
+  EXPECT_LT(occupancyAt(alone, 5.0, 2.5), 0.196);
+}
+
+TEST(MapRender, RememberedCellsMoveWithTheirAnchor) {
+  MapInputs inputs = keptLapAndRememberedBox(0);
+  inputs.scans.clear();  // the memory alone
+  // The whole map moved (a later session's re-optimization): 1 m along x, turned 0.2 rad about
+  // the origin. The box moves with the anchor.
+  const core::Pose2 moved(1.0, 0.0, 0.2);
+  for (core::Pose2& x : inputs.poses) x = core::compose(moved, x);
+  const auto grid = renderOccupancyMap(inputs, 0.05);
+  for (const Eigen::Vector2d& wall :
+       {Eigen::Vector2d(7.2, 2.5), Eigen::Vector2d(7.5, 2.2), Eigen::Vector2d(12.0, 2.5)}) {
+    const core::Pose2 there = core::compose(moved, core::Pose2(wall.x(), wall.y(), 0.0));
+    EXPECT_GT(occupancyAt(grid, there.x(), there.y()), 0.65) << wall.transpose();
+  }
+  // Re-anchored to another node, at the same estimate: nothing moves.
+  MapInputs again = inputs;
+  again.memory[0] = reanchored(inputs.memory[0], inputs.poses[5], 20, inputs.poses[20]);
+  EXPECT_EQ(again.memory[0].anchor_node, 20);
+  const auto same = renderOccupancyMap(again, 0.05);
+  ASSERT_EQ(same.getSizeX(), grid.getSizeX());
+  ASSERT_EQ(same.getSizeY(), grid.getSizeY());
+  int differ = 0;
+  for (unsigned y = 0; y < grid.getSizeY(); ++y) {
+    for (unsigned x = 0; x < grid.getSizeX(); ++x) {
+      differ += std::abs(grid.getCell(x, y) - same.getCell(x, y)) > 1e-3F;
+    }
+  }
+  EXPECT_LE(differ, 20);  // a cell centre on a patch cell's edge may round the other way
+}
+
+// A remembered wall one 5 cm cell thick, in front of free floor, rendered at 10 cm: every cell
+// the wall passes through shows it (as a scan's hit would), wherever the lattices fall.
+TEST(MapRender, AThinRememberedWallShowsInACoarserMap) {
+  for (double shift : {0.0, 0.013, 0.025, 0.04}) {
+    MapInputs inputs;
+    inputs.poses = {core::Pose2(shift, shift, 0.0)};
+    RememberedCells patch;
+    patch.anchor_node = 0;
+    patch.resolution_m = 0.05;
+    patch.width = 40;
+    patch.height = 20;
+    std::vector<std::uint8_t> cells(40 * 20, rememberedValue(0.9F));          // free floor
+    for (int i = 0; i < 40; ++i) cells[10 * 40 + i] = rememberedValue(0.1F);  // y in [0.5, 0.55)
+    patch.cells = std::make_shared<const std::vector<std::uint8_t>>(cells);
+    inputs.memory = {patch};
+    const auto grid = renderOccupancyMap(inputs, 0.1);
+    for (double x = 0.1; x < 1.9; x += 0.1) {
+      const double wall = std::max(occupancyAt(grid, shift + x, shift + 0.5),
+                                   occupancyAt(grid, shift + x, shift + 0.549));
+      EXPECT_GT(wall, 0.65) << "x " << x << " shift " << shift;
+      EXPECT_LT(occupancyAt(grid, shift + x, shift + 0.25), 0.196) << x;  // the floor stays free
+    }
+  }
+}
+
+TEST(MapRender, RememberedCellsThatANewerPatchDecidesAreForgotten) {
+  // Two trimmed laps of the room, both remembered: one saw the box (session 1), one did not
+  // (session `room_session`), both anchored to the kept lap's node 5.
+  auto memoryOf = [](int room_session) {
+    MapInputs kept = lapOf(room(), 3);
+    std::vector<RememberedCells> memory;
+    for (const auto& [world, session] :
+         {std::pair{roomWithBox(), 1}, std::pair{room(), room_session}}) {
+      std::optional<RememberedCells> patch =
+          rememberScans(lapOf(world, session), 0.05, session, 5, kept.poses[5]);
+      EXPECT_TRUE(patch.has_value());
+      if (patch) memory.push_back(*patch);
+    }
+    return std::pair{kept.poses, memory};
+  };
+  // The lap without the box is newer: it decides nearly every cell the box's lap decided, which
+  // are forgotten (a few at the edges of what each decides stay: the patches' lattices differ by
+  // a fraction of a cell). The newer patch keeps all of its cells.
+  auto [poses, memory] = memoryOf(2);
+  const std::size_t box_cells = memory[0].decidedCells();
+  const std::size_t room_cells = memory[1].decidedCells();
+  std::vector<RememberedCells> left = forgetSuperseded(memory, poses);
+  ASSERT_GE(left.size(), 1u);
+  ASSERT_LE(left.size(), 2u);
+  EXPECT_EQ(left.back().decidedCells(), room_cells);
+  EXPECT_LT(rememberedCells(left) - room_cells, box_cells / 20);
+  for (const RememberedCells& patch : left) EXPECT_NO_THROW(patch.check(35));
+  // What is rendered is unchanged by forgetting: the newer lap's floor where the box was.
+  MapInputs before;
+  before.poses = poses;
+  before.memory = memory;
+  before.layering = MapLayering::kNewestSession;
+  MapInputs after = before;
+  after.memory = left;
+  EXPECT_LT(occupancyAt(renderOccupancyMap(after, 0.05), 7.2, 2.5), 0.196);
+  EXPECT_LT(occupancyAt(renderOccupancyMap(before, 0.05), 7.2, 2.5), 0.196);
+
+  // The lap without the box is older (session 0): the box's lap, newer, keeps all its cells; the
+  // older keeps only what the newer does not decide (about nothing: the box hides little).
+  std::tie(poses, memory) = memoryOf(0);
+  left = forgetSuperseded(memory, poses);
+  ASSERT_GE(left.size(), 1u);
+  EXPECT_EQ(left.front().session, 1);
+  EXPECT_EQ(left.front().decidedCells(), box_cells);
+  EXPECT_LT(rememberedCells(left) - box_cells, room_cells / 20);
+  after.memory = left;
+  EXPECT_GT(occupancyAt(renderOccupancyMap(after, 0.05), 7.2, 2.5), 0.65);
+
+  // Kept scans never make a remembered cell forgotten: a newer kept session hides it only.
+  MapInputs hidden = keptLapAndRememberedBox(2);
+  EXPECT_EQ(rememberedCells(forgetSuperseded(hidden.memory, hidden.poses)),
+            hidden.memory[0].decidedCells());
 }
 
 TEST(MapRender, LayeringNamesRoundTrip) {

@@ -4,9 +4,12 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <map>
+#include <memory>
 #include <string>
+#include <vector>
 
 #include "rrr_graphslam/core/optimizer.h"
 #include "rrr_graphslam/frontend/laser_slam.h"
@@ -585,6 +588,128 @@ TEST(MapTrimming, SubmapsWithPendingLoopsWaitAndRejectedLoopsGoWithTheirNodes) {
   int rejected_out = 0;
   for (const auto& e : dropped.map.edges) rejected_out += e.verdict == rrr::Verdict::kRejected;
   EXPECT_EQ(rejected_out, 1);
+}
+
+// Sessions of the room, one per entry of `extras`: what stands in the room besides its walls
+// that day. Each later session starts from the map of the ones before, tied to it.
+MapSnapshot sessionsOf(const std::vector<std::vector<testing::Segment>>& extras) {
+  LaserSlamParams params = smallMaps();
+  params.loops.relocalization_confirm_distance_m = 3.0;  // a third of a lap: the sessions tie
+  // What changed stands in space another session saw free: no free-space check of the matches.
+  params.loops.relocalization_max_conflict = 1.0;
+  std::unique_ptr<LaserSlam> slam;
+  for (std::size_t day = 0; day < extras.size(); ++day) {
+    const std::string name = "day" + std::to_string(day + 1);
+    slam = slam ? LaserSlam::fromMap(slam->snapshot(), params, name)
+                : std::make_unique<LaserSlam>(params, name);
+    std::vector<testing::Segment> world = room();
+    world.insert(world.end(), extras[day].begin(), extras[day].end());
+    const core::Pose2 odom_frame(1.0 * day, -2.0 * day, 0.3 * day);
+    for (int k = 0; k < 210; ++k) {
+      RangeScan scan = castScan(world, truthAt(k));
+      scan.timestamp = 1000.0 * static_cast<double>(day) + 0.1 * k;
+      slam->addScan(scan, core::compose(odom_frame, truthAt(k)));
+    }
+    slam->finish();
+  }
+  return slam->snapshot();
+}
+
+// Whether every session after the first is tied to the map (accepted loops to earlier ones).
+bool allTied(const MapSnapshot& map) {
+  std::vector<char> tied(map.sessions.size(), 0);
+  tied[0] = 1;
+  for (const MapSnapshot::Edge& e : map.edges) {
+    if (e.kind != MapSnapshot::EdgeKind::kLoopCandidate || e.verdict != rrr::Verdict::kAccepted) {
+      continue;
+    }
+    const int a = map.nodes[static_cast<std::size_t>(e.from)].session;
+    const int b = map.nodes[static_cast<std::size_t>(e.to)].session;
+    if (a != b) tied[static_cast<std::size_t>(std::max(a, b))] = 1;
+  }
+  return std::all_of(tied.begin(), tied.end(), [](char t) { return t != 0; });
+}
+
+// The map as written, newest session per cell, at 0.05 m.
+mrpt::maps::COccupancyGridMap2D renderedMap(const MapSnapshot& map) {
+  MapInputs inputs = renderInputs(map);
+  inputs.insertion = smallMaps().local.submap;
+  inputs.render = MapRenderParams{};
+  inputs.layering = MapLayering::kNewestSession;
+  return renderOccupancyMap(inputs, 0.05);
+}
+
+double occupancy(const mrpt::maps::COccupancyGridMap2D& grid, double x, double y) {
+  return 1.0 - grid.getPos(static_cast<float>(x), static_cast<float>(y));
+}
+
+// The most occupied cell along x in [x0, x1] at y: a wall at x0..x1, wherever the grid's cells
+// put its rays' ends.
+double wallAt(const mrpt::maps::COccupancyGridMap2D& grid, double x0, double x1, double y) {
+  double most = 0.0;
+  for (double x = x0; x <= x1; x += 0.02) most = std::max(most, occupancy(grid, x, y));
+  return most;
+}
+
+// Day 2 alone saw a screen brought into the room; day 3's robot finds a panel in front of it and
+// never sees the screen's cells again. Trimming takes days 1 and 2's submaps (day 3 covers
+// them); the map still shows the screen, as the newest session that saw it did.
+TEST(MapTrimming, TheCellsOfTrimmedSubmapsStayInTheMap) {
+  const std::vector<testing::Segment> screen = {{{10.55, 1.5}, {10.55, 3.0}}};
+  const std::vector<testing::Segment> panel = {{{10.25, 1.2}, {10.25, 3.3}}};
+  const MapSnapshot map = sessionsOf({{}, screen, panel});
+  ASSERT_TRUE(allTied(map));
+  ASSERT_EQ(map.sessions.back().number, 2);
+  // Untrimmed: day 2's view of the screen, the newest there is.
+  EXPECT_GT(wallAt(renderedMap(map), 10.45, 10.6, 2.2), 0.65);
+  TrimParams params = trimParams();
+  params.keep_current_session = true;
+  params.trim_overlap_ratio = 0.5;
+  params.report_kl = false;
+  const SubmapParams submap = smallMaps().local.submap;
+
+  params.remember_trimmed_cells = false;
+  const TrimResult plain = trimMap(map, params, submap);
+  ASSERT_GT(plain.report.trimmed_submaps, 0);
+  EXPECT_TRUE(plain.map.memory.empty());
+  EXPECT_LT(wallAt(renderedMap(plain.map), 10.45, 10.6, 2.2), 0.65);  // it left with day 2
+
+  params.remember_trimmed_cells = true;
+  const TrimResult kept = trimMap(map, params, submap);
+  EXPECT_EQ(kept.report.trimmed_submaps, plain.report.trimmed_submaps);
+  EXPECT_EQ(kept.map.nodes.size(), plain.map.nodes.size());  // the graph is trimmed alike
+  EXPECT_EQ(kept.map.edges.size(), plain.map.edges.size());
+  EXPECT_GT(kept.report.remembered_patches, 0);
+  EXPECT_EQ(kept.report.remembered_cells, rememberedCells(kept.map.memory));
+  EXPECT_GT(kept.report.forgotten_cells, 0u);  // day 3 decides most of what days 1-2 saw
+  const auto grid = renderedMap(kept.map);
+  for (double y : {1.7, 2.2, 2.8}) EXPECT_GT(wallAt(grid, 10.45, 10.6, y), 0.65) << y;
+  EXPECT_LT(occupancy(grid, 8.0, 2.2), 0.196);      // the floor as day 3 saw it
+  EXPECT_GT(wallAt(grid, 10.15, 10.3, 2.2), 0.65);  // day 3's panel
+  for (const RememberedCells& patch : kept.map.memory) {
+    EXPECT_LE(patch.session, 1);  // days 1-2: day 3 is kept whole
+    EXPECT_GE(patch.anchor_node, 0);
+  }
+
+  // Saved and loaded: the same memory; continued: a new session numbered after the others,
+  // the memory carried on; trimmed again, the sessions keep their numbers.
+  const std::string path = ::testing::TempDir() + "/remembered.rrrmap";
+  writeMapFile(kept.map, path);
+  const MapSnapshot read = readMapFile(path);
+  ASSERT_EQ(read.memory.size(), kept.map.memory.size());
+  for (std::size_t p = 0; p < read.memory.size(); ++p) {
+    EXPECT_EQ(read.memory[p].session, kept.map.memory[p].session);
+    EXPECT_EQ(read.memory[p].anchor_node, kept.map.memory[p].anchor_node);
+    EXPECT_EQ(read.memory[p].origin, kept.map.memory[p].origin);
+    EXPECT_EQ(*read.memory[p].cells, *kept.map.memory[p].cells);
+  }
+  for (std::size_t s = 0; s < read.sessions.size(); ++s) {
+    EXPECT_EQ(read.sessions[s].number, kept.map.sessions[s].number);
+  }
+  auto next = LaserSlam::fromMap(read, smallMaps(), "day4");
+  EXPECT_EQ(next->sessions().back().number, kept.map.sessions.back().number + 1);
+  EXPECT_EQ(next->mapInputs().memory.size(), read.memory.size());
+  EXPECT_EQ(rememberedCells(next->memory()), rememberedCells(read.memory));
 }
 
 TEST(MapTrimming, DeletionAndTheFreshAreaRuleAreTheAlternatives) {

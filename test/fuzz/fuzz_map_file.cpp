@@ -46,8 +46,8 @@ void putLittleEndian(std::string& out, T value) {
   }
 }
 
-// A whole version-1 file around `payload`, as writeMapFile lays it out.
-std::string wrapPayload(const std::uint8_t* payload, std::size_t size) {
+// A whole file of `version` around `payload`, as writeMapFile lays it out.
+std::string wrapPayload(std::uint32_t version, const std::uint8_t* payload, std::size_t size) {
   uLongf packed_size = compressBound(static_cast<uLong>(size));
   std::string packed(packed_size, '\0');
   if (compress2(reinterpret_cast<Bytef*>(packed.data()), &packed_size, payload,
@@ -57,7 +57,7 @@ std::string wrapPayload(const std::uint8_t* payload, std::size_t size) {
   }
   packed.resize(packed_size);
   std::string file(kMagic, sizeof kMagic);
-  putLittleEndian<std::uint32_t>(file, 1);
+  putLittleEndian<std::uint32_t>(file, version);
   putLittleEndian<std::uint64_t>(file, size);
   putLittleEndian<std::uint64_t>(file, packed.size());
   putLittleEndian<std::uint32_t>(
@@ -115,7 +115,16 @@ bool sameMap(const MapSnapshot& a, const MapSnapshot& b) {
   for (std::size_t k = 0; k < a.sessions.size(); ++k) {
     const auto &sa = a.sessions[k], &sb = b.sessions[k];
     if (sa.name != sb.name || !sameBits(sa.start_time, sb.start_time) ||
-        sa.first_node != sb.first_node) {
+        sa.first_node != sb.first_node || sa.number != sb.number) {
+      return false;
+    }
+  }
+  if (a.memory.size() != b.memory.size()) return false;
+  for (std::size_t k = 0; k < a.memory.size(); ++k) {
+    const auto &pa = a.memory[k], &pb = b.memory[k];
+    if (pa.session != pb.session || pa.anchor_node != pb.anchor_node ||
+        !samePose(pa.origin, pb.origin) || !sameBits(pa.resolution_m, pb.resolution_m) ||
+        pa.width != pb.width || pa.height != pb.height || *pa.cells != *pb.cells) {
       return false;
     }
   }
@@ -220,7 +229,18 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   const bool whole_file =
       size >= sizeof fuzz::kMagic && std::memcmp(data, fuzz::kMagic, sizeof fuzz::kMagic) == 0;
   std::string wrapped;
-  if (!whole_file) wrapped = fuzz::wrapPayload(data, size);
+  if (!whole_file) {
+    // A payload of the version its first two bytes name ("V2", "V3": the later sections), or of
+    // version 1.
+    std::uint32_t version = 1;
+    if (size >= 2 && data[0] == 'V' && data[1] >= '1' &&
+        data[1] < '1' + static_cast<int>(frontend::kMapFormatVersion)) {
+      version = static_cast<std::uint32_t>(data[1] - '0');
+      data += 2;
+      size -= 2;
+    }
+    wrapped = fuzz::wrapPayload(version, data, size);
+  }
   const std::string& path =
       whole_file
           ? fuzz::writeInput(data, size)

@@ -424,7 +424,8 @@ def test_a_saved_map_is_continued_as_a_new_session_from_another_odometry_frame(t
     for key in ("format_version", "sessions", "nodes", "edges", "loop_edges_accepted",
                 "loop_edges_rejected", "submaps", "scans", "bytes"):
         assert key in keys, key
-    assert keys["format_version"] == "2" and keys["sessions"] == "1"
+    assert keys["format_version"] == "3" and keys["sessions"] == "1"
+    assert keys["remembered_patches"] == "0" and keys["remembered_cells"] == "0"
     assert int(keys["bytes"]) == first_map.stat().st_size
     assert len(read_graph(str(tmp_path / "g.g2o")).poses) == int(keys["nodes"])
     assert (tmp_path / "m.pgm").read_bytes().startswith(b"P5")
@@ -527,6 +528,12 @@ def test_lifelong_trims_covered_submaps_when_the_map_is_saved(tmp_path):
     assert int(after["marginalized_nodes"]) == int(trim["trim_nodes"])
     assert int(after["marginal_edges"]) > 0
     assert int(after["nodes"]) < 2 * int(before["nodes"])
+    # The trimmed submaps' decided cells were remembered; those the second session decides again
+    # (it drove the same way) were forgotten; the file holds what is left.
+    assert int(trim["trim_remembered_patches"]) > 0, second.stdout
+    assert int(trim["trim_forgotten_cells"]) > 0, second.stdout
+    assert after["remembered_cells"] == trim["trim_remembered_cells"]
+    assert int(after["remembered_patches"]) <= int(trim["trim_remembered_patches"])
     # The trimmed map is continued like any other.
     third = run(SLAM_OFFLINE, moved, "--load-map", first_map, "--max-scans", 40, "--refine-resolution", 0,
                 "--quiet", *SMALL_SUBMAPS)

@@ -167,6 +167,8 @@ class Sessions(unittest.TestCase):
             self.assertTrue(wait_for(lambda: status["last"].trimmed_submaps == submaps, 10.0), str(status["last"]))
             self.assertGreater(status["last"].marginalized_nodes, 0)
             self.assertGreater(status["last"].marginal_edges, 0)
+            # What the trimmed submaps alone saw stays in the map (doc/lifelong.md, step 5).
+            self.assertGreater(status["last"].remembered_cells, 0)
             self.assertTrue(wait_for(lambda: "marginal" in markers and markers["marginal"].points, 10.0),
                             sorted(markers))
         finally:

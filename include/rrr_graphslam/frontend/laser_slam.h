@@ -185,6 +185,8 @@ class LaserSlam {
   std::size_t sessionFirstScan() const { return session_first_scan_; }
   /// What lifelong trimming removed from the map over its life, as loaded (map_trimming.h).
   const MapSnapshot::Lifelong& lifelong() const { return lifelong_; }
+  /// The cells trimmed submaps decided that the rendered map keeps (map_memory.h), as loaded.
+  const std::vector<RememberedCells>& memory() const { return memory_; }
   /// Timestamp of every node.
   const std::vector<double>& nodeTimestamps() const { return node_timestamps_; }
 
@@ -245,6 +247,7 @@ class LaserSlam {
   std::vector<double> node_timestamps_;
   std::vector<MapSnapshot::Submap> finished_spans_;  // nodes of each finished submap
   MapSnapshot::Lifelong lifelong_;                   // what trimming removed, as loaded
+  std::vector<RememberedCells> memory_;              // the map's memory of trimmed submaps
   int session_first_submap_ = 0;  // submaps of earlier sessions have smaller indices
   std::size_t session_first_scan_ = 0;
   std::optional<Tie> tie_;

@@ -23,14 +23,16 @@
 
 #include "rrr_graphslam/core/pose_graph.h"
 #include "rrr_graphslam/core/se2.h"
+#include "rrr_graphslam/frontend/map_memory.h"
 #include "rrr_graphslam/rrr/rrr.h"
 
 namespace rrr_graphslam::frontend {
 
 /// The format version this build writes; it reads versions 1 to this one. Version 2 added
 /// marginal edges and the lifelong counters (a version-1 map holds neither; it is read as is and
-/// continued as version 2).
-constexpr std::uint32_t kMapFormatVersion = 2;
+/// continued as the newest version); version 3 the sessions' numbers and the map's memory of
+/// trimmed submaps (map_memory.h; an older map has none, and its sessions are numbered in order).
+constexpr std::uint32_t kMapFormatVersion = 3;
 
 /// What a map file holds. Node k has id k; sessions' nodes are consecutive.
 struct MapSnapshot {
@@ -38,6 +40,9 @@ struct MapSnapshot {
     std::string name;
     double start_time = 0.0;  ///< the first node's timestamp
     int first_node = 0;
+    /// The session's place in the map's life, kept when earlier sessions leave it whole
+    /// (trimming): numbers grow with every session (version 3 on; older files: the index).
+    int number = 0;
   };
   struct Node {
     int session = 0;
@@ -78,6 +83,8 @@ struct MapSnapshot {
   std::vector<Edge> edges;
   std::vector<Submap> submaps;
   Lifelong lifelong;
+  /// Cells trimmed submaps decided that the rendered map keeps showing (version 3 on).
+  std::vector<RememberedCells> memory;
 
   /// Throws std::invalid_argument naming the first inconsistency (node indices out of range,
   /// sessions out of order, a node without a scan, a version that cannot hold what the map

@@ -14,6 +14,10 @@
 // needs about 35 rays through it before map_server's free threshold (0.196) calls it free: cells
 // of one pass stay unknown, and where the world changed the newest session's view rarely decides
 // a cell. The map's own probabilities (MapRenderParams) decide a cell in a few rays.
+//
+// Memory: a lifelong map's remembered cells (map_memory.h) are layers of their sessions. With
+// kNewestSession a patch's cell shows where no newer session (kept scans or patch) decides the
+// cell; with kAllScans, where the kept scans leave the cell unknown (newest patch first).
 
 #include <memory>
 #include <optional>
@@ -25,6 +29,8 @@
 
 #include "rrr_graphslam/core/param_info.h"
 #include "rrr_graphslam/core/se2.h"
+#include "rrr_graphslam/frontend/map_file.h"
+#include "rrr_graphslam/frontend/map_memory.h"
 #include "rrr_graphslam/frontend/submap.h"
 
 namespace rrr_graphslam::frontend {
@@ -59,12 +65,20 @@ void validate(const MapRenderParams& params);
 struct MapInputs {
   std::vector<core::Pose2> poses;  ///< map pose of every node
   std::vector<std::shared_ptr<const mrpt::obs::CObservation2DRangeScan>> scans;  ///< per node
-  SubmapParams insertion;     ///< how a scan is inserted (ranges, occupancy probabilities)
-  std::vector<int> sessions;  ///< per node, for kNewestSession (empty: one session)
+  SubmapParams insertion;  ///< how a scan is inserted (ranges, occupancy probabilities)
+  /// Per node, for kNewestSession and the memory: its session's number (newer sessions have
+  /// larger numbers; empty: one session).
+  std::vector<int> sessions;
   MapLayering layering = MapLayering::kAllScans;
   /// Unset: the submaps' own updates (a map to match scans against, as the matcher sees them).
   std::optional<MapRenderParams> render;
+  /// Cells trimmed submaps decided (lifelong maps), anchored to nodes of `poses`.
+  std::vector<RememberedCells> memory;
 };
+
+/// What a saved map's occupancy map is made of: every node's scan at its map pose, the sessions
+/// by number, the memory; the insertion and render parameters left at their defaults.
+MapInputs renderInputs(const MapSnapshot& map);
 
 /// "all" or "newest-session".
 std::string toString(MapLayering layering);
@@ -74,5 +88,20 @@ MapLayering parseMapLayering(const std::string& text);
 /// The grid spans the trajectory's bounding box and grows to fit the rays. Throws
 /// std::invalid_argument for render parameters out of range.
 mrpt::maps::COccupancyGridMap2D renderOccupancyMap(const MapInputs& inputs, double resolution_m);
+
+/// The cells that `inputs`' scans (a trimmed submap's leaving nodes, at their map poses) decide,
+/// at the evidence of `inputs.render` (unset: MapRenderParams' defaults), as a patch of
+/// `resolution_m` cells anchored to `anchor_node` at `anchor_map_pose`; nullopt if they decide
+/// none.
+std::optional<RememberedCells> rememberScans(const MapInputs& inputs, double resolution_m,
+                                             int session, int anchor_node,
+                                             const core::Pose2& anchor_map_pose);
+
+/// `memory` (anchored to nodes at `poses`) without the cells a newer patch decides (a newer
+/// session's, or a later one of the same session), compared at the finest patch resolution:
+/// each patch cropped to the cells left, empty ones dropped. Each cell keeps the newest trimmed
+/// view of it: the memory is bounded by the area.
+std::vector<RememberedCells> forgetSuperseded(const std::vector<RememberedCells>& memory,
+                                              const std::vector<core::Pose2>& poses);
 
 }  // namespace rrr_graphslam::frontend

@@ -21,6 +21,9 @@
 //      blanket, from the constraints touching them only.
 //   4. Sparsification: the Chow-Liu tree of that marginal (core/chow_liu.h) replaces it as
 //      marginal constraints (kClt), or nothing does (kDelete, Cartographer's trimmer).
+//   5. Memory (map_memory.h): the cells each trimmed submap's leaving scans decide are kept as a
+//      patch anchored to the nearest node that stays, for the rendered map; patches whose anchor
+//      leaves move to the nearest that stays; the cells a newer patch decides are forgotten.
 //
 // RRR's verdicts: only trusted information is folded into marginal constraints. A submap with a
 // node that a pending loop candidate touches waits (it is not trimmed until the loop is decided);
@@ -41,6 +44,7 @@
 #include "rrr_graphslam/core/chow_liu.h"
 #include "rrr_graphslam/core/param_info.h"
 #include "rrr_graphslam/frontend/map_file.h"
+#include "rrr_graphslam/frontend/map_render.h"
 #include "rrr_graphslam/frontend/submap.h"
 
 namespace rrr_graphslam::frontend {
@@ -94,8 +98,18 @@ struct TrimParams {
   /// of a trim (one covariance of the whole graph over the blanket per trim; on a large map it
   /// takes far longer than the trims themselves).
   bool report_kl = false;
-  /// Threads that build the coverage grids.
+  /// Threads that build the coverage grids and the remembered patches.
   int threads = 2;
+  /// The map's memory (map_memory.h): the cells a trimmed submap's leaving scans decide stay in
+  /// the rendered map wherever no newer session decides them (a remembered cell a newer patch
+  /// decides is forgotten). false: they leave with the scans (Cartographer's trimmer); the memory
+  /// the map holds is kept as it is.
+  bool remember_trimmed_cells = true;
+  /// Cell size of the remembered patches (m); the rendered map's default.
+  double memory_resolution_m = 0.05;
+  /// The evidence that decides a remembered cell: the rendered map's (--map-hit-probability,
+  /// --map-miss-probability).
+  MapRenderParams memory_evidence;
 };
 
 /// Throws std::invalid_argument naming the parameter out of range.
@@ -173,6 +187,12 @@ struct TrimReport {
   /// The trusted graph's optimization before the trims (where they all linearize) and after
   /// (the trimmed map at its own minimum); with kDelete and report_kl, after each deletion too.
   double optimize_seconds = 0.0;
+  /// The memory: patches made of this trim's leaving scans, remembered cells in the trimmed
+  /// map, cells forgotten because newer patches decide them, and the time it all took.
+  int remembered_patches = 0;
+  std::size_t remembered_cells = 0;
+  std::size_t forgotten_cells = 0;
+  double memory_seconds = 0.0;
   double seconds = 0.0;  ///< everything
   int removedNodes() const;
   int marginalEdges() const;

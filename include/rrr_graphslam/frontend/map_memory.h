@@ -1,0 +1,66 @@
+#pragma once
+// The map's memory of what trimming removed (lifelong maps, doc/lifelong.md): when a submap is
+// trimmed its scans leave the map, and with them the newest view of any cell that no kept scan
+// decides (a door only that session saw closed, a box its rays alone reached). Trimming keeps
+// those cells as a patch: the cells the leaving scans decide (occupied or free at the rendered
+// map's evidence and map_server's thresholds), stamped with the session that saw them, and
+// anchored to a node that stays, so the patch moves with the graph when later sessions
+// re-optimize it (rtabmap's local grids ride with their nodes the same way).
+//
+// The rendered map (map_render.h) takes each cell from the newest session that decides it, among
+// the kept scans' sessions and the patches: a remembered cell shows where no newer session
+// decides the cell. When a map is trimmed, the patch cells that a newer patch decides are
+// forgotten, and a patch left empty is dropped, so the memory holds one view per cell of the
+// area at most: it grows with the area, not with time. (A remembered cell that a newer kept
+// session decides stays, hidden: that session's own patches, each one submap's leaving scans,
+// may not decide it when they come.) The memory is drawn in the map only: scan matching and
+// relocalization use the kept submaps.
+
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "rrr_graphslam/core/se2.h"
+
+namespace rrr_graphslam::frontend {
+
+/// The cells a trimmed submap's scans decided: a patch of grid, axis-aligned in its own frame.
+struct RememberedCells {
+  /// Cell values: 0 unknown, else 1 + 254 * the probability that the cell is free (MRPT's
+  /// getCell()), rounded; decided cells only (map_server reads them occupied or free).
+  static constexpr std::uint8_t kUnknown = 0;
+
+  int session = 0;      ///< MapSnapshot::Session::number of the session whose scans decided them
+  int anchor_node = 0;  ///< the node the patch moves with
+  /// The patch frame in the anchor node's frame: cell (i, j) spans [i, i + 1) x [j, j + 1) times
+  /// resolution_m from its origin.
+  core::Pose2 origin = core::Pose2::Zero();
+  double resolution_m = 0.05;
+  int width = 0;                                           ///< cells along x
+  int height = 0;                                          ///< cells along y
+  std::shared_ptr<const std::vector<std::uint8_t>> cells;  ///< row-major, width * height
+
+  /// Throws std::invalid_argument naming what is wrong (sizes, a non-finite origin, a resolution
+  /// out of (0, 10] m, an anchor outside [0, nodes)).
+  void check(int nodes) const;
+  /// Cells that are not unknown.
+  std::size_t decidedCells() const;
+};
+
+/// Encodes a probability of being free in a decided cell's value.
+std::uint8_t rememberedValue(float free_probability);
+/// The probability of being free a decided cell's value stands for.
+float freeProbability(std::uint8_t value);
+
+/// The patch's pose in the map frame, given its anchor node's map pose.
+core::Pose2 patchPose(const RememberedCells& patch, const core::Pose2& anchor_map_pose);
+
+/// The same patch anchored to another node (`anchor_map_pose` and `new_anchor_map_pose` at the
+/// same estimate of the graph): its cells stay where they are in the map.
+RememberedCells reanchored(const RememberedCells& patch, const core::Pose2& anchor_map_pose,
+                           int new_anchor, const core::Pose2& new_anchor_map_pose);
+
+/// Decided cells of every patch.
+std::size_t rememberedCells(const std::vector<RememberedCells>& memory);
+
+}  // namespace rrr_graphslam::frontend
