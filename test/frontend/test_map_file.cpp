@@ -167,6 +167,17 @@ TEST(MapFile, AVersionOneMapIsReadAsItIsAndContinuedAsTheNewest) {
   EXPECT_THROW(writeMapFile(counted, tempPath("bad_version1.rrrmap")), std::invalid_argument);
 }
 
+// `map` fails check() with a message holding `fault`, and is not written.
+void expectRefused(const MapSnapshot& map, const char* fault) {
+  try {
+    map.check();
+    ADD_FAILURE() << fault << ": accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find(fault), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(writeMapFile(map, tempPath("refused.rrrmap")), std::invalid_argument);
+}
+
 // A patch of remembered cells (map_memory.h) anchored to node `anchor`.
 RememberedCells patchAt(int anchor, int session) {
   RememberedCells patch;
@@ -219,69 +230,52 @@ TEST(MapFile, VersionThreeKeepsSessionNumbersAndTheMemory) {
   EXPECT_EQ(read2.format_version, 2u);
   EXPECT_EQ(read2.sessions[0].number, 0);
   EXPECT_TRUE(read2.memory.empty());
-  auto refused = [](const MapSnapshot& bad, const char* fault) {
-    try {
-      bad.check();
-      ADD_FAILURE() << fault << ": accepted";
-    } catch (const std::invalid_argument& e) {
-      EXPECT_NE(std::string(e.what()).find(fault), std::string::npos) << e.what();
-    }
-  };
   MapSnapshot numbered = two;
   numbered.sessions[0].number = 4;
-  refused(numbered, "session 0 has number 4, which format version 2 cannot hold");
+  expectRefused(numbered, "session 0 has number 4, which format version 2 cannot hold");
   MapSnapshot remembering = two;
   remembering.memory = {patchAt(2, 0)};
-  refused(remembering, "format version 2 cannot hold the memory of trimmed submaps");
+  expectRefused(remembering, "format version 2 cannot hold the memory of trimmed submaps");
 
   // Broken memory and numbers in a version-3 map.
   MapSnapshot bad = map;
   bad.memory[1].anchor_node = static_cast<int>(map.nodes.size());
-  refused(bad, "remembered patch 1: its anchor node");
+  expectRefused(bad, "remembered patch 1: its anchor node");
   bad = map;
   bad.memory[0].width = 4;
-  refused(bad, "remembered patch 0: it holds 6 cells, not 4 x 2");
+  expectRefused(bad, "remembered patch 0: it holds 6 cells, not 4 x 2");
   bad = map;
   bad.memory[0].resolution_m = std::nan("");
-  refused(bad, "remembered patch 0: its resolution");
+  expectRefused(bad, "remembered patch 0: its resolution");
   bad = map;
   bad.memory[0].origin.x() = 1e300;
-  refused(bad, "remembered patch 0: it lies beyond 1e6 m of its anchor");
+  expectRefused(bad, "remembered patch 0: it lies beyond 1e6 m of its anchor");
   bad = map;
   bad.memory[1].session = 8;
-  refused(bad, "remembered patch 1: its session 8 is newer than the map's newest");
+  expectRefused(bad, "remembered patch 1: its session 8 is newer than the map's newest");
   bad = map;
   bad.sessions[0].number = -1;
-  refused(bad, "session 0 has number -1, not above the session before's");
+  expectRefused(bad, "session 0 has number -1, not above the session before's");
 }
 
 TEST(MapFile, ImplausibleContentIsRefusedBeforeAnyGridIsBuiltFromIt) {
   // What local SLAM refuses live (ScanRefused) is refused in a file too: a grid rebuilt from it
   // would try to grow to 1e300 m.
   const MapSnapshot good = readMapFile(savedMap());
-  auto refused = [](const MapSnapshot& map, const char* fault) {
-    try {
-      map.check();
-      ADD_FAILURE() << fault << ": accepted";
-    } catch (const std::invalid_argument& e) {
-      EXPECT_NE(std::string(e.what()).find(fault), std::string::npos) << e.what();
-    }
-    EXPECT_THROW(writeMapFile(map, tempPath("implausible.rrrmap")), std::invalid_argument);
-  };
   MapSnapshot far = good;
   far.nodes[3].map_pose.x() = 1e300;
-  refused(far, "node 3 has a pose beyond 1e6 m");
+  expectRefused(far, "node 3 has a pose beyond 1e6 m");
   MapSnapshot laser = good;
   auto moved = std::make_shared<mrpt::obs::CObservation2DRangeScan>(*good.nodes[2].scan);
   moved->sensorPose.x(1e300);
   laser.nodes[2].scan = moved;
-  refused(laser, "node 2's scan has its laser more than 100 m from the robot");
+  expectRefused(laser, "node 2's scan has its laser more than 100 m from the robot");
   MapSnapshot reading = good;
   auto nan = std::make_shared<mrpt::obs::CObservation2DRangeScan>(*good.nodes[1].scan);
   nan->setScanRange(0, std::nanf(""));
   nan->setScanRangeValidity(0, true);
   reading.nodes[1].scan = nan;
-  refused(reading, "node 1's scan has a valid reading outside [0, maxRange]");
+  expectRefused(reading, "node 1's scan has a valid reading outside [0, maxRange]");
   // A map without nodes is not saved.
   EXPECT_THROW(LaserSlam(smallMaps()).snapshot(), std::invalid_argument);
 }

@@ -27,24 +27,37 @@ double occupancyAt(const mrpt::maps::COccupancyGridMap2D& grid, double x, double
   return 1.0 - grid.getPos(static_cast<float>(x), static_cast<float>(y));
 }
 
+// One lap of `world` (every third scan) as nodes of session `session`.
+MapInputs lapOf(const std::vector<Segment>& world, int session) {
+  MapInputs inputs;
+  const RangeScanParams params;
+  for (int k = 0; k < 105; k += 3) {
+    inputs.poses.push_back(truthAt(k));
+    inputs.scans.push_back(std::make_shared<mrpt::obs::CObservation2DRangeScan>(
+        toObservation(castScan(world, truthAt(k)), params)));
+    inputs.sessions.push_back(session);
+  }
+  return inputs;
+}
+
+std::vector<Segment> roomWithBox() {
+  std::vector<Segment> world = room();
+  world.push_back({{7.2, 2.2}, {7.8, 2.2}});
+  world.push_back({{7.8, 2.2}, {7.8, 2.8}});
+  world.push_back({{7.8, 2.8}, {7.2, 2.8}});
+  world.push_back({{7.2, 2.8}, {7.2, 2.2}});
+  return world;
+}
+
 // Sessions 0-2 drive a lap around a box at (7.5, 2.5) that session 3 finds gone: three laps
 // saw it, one did not.
 MapInputs boxThatLeft() {
-  std::vector<Segment> with_box = room();
-  with_box.push_back({{7.2, 2.2}, {7.8, 2.2}});
-  with_box.push_back({{7.8, 2.2}, {7.8, 2.8}});
-  with_box.push_back({{7.8, 2.8}, {7.2, 2.8}});
-  with_box.push_back({{7.2, 2.8}, {7.2, 2.2}});
   MapInputs inputs;
-  const RangeScanParams params;
   for (int session = 0; session < 4; ++session) {
-    for (int k = 0; k < 105; k += 3) {
-      const RangeScan scan = castScan(session < 3 ? with_box : room(), truthAt(k));
-      inputs.poses.push_back(truthAt(k));
-      inputs.scans.push_back(
-          std::make_shared<mrpt::obs::CObservation2DRangeScan>(toObservation(scan, params)));
-      inputs.sessions.push_back(session);
-    }
+    const MapInputs lap = lapOf(session < 3 ? roomWithBox() : room(), session);
+    inputs.poses.insert(inputs.poses.end(), lap.poses.begin(), lap.poses.end());
+    inputs.scans.insert(inputs.scans.end(), lap.scans.begin(), lap.scans.end());
+    inputs.sessions.insert(inputs.sessions.end(), lap.sessions.begin(), lap.sessions.end());
   }
   return inputs;
 }
@@ -122,28 +135,6 @@ TEST(MapRender, LaserSlamNamesEachNodesSession) {
   EXPECT_EQ(inputs.sessions.front(), 0);
   EXPECT_EQ(inputs.sessions.back(), 1);
   EXPECT_EQ(map.sessions.back().number, 1);
-}
-
-// One lap of `world` (every third scan) as nodes of session `session`.
-MapInputs lapOf(const std::vector<Segment>& world, int session) {
-  MapInputs inputs;
-  const RangeScanParams params;
-  for (int k = 0; k < 105; k += 3) {
-    inputs.poses.push_back(truthAt(k));
-    inputs.scans.push_back(std::make_shared<mrpt::obs::CObservation2DRangeScan>(
-        toObservation(castScan(world, truthAt(k)), params)));
-    inputs.sessions.push_back(session);
-  }
-  return inputs;
-}
-
-std::vector<Segment> roomWithBox() {
-  std::vector<Segment> world = room();
-  world.push_back({{7.2, 2.2}, {7.8, 2.2}});
-  world.push_back({{7.8, 2.2}, {7.8, 2.8}});
-  world.push_back({{7.8, 2.8}, {7.2, 2.8}});
-  world.push_back({{7.2, 2.8}, {7.2, 2.2}});
-  return world;
 }
 
 // A lap of session 1 saw a box that the kept lap (session `kept_session`) did not: the lap's
