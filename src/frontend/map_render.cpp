@@ -267,28 +267,38 @@ mrpt::maps::COccupancyGridMap2D renderOccupancyMap(const MapInputs& inputs, doub
   return render(inputs, resolution_m, nullptr);
 }
 
-std::optional<RememberedCells> rememberScans(const MapInputs& inputs, double resolution_m,
-                                             int session, int anchor_node,
-                                             const core::Pose2& anchor_map_pose) {
+std::vector<RememberedCells> rememberScans(const MapInputs& inputs, double resolution_m,
+                                           int session, double tile_m, const PatchAnchor& anchor) {
   MapInputs scans = inputs;
   scans.memory.clear();
   scans.sessions.clear();
   scans.layering = MapLayering::kAllScans;
   if (!scans.render) scans.render = MapRenderParams{};
   const mrpt::maps::COccupancyGridMap2D grid = renderOccupancyMap(scans, resolution_m);
-  int x0 = static_cast<int>(grid.getSizeX()), x1 = -1;
-  int y0 = static_cast<int>(grid.getSizeY()), y1 = -1;
-  for (int cy = 0; cy < static_cast<int>(grid.getSizeY()); ++cy) {
-    for (int cx = 0; cx < static_cast<int>(grid.getSizeX()); ++cx) {
-      if (!decides(grid.getCell(cx, cy))) continue;
-      x0 = std::min(x0, cx);
-      x1 = std::max(x1, cx);
-      y0 = std::min(y0, cy);
-      y1 = std::max(y1, cy);
+  const int size_x = static_cast<int>(grid.getSizeX());
+  const int size_y = static_cast<int>(grid.getSizeY());
+  const int tile = std::max(1, static_cast<int>(std::lround(tile_m / grid.getResolution())));
+  std::vector<RememberedCells> patches;
+  for (int ty = 0; ty < size_y; ty += tile) {
+    for (int tx = 0; tx < size_x; tx += tile) {
+      int x0 = size_x, x1 = -1, y0 = size_y, y1 = -1;
+      for (int cy = ty; cy < std::min(ty + tile, size_y); ++cy) {
+        for (int cx = tx; cx < std::min(tx + tile, size_x); ++cx) {
+          if (!decides(grid.getCell(cx, cy))) continue;
+          x0 = std::min(x0, cx);
+          x1 = std::max(x1, cx);
+          y0 = std::min(y0, cy);
+          y1 = std::max(y1, cy);
+        }
+      }
+      if (x1 < 0) continue;
+      const Eigen::Vector2d centre(0.5 * (grid.idx2x(x0) + grid.idx2x(x1)),
+                                   0.5 * (grid.idx2y(y0) + grid.idx2y(y1)));
+      const auto [node, node_pose] = anchor(centre);
+      patches.push_back(patchOf(grid, x0, x1, y0, y1, session, node, node_pose));
     }
   }
-  if (x1 < 0) return std::nullopt;
-  return patchOf(grid, x0, x1, y0, y1, session, anchor_node, anchor_map_pose);
+  return patches;
 }
 
 std::vector<RememberedCells> forgetSuperseded(const std::vector<RememberedCells>& memory,

@@ -7,7 +7,6 @@
 #include <exception>
 #include <limits>
 #include <map>
-#include <optional>
 #include <stdexcept>
 #include <unordered_set>
 
@@ -95,6 +94,9 @@ namespace {
 
 using core::NodeId;
 using Cells = std::vector<std::uint64_t>;  // sorted cell keys in the map frame
+
+// Step 5's patches are cut into tiles of this side (m), each anchored to the node nearest it.
+constexpr double kMemoryTileM = 10.0;
 
 std::uint64_t cellKey(double x, double y, double resolution) {
   const auto ix = static_cast<std::int32_t>(std::floor(x / resolution));
@@ -237,43 +239,43 @@ Eigen::Vector2d patchCentre(const RememberedCells& patch, const core::Pose2& anc
   return centre.head<2>();
 }
 
-// Step 5's patches: per trimmed submap, the cells its leaving nodes' scans decide at `poses`,
-// anchored to the nearest node that stays (submaps without leaving nodes: none).
-std::vector<RememberedCells> rememberLeaving(
-    const MapSnapshot& map, const std::vector<core::Pose2>& poses, const std::vector<int>& owner,
-    const std::vector<char>& leaves, const TrimParams& params, const SubmapParams& submap_params) {
+// Step 5's patches: per session, the cells its leaving nodes' scans decide together at `poses`
+// (a cell a session's passes saw from several submaps' scans is decided as the untrimmed map
+// would), in tiles anchored to the nearest node that stays.
+std::vector<RememberedCells> rememberLeaving(const MapSnapshot& map,
+                                             const std::vector<core::Pose2>& poses,
+                                             const std::vector<char>& leaves,
+                                             const TrimParams& params,
+                                             const SubmapParams& submap_params) {
   const std::size_t n = map.nodes.size();
   std::vector<char> stays(n, 0);
   for (std::size_t k = 0; k < n; ++k) stays[k] = !leaves[k];
-  std::vector<std::vector<std::size_t>> of_submap(map.submaps.size());
+  std::vector<std::vector<std::size_t>> of_session(map.sessions.size());
   for (std::size_t k = 0; k < n; ++k) {
-    if (leaves[k]) of_submap[static_cast<std::size_t>(owner[k])].push_back(k);
+    if (leaves[k]) of_session[static_cast<std::size_t>(map.nodes[k].session)].push_back(k);
   }
-  const int submaps = static_cast<int>(map.submaps.size());
-  std::vector<std::optional<RememberedCells>> made(map.submaps.size());
-  std::vector<std::exception_ptr> failed(map.submaps.size());
-#pragma omp parallel for schedule(dynamic) num_threads(params.threads) if (submaps > 1)
-  for (int s = 0; s < submaps; ++s) {
-    const std::vector<std::size_t>& nodes = of_submap[static_cast<std::size_t>(s)];
+  const PatchAnchor nearest = [&](const Eigen::Vector2d& centre) {
+    const int node = nearestStaying(centre, poses, stays);
+    return std::pair{node, poses[static_cast<std::size_t>(std::max(node, 0))]};
+  };
+  const int sessions = static_cast<int>(map.sessions.size());
+  std::vector<std::vector<RememberedCells>> made(map.sessions.size());
+  std::vector<std::exception_ptr> failed(map.sessions.size());
+#pragma omp parallel for schedule(dynamic) num_threads(params.threads) if (sessions > 1)
+  for (int s = 0; s < sessions; ++s) {
+    const std::vector<std::size_t>& nodes = of_session[static_cast<std::size_t>(s)];
     if (nodes.empty()) continue;
     try {
       MapInputs inputs;
       inputs.insertion = submap_params;
       inputs.render = params.memory_evidence;
-      Eigen::Vector2d centre = Eigen::Vector2d::Zero();
       for (std::size_t k : nodes) {
         inputs.poses.push_back(poses[k]);
         inputs.scans.push_back(map.nodes[k].scan);
-        centre += poses[k].head<2>();
       }
-      centre /= static_cast<double>(nodes.size());
-      const int anchor = nearestStaying(centre, poses, stays);
-      if (anchor < 0) continue;  // nothing stays: nothing to render the memory with either
-      const int session =
-          map.sessions[static_cast<std::size_t>(map.nodes[nodes.front()].session)].number;
       made[static_cast<std::size_t>(s)] =
-          rememberScans(inputs, params.memory_resolution_m, session, anchor,
-                        poses[static_cast<std::size_t>(anchor)]);
+          rememberScans(inputs, params.memory_resolution_m,
+                        map.sessions[static_cast<std::size_t>(s)].number, kMemoryTileM, nearest);
     } catch (...) {
       failed[static_cast<std::size_t>(s)] = std::current_exception();
     }
@@ -282,8 +284,9 @@ std::vector<RememberedCells> rememberLeaving(
     if (e) std::rethrow_exception(e);
   }
   std::vector<RememberedCells> patches;
-  for (std::optional<RememberedCells>& patch : made) {
-    if (patch) patches.push_back(std::move(*patch));
+  for (std::vector<RememberedCells>& of : made) {
+    patches.insert(patches.end(), std::make_move_iterator(of.begin()),
+                   std::make_move_iterator(of.end()));
   }
   return patches;
 }
@@ -452,9 +455,9 @@ TrimResult trimMap(const MapSnapshot& map, const TrimParams& params,
     if (to >= 0)
       memory.push_back(reanchored(patch, poses[anchor], to, poses[static_cast<std::size_t>(to)]));
   }
-  if (params.remember_trimmed_cells && !groups.empty()) {
-    std::vector<RememberedCells> made =
-        rememberLeaving(map, poses, owner, leaves, params, submap_params);
+  if (params.remember_trimmed_cells && !groups.empty() &&
+      std::find(stays.begin(), stays.end(), 1) != stays.end()) {
+    std::vector<RememberedCells> made = rememberLeaving(map, poses, leaves, params, submap_params);
     report.remembered_patches = static_cast<int>(made.size());
     memory.insert(memory.end(), std::make_move_iterator(made.begin()),
                   std::make_move_iterator(made.end()));

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <memory>
 #include <optional>
+#include <set>
 #include <stdexcept>
 #include <tuple>
 #include <utility>
@@ -137,14 +138,23 @@ TEST(MapRender, LaserSlamNamesEachNodesSession) {
   EXPECT_EQ(map.sessions.back().number, 1);
 }
 
+// The cells `lap` decides, as one patch (tiles larger than the room) anchored to node `anchor`
+// at `poses`.
+RememberedCells rememberedLap(const MapInputs& lap, int session,
+                              const std::vector<core::Pose2>& poses, int anchor) {
+  const std::vector<RememberedCells> patches =
+      rememberScans(lap, 0.05, session, 100.0, [&](const Eigen::Vector2d&) {
+        return std::pair{anchor, poses[static_cast<std::size_t>(anchor)]};
+      });
+  EXPECT_EQ(patches.size(), 1u);
+  return patches.empty() ? RememberedCells{} : patches.front();
+}
+
 // A lap of session 1 saw a box that the kept lap (session `kept_session`) did not: the lap's
 // scans left the map, its decided cells are remembered, anchored to the kept lap's node 5.
 MapInputs keptLapAndRememberedBox(int kept_session) {
   MapInputs inputs = lapOf(room(), kept_session);
-  std::optional<RememberedCells> box =
-      rememberScans(lapOf(roomWithBox(), 1), 0.05, 1, 5, inputs.poses[5]);
-  EXPECT_TRUE(box.has_value());
-  if (box) inputs.memory.push_back(*box);
+  inputs.memory.push_back(rememberedLap(lapOf(roomWithBox(), 1), 1, inputs.poses, 5));
   inputs.render = MapRenderParams{};
   inputs.layering = MapLayering::kNewestSession;
   return inputs;
@@ -204,6 +214,56 @@ TEST(MapRender, RememberedCellsMoveWithTheirAnchor) {
   EXPECT_LE(differ, 20);  // a cell centre on a patch cell's edge may round the other way
 }
 
+// A session's remembered cells come in tiles, each anchored to the node nearest it; together
+// they render as the one patch does.
+TEST(MapRender, RememberedTilesAreAnchoredNearThemAndRenderAsOnePatch) {
+  const MapInputs kept = lapOf(room(), 2);
+  const MapInputs box = lapOf(roomWithBox(), 1);
+  std::vector<Eigen::Vector2d> centres;
+  const std::vector<RememberedCells> tiles =
+      rememberScans(box, 0.05, 1, 4.0, [&](const Eigen::Vector2d& centre) {
+        centres.push_back(centre);
+        int nearest = 0;
+        for (std::size_t k = 0; k < kept.poses.size(); ++k) {
+          if ((kept.poses[k].head<2>() - centre).norm() <
+              (kept.poses[static_cast<std::size_t>(nearest)].head<2>() - centre).norm()) {
+            nearest = static_cast<int>(k);
+          }
+        }
+        return std::pair{nearest, kept.poses[static_cast<std::size_t>(nearest)]};
+      });
+  // The room is 12 m x 8 m: 3 x 2 tiles of 4 m and more (the grid's margins), each within one.
+  ASSERT_GE(tiles.size(), 6u);
+  std::size_t cells = 0;
+  for (std::size_t t = 0; t < tiles.size(); ++t) {
+    EXPECT_LE(tiles[t].width, 80);
+    EXPECT_LE(tiles[t].height, 80);
+    EXPECT_EQ(tiles[t].session, 1);
+    cells += tiles[t].decidedCells();
+  }
+  const RememberedCells whole = rememberedLap(box, 1, kept.poses, 5);
+  EXPECT_EQ(cells, whole.decidedCells());
+  std::set<int> anchors;
+  for (const RememberedCells& tile : tiles) anchors.insert(tile.anchor_node);
+  EXPECT_GT(anchors.size(), 2u);
+  MapInputs tiled;
+  tiled.poses = kept.poses;
+  tiled.memory = tiles;
+  MapInputs one = tiled;
+  one.memory = {whole};
+  const auto a = renderOccupancyMap(tiled, 0.05);
+  const auto b = renderOccupancyMap(one, 0.05);
+  ASSERT_EQ(a.getSizeX(), b.getSizeX());
+  ASSERT_EQ(a.getSizeY(), b.getSizeY());
+  int differ = 0;
+  for (unsigned y = 0; y < a.getSizeY(); ++y) {
+    for (unsigned x = 0; x < a.getSizeX(); ++x) {
+      differ += std::abs(a.getCell(x, y) - b.getCell(x, y)) > 1e-3F;
+    }
+  }
+  EXPECT_LE(differ, 50);  // cell centres on a tile's edge may round the other way
+}
+
 // A remembered wall one 5 cm cell thick, in front of free floor, rendered at 10 cm: every cell
 // the wall passes through shows it (as a scan's hit would), wherever the lattices fall.
 TEST(MapRender, AThinRememberedWallShowsInACoarserMap) {
@@ -237,10 +297,7 @@ TEST(MapRender, RememberedCellsThatANewerPatchDecidesAreForgotten) {
     std::vector<RememberedCells> memory;
     for (const auto& [world, session] :
          {std::pair{roomWithBox(), 1}, std::pair{room(), room_session}}) {
-      std::optional<RememberedCells> patch =
-          rememberScans(lapOf(world, session), 0.05, session, 5, kept.poses[5]);
-      EXPECT_TRUE(patch.has_value());
-      if (patch) memory.push_back(*patch);
+      memory.push_back(rememberedLap(lapOf(world, session), session, kept.poses, 5));
     }
     return std::pair{kept.poses, memory};
   };

@@ -2,9 +2,9 @@
 // The map's memory of what trimming removed (lifelong maps, doc/lifelong.md): when a submap is
 // trimmed its scans leave the map, and with them the newest view of any cell that no kept scan
 // decides (a door only that session saw closed, a box its rays alone reached). Trimming keeps
-// those cells as a patch: the cells the leaving scans decide (occupied or free at the rendered
-// map's evidence and map_server's thresholds), stamped with the session that saw them, and
-// anchored to a node that stays, so the patch moves with the graph when later sessions
+// those cells as patches: the cells a session's leaving scans decide together (occupied or free
+// at the rendered map's evidence and map_server's thresholds), stamped with the session, in
+// tiles each anchored to a node that stays, so a patch moves with the graph when later sessions
 // re-optimize it (rtabmap's local grids ride with their nodes the same way).
 //
 // The rendered map (map_render.h) takes each cell from the newest session that decides it, among

@@ -19,9 +19,11 @@
 // kNewestSession a patch's cell shows where no newer session (kept scans or patch) decides the
 // cell; with kAllScans, where the kept scans leave the cell unknown (newest patch first).
 
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <mrpt/maps/COccupancyGridMap2D.h>
@@ -89,13 +91,17 @@ MapLayering parseMapLayering(const std::string& text);
 /// std::invalid_argument for render parameters out of range.
 mrpt::maps::COccupancyGridMap2D renderOccupancyMap(const MapInputs& inputs, double resolution_m);
 
-/// The cells that `inputs`' scans (a trimmed submap's leaving nodes, at their map poses) decide,
-/// at the evidence of `inputs.render` (unset: MapRenderParams' defaults), as a patch of
-/// `resolution_m` cells anchored to `anchor_node` at `anchor_map_pose`; nullopt if they decide
-/// none.
-std::optional<RememberedCells> rememberScans(const MapInputs& inputs, double resolution_m,
-                                             int session, int anchor_node,
-                                             const core::Pose2& anchor_map_pose);
+/// Where a remembered patch centred at a point of the map frame is anchored: a node and its map
+/// pose.
+using PatchAnchor = std::function<std::pair<int, core::Pose2>(const Eigen::Vector2d& centre)>;
+
+/// The cells that `inputs`' scans (the leaving nodes of one session, at their map poses) decide
+/// together, at the evidence of `inputs.render` (unset: MapRenderParams' defaults), in cells of
+/// `resolution_m`, cut into square tiles of `tile_m` (each cropped to its decided cells, anchored
+/// where `anchor` says for its centre, so that it moves with the part of the graph it lies by);
+/// none if the scans decide no cell.
+std::vector<RememberedCells> rememberScans(const MapInputs& inputs, double resolution_m,
+                                           int session, double tile_m, const PatchAnchor& anchor);
 
 /// `memory` (anchored to nodes at `poses`) without the cells a newer patch decides (a newer
 /// session's, or a later one of the same session), compared at the finest patch resolution:

@@ -21,9 +21,10 @@
 //      blanket, from the constraints touching them only.
 //   4. Sparsification: the Chow-Liu tree of that marginal (core/chow_liu.h) replaces it as
 //      marginal constraints (kClt), or nothing does (kDelete, Cartographer's trimmer).
-//   5. Memory (map_memory.h): the cells each trimmed submap's leaving scans decide are kept as a
-//      patch anchored to the nearest node that stays, for the rendered map; patches whose anchor
-//      leaves move to the nearest that stays; the cells a newer patch decides are forgotten.
+//   5. Memory (map_memory.h): the cells the leaving scans of each session decide together are
+//      kept, in 10 m tiles each anchored to the nearest node that stays, for the rendered map;
+//      patches whose anchor leaves move to the nearest that stays; the cells a newer patch
+//      decides are forgotten.
 //
 // RRR's verdicts: only trusted information is folded into marginal constraints. A submap with a
 // node that a pending loop candidate touches waits (it is not trimmed until the loop is decided);
