@@ -244,15 +244,12 @@ Eigen::Vector2d patchCentre(const RememberedCells& patch, const core::Pose2& anc
 // would), in tiles anchored to the nearest node that stays.
 std::vector<RememberedCells> rememberLeaving(const MapSnapshot& map,
                                              const std::vector<core::Pose2>& poses,
-                                             const std::vector<char>& leaves,
+                                             const std::vector<char>& stays,
                                              const TrimParams& params,
                                              const SubmapParams& submap_params) {
-  const std::size_t n = map.nodes.size();
-  std::vector<char> stays(n, 0);
-  for (std::size_t k = 0; k < n; ++k) stays[k] = !leaves[k];
   std::vector<std::vector<std::size_t>> of_session(map.sessions.size());
-  for (std::size_t k = 0; k < n; ++k) {
-    if (leaves[k]) of_session[static_cast<std::size_t>(map.nodes[k].session)].push_back(k);
+  for (std::size_t k = 0; k < map.nodes.size(); ++k) {
+    if (!stays[k]) of_session[static_cast<std::size_t>(map.nodes[k].session)].push_back(k);
   }
   const PatchAnchor nearest = [&](const Eigen::Vector2d& centre) {
     const int node = nearestStaying(centre, poses, stays);
@@ -452,12 +449,12 @@ TrimResult trimMap(const MapSnapshot& map, const TrimParams& params,
       continue;
     }
     const int to = nearestStaying(patchCentre(patch, poses[anchor]), poses, stays);
-    if (to >= 0)
+    if (to >= 0)  // some node always stays (the newest submaps): never dropped
       memory.push_back(reanchored(patch, poses[anchor], to, poses[static_cast<std::size_t>(to)]));
   }
   if (params.remember_trimmed_cells && !groups.empty() &&
       std::find(stays.begin(), stays.end(), 1) != stays.end()) {
-    std::vector<RememberedCells> made = rememberLeaving(map, poses, leaves, params, submap_params);
+    std::vector<RememberedCells> made = rememberLeaving(map, poses, stays, params, submap_params);
     report.remembered_patches = static_cast<int>(made.size());
     memory.insert(memory.end(), std::make_move_iterator(made.begin()),
                   std::make_move_iterator(made.end()));
