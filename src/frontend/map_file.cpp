@@ -19,8 +19,8 @@ constexpr char kMagic[8] = {'R', 'R', 'R', 'M', 'A', 'P', '\n', '\0'};
 constexpr std::size_t kHeaderBytes = 8 + 4 + 8 + 8 + 4;
 // Payloads are held in memory whole; beyond this a file is refused rather than allocated.
 constexpr std::uint64_t kMaxPayloadBytes = std::uint64_t{1} << 31;
-// A remembered patch is one submap's view: a few tens of metres.
-constexpr double kMaxPatchExtent = 1e4;
+// A remembered patch is a tile of a session's view: 10 m and its margins.
+constexpr double kMaxPatchExtent = 1e3;
 
 static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__,
               "map files are little-endian; a big-endian build needs byte swaps in Writer/Reader");
@@ -370,7 +370,7 @@ void MapSnapshot::check() const {
       patch.check(n);
       if (patch.origin.head<2>().cwiseAbs().maxCoeff() > kMaxCoordinate ||
           std::max(patch.width, patch.height) * patch.resolution_m > kMaxPatchExtent) {
-        fail("it lies beyond 1e6 m of its anchor or spans more than 10 km");
+        fail("it lies beyond 1e6 m of its anchor or spans more than 1 km");
       }
       if (!sessions.empty() && patch.session > sessions.back().number) {
         fail("its session " + std::to_string(patch.session) + " is newer than the map's newest");

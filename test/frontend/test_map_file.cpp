@@ -251,6 +251,12 @@ TEST(MapFile, VersionThreeKeepsSessionNumbersAndTheMemory) {
   bad.memory[0].origin.x() = 1e300;
   expectRefused(bad, "remembered patch 0: it lies beyond 1e6 m of its anchor");
   bad = map;
+  bad.memory[0].resolution_m = 5.0;  // 300 cells of 5 m: no tile is that large
+  bad.memory[0].width = 300;
+  bad.memory[0].cells = std::make_shared<const std::vector<std::uint8_t>>(600, 1);
+  expectRefused(bad,
+                "remembered patch 0: it lies beyond 1e6 m of its anchor or spans more than 1 km");
+  bad = map;
   bad.memory[1].session = 8;
   expectRefused(bad, "remembered patch 1: its session 8 is newer than the map's newest");
   bad = map;
