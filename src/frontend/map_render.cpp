@@ -302,10 +302,9 @@ std::vector<RememberedCells> rememberScans(const MapInputs& inputs, double resol
 }
 
 std::vector<RememberedCells> forgetSuperseded(const std::vector<RememberedCells>& memory,
-                                              const std::vector<core::Pose2>& poses) {
+                                              const std::vector<core::Pose2>& poses,
+                                              double resolution_m) {
   if (memory.empty()) return {};
-  double resolution = memory.front().resolution_m;
-  for (const RememberedCells& patch : memory) resolution = std::min(resolution, patch.resolution_m);
   // The patches alone, newest first. The kept scans are left out: a remembered cell a kept
   // session decides is hidden while that session's scans stay, but their own patches may not
   // decide it when they are trimmed (each holds one submap's leaving scans, not the session's).
@@ -314,7 +313,7 @@ std::vector<RememberedCells> forgetSuperseded(const std::vector<RememberedCells>
   patches.memory = memory;
   patches.layering = MapLayering::kNewestSession;
   std::vector<std::vector<char>> superseded;
-  render(patches, resolution, &superseded);
+  render(patches, resolution_m, &superseded);
   std::vector<RememberedCells> kept;
   for (std::size_t p = 0; p < memory.size(); ++p) {
     const RememberedCells& patch = memory[p];

@@ -620,7 +620,7 @@ TrimResult trimMap(const MapSnapshot& map, const TrimParams& params,
     std::vector<core::Pose2> anchors;
     for (const MapSnapshot::Node& node : out.nodes) anchors.push_back(node.map_pose);
     const std::size_t before = rememberedCells(out.memory);
-    out.memory = forgetSuperseded(out.memory, anchors);
+    out.memory = forgetSuperseded(out.memory, anchors, params.memory_resolution_m);
     report.forgotten_cells = before - rememberedCells(out.memory);
     report.memory_seconds += core::secondsSince(watch);
   }

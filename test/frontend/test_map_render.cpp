@@ -308,7 +308,7 @@ TEST(MapRender, RememberedCellsThatANewerPatchDecidesAreForgotten) {
   auto [poses, memory] = memoryOf(2);
   const std::size_t box_cells = memory[0].decidedCells();
   const std::size_t room_cells = memory[1].decidedCells();
-  std::vector<RememberedCells> left = forgetSuperseded(memory, poses);
+  std::vector<RememberedCells> left = forgetSuperseded(memory, poses, 0.05);
   ASSERT_GE(left.size(), 1u);
   ASSERT_LE(left.size(), 2u);
   EXPECT_EQ(left.back().decidedCells(), room_cells);
@@ -327,7 +327,7 @@ TEST(MapRender, RememberedCellsThatANewerPatchDecidesAreForgotten) {
   // The lap without the box is older (session 0): the box's lap, newer, keeps all its cells; the
   // older keeps only what the newer does not decide (about nothing: the box hides little).
   std::tie(poses, memory) = memoryOf(0);
-  left = forgetSuperseded(memory, poses);
+  left = forgetSuperseded(memory, poses, 0.05);
   ASSERT_GE(left.size(), 1u);
   EXPECT_EQ(left.front().session, 1);
   EXPECT_EQ(left.front().decidedCells(), box_cells);
@@ -337,7 +337,7 @@ TEST(MapRender, RememberedCellsThatANewerPatchDecidesAreForgotten) {
 
   // Kept scans never make a remembered cell forgotten: a newer kept session hides it only.
   MapInputs hidden = keptLapAndRememberedBox(2);
-  EXPECT_EQ(rememberedCells(forgetSuperseded(hidden.memory, hidden.poses)),
+  EXPECT_EQ(rememberedCells(forgetSuperseded(hidden.memory, hidden.poses, 0.05)),
             hidden.memory[0].decidedCells());
 }
 

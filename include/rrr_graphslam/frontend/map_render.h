@@ -104,10 +104,11 @@ std::vector<RememberedCells> rememberScans(const MapInputs& inputs, double resol
                                            int session, double tile_m, const PatchAnchor& anchor);
 
 /// `memory` (anchored to nodes at `poses`) without the cells a newer patch decides (a newer
-/// session's, or a later one of the same session), compared at the finest patch resolution:
-/// each patch cropped to the cells left, empty ones dropped. Each cell keeps the newest trimmed
-/// view of it: the memory is bounded by the area.
+/// session's, or a later one of the same session), compared in cells of `resolution_m` (the
+/// patches'): each patch cropped to the cells left, empty ones dropped. Each cell keeps the
+/// newest trimmed view of it: the memory is bounded by the area.
 std::vector<RememberedCells> forgetSuperseded(const std::vector<RememberedCells>& memory,
-                                              const std::vector<core::Pose2>& poses);
+                                              const std::vector<core::Pose2>& poses,
+                                              double resolution_m);
 
 }  // namespace rrr_graphslam::frontend
