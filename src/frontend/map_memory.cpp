@@ -29,19 +29,42 @@ void RememberedCells::check(int nodes) const {
   }
 }
 
-std::size_t RememberedCells::decidedCells() const {
+std::size_t RememberedCells::knownCells() const {
   if (!cells) return 0;
   return static_cast<std::size_t>(
       std::count_if(cells->begin(), cells->end(), [](std::uint8_t v) { return v != kUnknown; }));
 }
 
+namespace {
+// map_server's default thresholds (map_io.h's MapServerThresholds) on the probability of being
+// free: occupied at or below, free at or above.
+constexpr float kOccupiedFree = 0.35F;
+constexpr float kFreeFree = 0.804F;
+}  // namespace
+
 std::uint8_t rememberedValue(float free_probability) {
   const float p = std::clamp(free_probability, 0.0F, 1.0F);
-  return static_cast<std::uint8_t>(1 + std::lround(254.0F * p));
+  const auto v = static_cast<int>(1 + std::lround(254.0F * p));
+  if (p <= kOccupiedFree)
+    return static_cast<std::uint8_t>(std::min<int>(v, RememberedCells::kLastOccupied));
+  if (p >= kFreeFree)
+    return static_cast<std::uint8_t>(std::max<int>(v, RememberedCells::kFirstFree));
+  return static_cast<std::uint8_t>(
+      std::clamp<int>(v, RememberedCells::kLastOccupied + 1, RememberedCells::kFirstFree - 1));
 }
 
 float freeProbability(std::uint8_t value) {
   return static_cast<float>(std::max<int>(value, 1) - 1) / 254.0F;
+}
+
+bool isDecision(std::uint8_t value) {
+  return value != RememberedCells::kUnknown &&
+         (value <= RememberedCells::kLastOccupied || value >= RememberedCells::kFirstFree);
+}
+
+float evidenceLogOdds(std::uint8_t value) {
+  const float p = std::clamp(freeProbability(value), 1e-3F, 1.0F - 1e-3F);
+  return std::log((1.0F - p) / p);
 }
 
 core::Pose2 patchPose(const RememberedCells& patch, const core::Pose2& anchor_map_pose) {
@@ -58,7 +81,7 @@ RememberedCells reanchored(const RememberedCells& patch, const core::Pose2& anch
 
 std::size_t rememberedCells(const std::vector<RememberedCells>& memory) {
   std::size_t n = 0;
-  for (const RememberedCells& patch : memory) n += patch.decidedCells();
+  for (const RememberedCells& patch : memory) n += patch.knownCells();
   return n;
 }
 

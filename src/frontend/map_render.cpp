@@ -16,6 +16,9 @@ namespace rrr_graphslam::frontend {
 namespace {
 constexpr unsigned char kUnknownPixel = 205;  // map_io.h's mapServerPixel
 
+// Whether a ray touched the cell (MRPT's cells start at exactly 0.5).
+bool observed(float free_probability) { return std::abs(free_probability - 0.5F) > 1e-3F; }
+
 // Whether a map_server reader sees the cell occupied or free (MRPT's getCell(): p(free)).
 bool decides(float free_probability) {
   return mapServerPixel(1.0F - free_probability) != kUnknownPixel;
@@ -91,11 +94,23 @@ void forEachRemembered(const mrpt::maps::COccupancyGridMap2D& grid, const Placed
   }
 }
 
-// The rendering; with `superseded`, per patch of the memory, its cells that a newer layer (a
-// newer session's scans or patch, or a later patch of the same session) decides, and that show
-// nowhere.
+// What a rendering made of the memory, per patch and cell: superseded (a decision a newer layer
+// (a newer session's scans or patch, or a later patch of the same session) decides over, and that
+// shows nowhere; evidence under a newer decision, or added to a newer patch's evidence), and the
+// evidence of older patches added to the cell.
+struct MemoryUse {
+  std::vector<std::vector<char>> superseded;
+  std::vector<std::vector<float>> added;
+};
+
+// The occupancy log-odds of a probability of being free.
+float occupancyLogOdds(float free_probability) {
+  const float p = std::clamp(free_probability, 1e-3F, 1.0F - 1e-3F);
+  return std::log((1.0F - p) / p);
+}
+
 mrpt::maps::COccupancyGridMap2D render(const MapInputs& inputs, double resolution_m,
-                                       std::vector<std::vector<char>>* superseded) {
+                                       MemoryUse* use) {
   if (inputs.render) validate(*inputs.render);
   const std::vector<core::Pose2>& map = inputs.poses;
   for (const RememberedCells& patch : inputs.memory) {
@@ -134,7 +149,7 @@ mrpt::maps::COccupancyGridMap2D render(const MapInputs& inputs, double resolutio
     into.insertObservation(*inputs.scans[k], mrpt::poses::CPose3D(x.x(), x.y(), 0.0, x.z(), 0, 0));
   };
   for (std::size_t k = 0; k < nodes; ++k) insert(grid, k);
-  const bool by_session = inputs.layering == MapLayering::kNewestSession || superseded;
+  const bool by_session = inputs.layering == MapLayering::kNewestSession || use;
   const bool one_session = inputs.sessions.size() < nodes;
   std::set<int, std::greater<>> session_numbers;  // newest first
   if (!one_session)
@@ -162,24 +177,59 @@ mrpt::maps::COccupancyGridMap2D render(const MapInputs& inputs, double resolutio
         cell(cx, cy) = decides(grid.getCell(cx, cy));
     }
   }
-  std::vector<std::vector<char>> won(placed.size());
-  std::vector<std::vector<char>> lost(placed.size());
+  // Decisions: won (shown) or lost (a newer layer decided the cell). Evidence: lost under a
+  // decision, owner (the newest evidence of its grid cell, to which older evidence is added) or
+  // fused (added to a newer patch's evidence).
+  std::vector<std::vector<char>> won(placed.size()), lost(placed.size());
+  std::vector<std::vector<char>> owner(placed.size()), fused(placed.size());
+  const std::size_t grid_cells = taken.size();
+  std::vector<float> evidence(grid_cells, 0.0F);  // the patches' evidence, where no layer decides
+  std::vector<char> has_evidence(grid_cells, 0);
+  std::vector<std::pair<int, std::size_t>> evidence_owner(grid_cells, {-1, 0});
+  if (use) use->added.assign(placed.size(), {});
   auto paintPatch = [&](int p) {
     const auto index = static_cast<std::size_t>(p);
-    won[index].assign(inputs.memory[index].cells->size(), 0);
-    lost[index].assign(inputs.memory[index].cells->size(), 0);
+    const std::size_t n_cells = inputs.memory[index].cells->size();
+    for (auto* flags : {&won, &lost, &owner, &fused}) (*flags)[index].assign(n_cells, 0);
+    if (use) use->added[index].assign(n_cells, 0.0F);
     forEachRemembered(grid, placed[index], [&](int cx, int cy, const Samples& samples) {
-      char& t = cell(cx, cy);
-      std::vector<char>& marked = t ? lost[index] : won[index];
+      const std::size_t g =
+          static_cast<std::size_t>(cy) * grid.getSizeX() + static_cast<std::size_t>(cx);
+      char& t = taken[g];
       // The cell as a scan would leave it: occupied where a wall of the patch lies in it.
       float most_occupied = 1.0F;
+      bool decision = false;
       for (std::size_t n = 0; n < samples.n; ++n) {
-        marked[samples.cells[n].first] = 1;
-        most_occupied = std::min(most_occupied, freeProbability(samples.cells[n].second));
+        const auto [k, v] = samples.cells[n];
+        if (!isDecision(v)) continue;
+        decision = true;
+        (t ? lost : won)[index][k] = 1;
+        most_occupied = std::min(most_occupied, freeProbability(v));
       }
-      if (t) return;
-      layered.setCell(cx, cy, most_occupied);
-      t = 1;
+      if (decision && !t) {
+        layered.setCell(cx, cy, most_occupied);
+        t = 1;
+      }
+      for (std::size_t n = 0; n < samples.n; ++n) {
+        const auto [k, v] = samples.cells[n];
+        if (isDecision(v)) continue;
+        if (t) {
+          lost[index][k] = 1;
+          continue;
+        }
+        const float l = evidenceLogOdds(v);
+        evidence[g] += l;
+        has_evidence[g] = 1;
+        auto& [owner_patch, owner_cell] = evidence_owner[g];
+        if (owner_patch < 0) {
+          owner_patch = p;
+          owner_cell = k;
+          owner[index][k] = 1;
+        } else if (owner_patch != p) {
+          fused[index][k] = 1;
+          if (use) use->added[static_cast<std::size_t>(owner_patch)][owner_cell] += l;
+        }
+      }
     });
   };
   auto paintSession = [&](int session) {
@@ -217,12 +267,27 @@ mrpt::maps::COccupancyGridMap2D render(const MapInputs& inputs, double resolutio
     }
   }
   for (; next_patch != patch_order.end(); ++next_patch) paintPatch(*next_patch);
-  if (superseded) {
-    superseded->assign(placed.size(), {});
+  // Where no layer decides a cell, the patches' evidence adds to the kept scans' (every scan
+  // alike, as the untrimmed map's scans would add up).
+  for (unsigned cy = 0; cy < grid.getSizeY(); ++cy) {
+    for (unsigned cx = 0; cx < grid.getSizeX(); ++cx) {
+      const std::size_t g = static_cast<std::size_t>(cy) * grid.getSizeX() + cx;
+      if (taken[g] || !has_evidence[g]) continue;
+      const float l = occupancyLogOdds(layered.getCell(cx, cy)) + evidence[g];
+      const float p = 1.0F / (1.0F + std::exp(l));
+      if (decides(p)) layered.setCell(cx, cy, p);
+    }
+  }
+  if (use) {
+    use->superseded.assign(placed.size(), {});
     for (std::size_t p = 0; p < placed.size(); ++p) {
-      std::vector<char>& out = (*superseded)[p];
-      out.assign(inputs.memory[p].cells->size(), 0);
-      for (std::size_t k = 0; k < out.size(); ++k) out[k] = lost[p][k] && !won[p][k];
+      const std::vector<std::uint8_t>& cells = *inputs.memory[p].cells;
+      std::vector<char>& out = use->superseded[p];
+      out.assign(cells.size(), 0);
+      for (std::size_t k = 0; k < out.size(); ++k) {
+        out[k] = isDecision(cells[k]) ? lost[p][k] && !won[p][k]
+                                      : (lost[p][k] || fused[p][k]) && !owner[p][k];
+      }
     }
   }
   return layered;
@@ -246,7 +311,7 @@ RememberedCells patchOf(const mrpt::maps::COccupancyGridMap2D& grid, int x0, int
   for (int cy = y0; cy <= y1; ++cy) {
     for (int cx = x0; cx <= x1; ++cx) {
       const float p = grid.getCell(cx, cy);
-      if (!decides(p)) continue;
+      if (!observed(p)) continue;
       (*cells)[static_cast<std::size_t>(cy - y0) * static_cast<std::size_t>(patch.width) +
                static_cast<std::size_t>(cx - x0)] = rememberedValue(p);
     }
@@ -284,7 +349,7 @@ std::vector<RememberedCells> rememberScans(const MapInputs& inputs, double resol
       int x0 = size_x, x1 = -1, y0 = size_y, y1 = -1;
       for (int cy = ty; cy < std::min(ty + tile, size_y); ++cy) {
         for (int cx = tx; cx < std::min(tx + tile, size_x); ++cx) {
-          if (!decides(grid.getCell(cx, cy))) continue;
+          if (!observed(grid.getCell(cx, cy))) continue;
           x0 = std::min(x0, cx);
           x1 = std::max(x1, cx);
           y0 = std::min(y0, cy);
@@ -312,8 +377,9 @@ std::vector<RememberedCells> forgetSuperseded(const std::vector<RememberedCells>
   patches.poses = poses;
   patches.memory = memory;
   patches.layering = MapLayering::kNewestSession;
-  std::vector<std::vector<char>> superseded;
-  render(patches, resolution_m, &superseded);
+  MemoryUse use;
+  render(patches, resolution_m, &use);
+  const std::vector<std::vector<char>>& superseded = use.superseded;
   std::vector<RememberedCells> kept;
   for (std::size_t p = 0; p < memory.size(); ++p) {
     const RememberedCells& patch = memory[p];
@@ -342,7 +408,11 @@ std::vector<RememberedCells> forgetSuperseded(const std::vector<RememberedCells>
       for (int i = x0; i <= x1; ++i) {
         const std::size_t k = static_cast<std::size_t>(j) * patch.width + i;
         if (superseded[p][k]) continue;
-        (*left)[static_cast<std::size_t>(j - y0) * out.width + (i - x0)] = cells[k];
+        const float added = use.added[p].empty() ? 0.0F : use.added[p][k];
+        (*left)[static_cast<std::size_t>(j - y0) * out.width + (i - x0)] =
+            added == 0.0F || isDecision(cells[k])
+                ? cells[k]
+                : rememberedValue(1.0F / (1.0F + std::exp(evidenceLogOdds(cells[k]) + added)));
       }
     }
     out.cells = std::move(left);

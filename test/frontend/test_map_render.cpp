@@ -13,6 +13,7 @@
 #include <utility>
 #include <vector>
 
+#include "rrr_graphslam/frontend/map_io.h"
 #include "rrr_graphslam/frontend/map_render.h"
 #include "synthetic_room.h"
 
@@ -183,7 +184,7 @@ TEST(MapRender, RememberedCellsShowWhereNoNewerSessionDecidesThem) {
   MapInputs inputs = keptLapAndRememberedBox(0);
   ASSERT_EQ(inputs.memory.size(), 1u);
   EXPECT_EQ(inputs.memory[0].anchor_node, 5);
-  EXPECT_GT(inputs.memory[0].decidedCells(), 1000u);
+  EXPECT_GT(inputs.memory[0].knownCells(), 1000u);
   EXPECT_GT(occupancyAt(renderOccupancyMap(inputs, 0.05), 7.2, 2.5), 0.65);
   // Without the memory the kept lap shows the floor there.
   MapInputs forgotten = inputs;
@@ -249,10 +250,10 @@ TEST(MapRender, RememberedTilesAreAnchoredNearThemAndRenderAsOnePatch) {
     EXPECT_LE(tiles[t].width, 80);
     EXPECT_LE(tiles[t].height, 80);
     EXPECT_EQ(tiles[t].session, 1);
-    cells += tiles[t].decidedCells();
+    cells += tiles[t].knownCells();
   }
   const RememberedCells whole = rememberedLap(box, 1, kept.poses, 5);
-  EXPECT_EQ(cells, whole.decidedCells());
+  EXPECT_EQ(cells, whole.knownCells());
   std::set<int> anchors;
   for (const RememberedCells& tile : tiles) anchors.insert(tile.anchor_node);
   EXPECT_GT(anchors.size(), 2u);
@@ -290,6 +291,68 @@ TEST(MapRender, AThinRememberedWallShowsInACoarserMap) {
   }
 }
 
+TEST(MapRender, RememberedValuesKeepDecisionsAndEvidenceApart) {
+  for (float p = 0.0F; p <= 1.0F; p += 0.001F) {
+    const std::uint8_t v = rememberedValue(p);
+    const bool decided = 1.0F - p >= 0.65F || 1.0F - p <= 0.196F;  // map_server's defaults
+    EXPECT_EQ(isDecision(v), decided) << p;
+    // As a map_server reader sees it.
+    EXPECT_EQ(isDecision(v), mapServerPixel(1.0F - freeProbability(v)) != 205) << p;
+    if (!decided) {
+      EXPECT_NEAR(freeProbability(v), p, 0.5F / 254.0F + 1e-6F) << p;
+    }
+  }
+  EXPECT_FALSE(isDecision(RememberedCells::kUnknown));
+  EXPECT_NEAR(evidenceLogOdds(rememberedValue(0.4F)), std::log(0.6F / 0.4F), 0.02F);
+}
+
+// A patch of `n` x `n` 5 cm cells at the origin, every one glimpsed free (p(free) 0.7: no
+// decision for map_server), of `session`, anchored to node 0.
+RememberedCells glimpse(int session, int n = 20) {
+  RememberedCells patch;
+  patch.session = session;
+  patch.resolution_m = 0.05;
+  patch.width = patch.height = n;
+  patch.cells = std::make_shared<const std::vector<std::uint8_t>>(static_cast<std::size_t>(n * n),
+                                                                  rememberedValue(0.7F));
+  return patch;
+}
+
+// What several sessions glimpsed adds up where none decided: two glimpses of the floor decide
+// it free, one does not (the untrimmed map's scans would add up the same way).
+TEST(MapRender, GlimpsesOfSeveralSessionsAddUpWhereNoneDecides) {
+  MapInputs inputs;
+  inputs.poses = {core::Pose2::Zero()};
+  inputs.layering = MapLayering::kNewestSession;
+  inputs.memory = {glimpse(1)};
+  EXPECT_NEAR(occupancyAt(renderOccupancyMap(inputs, 0.05), 0.5, 0.5), 0.5, 0.01);  // unknown
+  inputs.memory = {glimpse(1), glimpse(2)};
+  const auto both = renderOccupancyMap(inputs, 0.05);
+  EXPECT_LT(occupancyAt(both, 0.5, 0.5), 0.196);
+  // A newer decision overrules the glimpses: session 3 saw the cells occupied.
+  RememberedCells wall = glimpse(3);
+  wall.cells = std::make_shared<const std::vector<std::uint8_t>>(400, rememberedValue(0.1F));
+  inputs.memory.push_back(wall);
+  EXPECT_GT(occupancyAt(renderOccupancyMap(inputs, 0.05), 0.5, 0.5), 0.65);
+
+  // Forgetting keeps one value per cell: the older glimpse is added to the newer one (which
+  // they decide together: a decision of the newer session), the two render as before; under
+  // the newer decision, both glimpses are forgotten.
+  const std::vector<RememberedCells> fused =
+      forgetSuperseded({glimpse(1), glimpse(2)}, inputs.poses, 0.05);
+  ASSERT_EQ(fused.size(), 1u);
+  EXPECT_EQ(fused[0].session, 2);
+  EXPECT_EQ(fused[0].knownCells(), 400u);
+  EXPECT_TRUE(isDecision(fused[0].cells->front()));
+  EXPECT_NEAR(freeProbability(fused[0].cells->front()), 0.845F, 0.005F);  // 0.7 twice
+  inputs.memory = fused;
+  EXPECT_EQ(differingCells(renderOccupancyMap(inputs, 0.05), both), 0);
+  const std::vector<RememberedCells> decided =
+      forgetSuperseded({glimpse(1), glimpse(2), wall}, inputs.poses, 0.05);
+  ASSERT_EQ(decided.size(), 1u);
+  EXPECT_EQ(decided[0].session, 3);
+}
+
 TEST(MapRender, RememberedCellsThatANewerPatchDecidesAreForgotten) {
   // Two trimmed laps of the room, both remembered: one saw the box (session 1), one did not
   // (session `room_session`), both anchored to the kept lap's node 5.
@@ -306,12 +369,12 @@ TEST(MapRender, RememberedCellsThatANewerPatchDecidesAreForgotten) {
   // are forgotten (a few at the edges of what each decides stay: the patches' lattices differ by
   // a fraction of a cell). The newer patch keeps all of its cells.
   auto [poses, memory] = memoryOf(2);
-  const std::size_t box_cells = memory[0].decidedCells();
-  const std::size_t room_cells = memory[1].decidedCells();
+  const std::size_t box_cells = memory[0].knownCells();
+  const std::size_t room_cells = memory[1].knownCells();
   std::vector<RememberedCells> left = forgetSuperseded(memory, poses, 0.05);
   ASSERT_GE(left.size(), 1u);
   ASSERT_LE(left.size(), 2u);
-  EXPECT_EQ(left.back().decidedCells(), room_cells);
+  EXPECT_EQ(left.back().knownCells(), room_cells);
   EXPECT_LT(rememberedCells(left) - room_cells, box_cells / 20);
   for (const RememberedCells& patch : left) EXPECT_NO_THROW(patch.check(35));
   // What is rendered is unchanged by forgetting: the newer lap's floor where the box was.
@@ -330,7 +393,7 @@ TEST(MapRender, RememberedCellsThatANewerPatchDecidesAreForgotten) {
   left = forgetSuperseded(memory, poses, 0.05);
   ASSERT_GE(left.size(), 1u);
   EXPECT_EQ(left.front().session, 1);
-  EXPECT_EQ(left.front().decidedCells(), box_cells);
+  EXPECT_EQ(left.front().knownCells(), box_cells);
   EXPECT_LT(rememberedCells(left) - box_cells, room_cells / 20);
   after.memory = left;
   EXPECT_GT(occupancyAt(renderOccupancyMap(after, 0.05), 7.2, 2.5), 0.65);
@@ -338,7 +401,7 @@ TEST(MapRender, RememberedCellsThatANewerPatchDecidesAreForgotten) {
   // Kept scans never make a remembered cell forgotten: a newer kept session hides it only.
   MapInputs hidden = keptLapAndRememberedBox(2);
   EXPECT_EQ(rememberedCells(forgetSuperseded(hidden.memory, hidden.poses, 0.05)),
-            hidden.memory[0].decidedCells());
+            hidden.memory[0].knownCells());
 }
 
 TEST(MapRender, LayeringNamesRoundTrip) {
