@@ -52,7 +52,10 @@ class Hostile(unittest.TestCase):
         cls.candidate_pub = rospy.Publisher("/loop_candidates", LoopCandidate, queue_size=100)
         rospy.wait_for_service(NODE + "/optimize", timeout=30.0)
         cls.optimize = rospy.ServiceProxy(NODE + "/optimize", Trigger)
-        assert wait_for(lambda: cls.scan_pub.get_num_connections() > 0 and cls.status is not None, 30.0)
+        # The node's tf listener too: a first tf message sent before it connects is lost, and the
+        # first scan, its transform never seen, counts as malformed.
+        assert wait_for(lambda: cls.scan_pub.get_num_connections() > 0 and
+                        cls.tf_pub.get_num_connections() > 0 and cls.status is not None, 30.0)
         cls.k = 0
 
     def scan_message(self, stamp, frame="laser", ranges=None):
