@@ -182,10 +182,11 @@ mrpt::maps::COccupancyGridMap2D render(const MapInputs& inputs, double resolutio
   // fused (added to a newer patch's evidence).
   std::vector<std::vector<char>> won(placed.size()), lost(placed.size());
   std::vector<std::vector<char>> owner(placed.size()), fused(placed.size());
-  const std::size_t grid_cells = taken.size();
+  // Per grid cell, only with a memory (and the owners only to forget).
+  const std::size_t grid_cells = placed.empty() ? 0 : taken.size();
   std::vector<float> evidence(grid_cells, 0.0F);  // the patches' evidence, where no layer decides
   std::vector<char> has_evidence(grid_cells, 0);
-  std::vector<std::pair<int, std::size_t>> evidence_owner(grid_cells, {-1, 0});
+  std::vector<std::pair<int, std::size_t>> evidence_owner(use ? grid_cells : 0, {-1, 0});
   if (use) use->added.assign(placed.size(), {});
   auto paintPatch = [&](int p) {
     const auto index = static_cast<std::size_t>(p);
@@ -220,6 +221,7 @@ mrpt::maps::COccupancyGridMap2D render(const MapInputs& inputs, double resolutio
         const float l = evidenceLogOdds(v);
         evidence[g] += l;
         has_evidence[g] = 1;
+        if (!use) continue;
         auto& [owner_patch, owner_cell] = evidence_owner[g];
         if (owner_patch < 0) {
           owner_patch = p;
@@ -227,7 +229,7 @@ mrpt::maps::COccupancyGridMap2D render(const MapInputs& inputs, double resolutio
           owner[index][k] = 1;
         } else if (owner_patch != p) {
           fused[index][k] = 1;
-          if (use) use->added[static_cast<std::size_t>(owner_patch)][owner_cell] += l;
+          use->added[static_cast<std::size_t>(owner_patch)][owner_cell] += l;
         }
       }
     });
@@ -269,7 +271,7 @@ mrpt::maps::COccupancyGridMap2D render(const MapInputs& inputs, double resolutio
   for (; next_patch != patch_order.end(); ++next_patch) paintPatch(*next_patch);
   // Where no layer decides a cell, the patches' evidence adds to the kept scans' (every scan
   // alike, as the untrimmed map's scans would add up).
-  for (unsigned cy = 0; cy < grid.getSizeY(); ++cy) {
+  for (unsigned cy = 0; grid_cells > 0 && cy < grid.getSizeY(); ++cy) {
     for (unsigned cx = 0; cx < grid.getSizeX(); ++cx) {
       const std::size_t g = static_cast<std::size_t>(cy) * grid.getSizeX() + cx;
       if (taken[g] || !has_evidence[g]) continue;
