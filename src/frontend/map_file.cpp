@@ -350,7 +350,7 @@ void MapSnapshot::check() const {
            ", not before the next session or the end");
     }
     const int number = sessions[k].number;
-    if (number < 0 || (k > 0 && number <= sessions[k - 1].number)) {
+    if (number < 0 || number > 1'000'000'000 || (k > 0 && number <= sessions[k - 1].number)) {
       fail("session " + std::to_string(k) + " has number " + std::to_string(number) +
            ", not above the session before's (numbers grow over the map's life)");
     }

@@ -15,12 +15,13 @@ void RememberedCells::check(int nodes) const {
          std::to_string(nodes) + " nodes");
   }
   if (!origin.allFinite()) fail("its origin is not finite");
-  if (!(resolution_m > 0.0 && resolution_m <= 10.0)) {
-    fail("its resolution " + std::to_string(resolution_m) + " m is not in (0, 10]");
+  if (!(resolution_m >= 1e-3 && resolution_m <= 10.0)) {
+    fail("its resolution " + std::to_string(resolution_m) + " m is not in [0.001, 10]");
   }
-  if (width <= 0 || height <= 0) {
+  if (width <= 0 || height <= 0 ||
+      static_cast<double>(width) * static_cast<double>(height) > kMaxCells) {
     fail("its size " + std::to_string(width) + " x " + std::to_string(height) +
-         " cells is not positive");
+         " cells is not positive or above " + std::to_string(kMaxCells));
   }
   const std::size_t expected = static_cast<std::size_t>(width) * static_cast<std::size_t>(height);
   if (!cells || cells->size() != expected) {

@@ -69,7 +69,8 @@ void forEachRemembered(const mrpt::maps::COccupancyGridMap2D& grid, const Placed
   const double c = std::cos(placed.pose.z());
   const double s = std::sin(placed.pose.z());
   const double r = grid.getResolution();
-  const int per_side = std::clamp(static_cast<int>(std::ceil(r / patch.resolution_m - 1e-6)), 1, 4);
+  const int per_side =
+      static_cast<int>(std::clamp(std::ceil(r / patch.resolution_m - 1e-6), 1.0, 4.0));
   const std::vector<std::uint8_t>& cells = *patch.cells;
   Samples samples;
   for (int cy = y0; cy <= y1; ++cy) {
@@ -181,7 +182,7 @@ mrpt::maps::COccupancyGridMap2D render(const MapInputs& inputs, double resolutio
   // decision, owner (the newest evidence of its grid cell, to which older evidence is added) or
   // fused (added to a newer patch's evidence).
   std::vector<std::vector<char>> won(placed.size()), lost(placed.size());
-  std::vector<std::vector<char>> owner(placed.size()), fused(placed.size());
+  std::vector<std::vector<char>> owner(placed.size()), fused(placed.size());  // with `use` only
   // Per grid cell, only with a memory (and the owners only to forget).
   const std::size_t grid_cells = placed.empty() ? 0 : taken.size();
   std::vector<float> evidence(grid_cells, 0.0F);  // the patches' evidence, where no layer decides
@@ -191,8 +192,11 @@ mrpt::maps::COccupancyGridMap2D render(const MapInputs& inputs, double resolutio
   auto paintPatch = [&](int p) {
     const auto index = static_cast<std::size_t>(p);
     const std::size_t n_cells = inputs.memory[index].cells->size();
-    for (auto* flags : {&won, &lost, &owner, &fused}) (*flags)[index].assign(n_cells, 0);
-    if (use) use->added[index].assign(n_cells, 0.0F);
+    for (auto* flags : {&won, &lost}) (*flags)[index].assign(n_cells, 0);
+    if (use) {
+      for (auto* flags : {&owner, &fused}) (*flags)[index].assign(n_cells, 0);
+      use->added[index].assign(n_cells, 0.0F);
+    }
     forEachRemembered(grid, placed[index], [&](int cx, int cy, const Samples& samples) {
       const std::size_t g =
           static_cast<std::size_t>(cy) * grid.getSizeX() + static_cast<std::size_t>(cx);
@@ -211,6 +215,10 @@ mrpt::maps::COccupancyGridMap2D render(const MapInputs& inputs, double resolutio
         layered.setCell(cx, cy, most_occupied);
         t = 1;
       }
+      // Evidence: the patch's glimpse of the grid cell, once per patch (the mean of its samples:
+      // a ray updates a coarse cell once, not once per fine cell).
+      float glimpse = 0.0F;
+      int glimpses = 0;
       for (std::size_t n = 0; n < samples.n; ++n) {
         const auto [k, v] = samples.cells[n];
         if (isDecision(v)) continue;
@@ -218,18 +226,27 @@ mrpt::maps::COccupancyGridMap2D render(const MapInputs& inputs, double resolutio
           lost[index][k] = 1;
           continue;
         }
-        const float l = evidenceLogOdds(v);
-        evidence[g] += l;
-        has_evidence[g] = 1;
-        if (!use) continue;
-        auto& [owner_patch, owner_cell] = evidence_owner[g];
+        glimpse += evidenceLogOdds(v);
+        ++glimpses;
+      }
+      if (glimpses == 0) return;
+      glimpse /= static_cast<float>(glimpses);
+      evidence[g] += glimpse;
+      has_evidence[g] = 1;
+      if (!use) return;
+      auto& [owner_patch, owner_cell] = evidence_owner[g];
+      for (std::size_t n = 0; n < samples.n; ++n) {
+        const auto [k, v] = samples.cells[n];
+        if (isDecision(v)) continue;
         if (owner_patch < 0) {
           owner_patch = p;
           owner_cell = k;
           owner[index][k] = 1;
-        } else if (owner_patch != p) {
+        } else if (owner_patch != p && !fused[index][k] && !owner[index][k]) {
+          // Added to the newest evidence of the cell once, however many grid cells it covers.
           fused[index][k] = 1;
-          use->added[static_cast<std::size_t>(owner_patch)][owner_cell] += l;
+          use->added[static_cast<std::size_t>(owner_patch)][owner_cell] +=
+              evidenceLogOdds(v) / static_cast<float>(glimpses);
         }
       }
     });

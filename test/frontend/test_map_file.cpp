@@ -257,6 +257,15 @@ TEST(MapFile, VersionThreeKeepsSessionNumbersAndTheMemory) {
   expectRefused(bad,
                 "remembered patch 0: it lies beyond 1e6 m of its anchor or spans more than 1 km");
   bad = map;
+  bad.memory[0].resolution_m = 1e-6;
+  expectRefused(bad, "remembered patch 0: its resolution 0.000001 m is not in [0.001, 10]");
+  bad = map;
+  bad.memory[0].width = bad.memory[0].height = 5000;
+  expectRefused(bad, "remembered patch 0: its size 5000 x 5000 cells is not positive or above");
+  bad = map;
+  bad.sessions[0].number = 2'000'000'000;
+  expectRefused(bad, "session 0 has number 2000000000");
+  bad = map;
   bad.memory[1].session = 8;
   expectRefused(bad, "remembered patch 1: its session 8 is newer than the map's newest");
   bad = map;

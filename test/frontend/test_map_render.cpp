@@ -329,6 +329,11 @@ TEST(MapRender, GlimpsesOfSeveralSessionsAddUpWhereNoneDecides) {
   inputs.memory = {glimpse(1), glimpse(2)};
   const auto both = renderOccupancyMap(inputs, 0.05);
   EXPECT_LT(occupancyAt(both, 0.5, 0.5), 0.196);
+  // At 10 cm a glimpse counts once per cell, not once per 5 cm cell under it.
+  inputs.memory = {glimpse(1)};
+  EXPECT_NEAR(occupancyAt(renderOccupancyMap(inputs, 0.1), 0.5, 0.5), 0.5, 0.01);
+  inputs.memory = {glimpse(1), glimpse(2)};
+  EXPECT_LT(occupancyAt(renderOccupancyMap(inputs, 0.1), 0.5, 0.5), 0.196);
   // A newer decision overrules the glimpses: session 3 saw the cells occupied.
   RememberedCells wall = glimpse(3);
   wall.cells = std::make_shared<const std::vector<std::uint8_t>>(400, rememberedValue(0.1F));
@@ -351,6 +356,19 @@ TEST(MapRender, GlimpsesOfSeveralSessionsAddUpWhereNoneDecides) {
       forgetSuperseded({glimpse(1), glimpse(2), wall}, inputs.poses, 0.05);
   ASSERT_EQ(decided.size(), 1u);
   EXPECT_EQ(decided[0].session, 3);
+  // An older glimpse turned by the graph (0.1 rad about its anchor) and coarser (10 cm) is added
+  // to the newer one once per cell: the newer cells get at most one older cell's evidence
+  // each (2 x 0.85), never several.
+  RememberedCells turned = glimpse(1, 10);
+  turned.resolution_m = 0.1;
+  turned.origin = core::Pose2(0.0, 0.0, 0.1);
+  const std::vector<RememberedCells> once =
+      forgetSuperseded({turned, glimpse(2)}, inputs.poses, 0.05);
+  ASSERT_FALSE(once.empty());
+  for (std::uint8_t v : *once.back().cells) {
+    if (v == RememberedCells::kUnknown) continue;
+    EXPECT_LE(freeProbability(v), 0.85F);  // 0.7 and 0.7: 0.845; more would be double counting
+  }
 }
 
 TEST(MapRender, RememberedCellsThatANewerPatchDecidesAreForgotten) {

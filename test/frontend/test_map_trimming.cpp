@@ -692,7 +692,11 @@ TEST(MapTrimming, TheCellsOfTrimmedSubmapsStayInTheMap) {
   }
 
   // Saved and loaded: the same memory; continued: a new session numbered after the others,
-  // the memory carried on; trimmed again, the sessions keep their numbers.
+  // the memory carried on.
+  // Days 1 and 2 left the graph whole: day 3, now the map's only session, keeps its number, so
+  // the patches of days 1-2 stay older than it.
+  EXPECT_EQ(kept.map.sessions.front().name, "day3");
+  EXPECT_EQ(kept.map.sessions.front().number, 2);
   const std::string path = ::testing::TempDir() + "/remembered.rrrmap";
   writeMapFile(kept.map, path);
   const MapSnapshot read = readMapFile(path);

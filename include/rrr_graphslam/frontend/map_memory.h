@@ -37,6 +37,8 @@ struct RememberedCells {
   static constexpr std::uint8_t kUnknown = 0;
   static constexpr std::uint8_t kLastOccupied = 89;  ///< 88 / 254 free: occupancy 0.654
   static constexpr std::uint8_t kFirstFree = 206;    ///< 205 / 254 free: occupancy 0.193
+  /// The most cells a patch may hold (a 10 m tile at 5 cm holds 40000).
+  static constexpr int kMaxCells = 1 << 24;
 
   int session = 0;      ///< MapSnapshot::Session::number of the session whose scans decided them
   int anchor_node = 0;  ///< the node the patch moves with
@@ -49,7 +51,7 @@ struct RememberedCells {
   std::shared_ptr<const std::vector<std::uint8_t>> cells;  ///< row-major, width * height
 
   /// Throws std::invalid_argument naming what is wrong (sizes, a non-finite origin, a resolution
-  /// out of (0, 10] m, an anchor outside [0, nodes)).
+  /// out of [0.001, 10] m, more than kMaxCells cells, an anchor outside [0, nodes)).
   void check(int nodes) const;
   /// Cells that are not unknown (decisions and evidence).
   std::size_t knownCells() const;
