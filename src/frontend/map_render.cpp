@@ -15,6 +15,8 @@
 namespace rrr_graphslam::frontend {
 namespace {
 constexpr unsigned char kUnknownPixel = 205;  // map_io.h's mapServerPixel
+// The most cells a rendered map may have (2^28: 800 m x 800 m at 5 cm, 512 MiB of MRPT's cells).
+constexpr double kMaxRenderedCells = 268435456.0;
 
 // Whether a ray touched the cell (MRPT's cells start at exactly 0.5).
 bool observed(float free_probability) { return std::abs(free_probability - 0.5F) > 1e-3F; }
@@ -133,6 +135,17 @@ mrpt::maps::COccupancyGridMap2D render(const MapInputs& inputs, double resolutio
   for (const PlacedPatch& p : placed) {
     low = low.cwiseMin(p.low);
     high = high.cwiseMax(p.high);
+  }
+  // MRPT counts a grid's cells in 32 bits, and the rays grow it by up to their range on each
+  // side: a map beyond the budget is refused before any grid is built.
+  const double margin = 1.0 + inputs.insertion.max_insertion_range_m;
+  const double span_cells = (high.x() - low.x() + 2.0 * margin) / resolution_m *
+                            ((high.y() - low.y() + 2.0 * margin) / resolution_m);
+  if (!(span_cells <= kMaxRenderedCells)) {
+    throw std::invalid_argument(
+        "the map spans " + std::to_string(high.x() - low.x()) + " m x " +
+        std::to_string(high.y() - low.y()) + " m: more than " + std::to_string(kMaxRenderedCells) +
+        " cells of " + std::to_string(resolution_m) + " m with its rays; render it coarser");
   }
   mrpt::maps::COccupancyGridMap2D grid(
       static_cast<float>(low.x() - 1.0), static_cast<float>(high.x() + 1.0),

@@ -9,6 +9,7 @@
 #include <optional>
 #include <set>
 #include <stdexcept>
+#include <string>
 #include <tuple>
 #include <utility>
 #include <vector>
@@ -420,6 +421,21 @@ TEST(MapRender, RememberedCellsThatANewerPatchDecidesAreForgotten) {
   MapInputs hidden = keptLapAndRememberedBox(2);
   EXPECT_EQ(rememberedCells(forgetSuperseded(hidden.memory, hidden.poses, 0.05)),
             hidden.memory[0].knownCells());
+}
+
+// Two nodes 100 km apart (a map file may place them so): refused before MRPT counts the cells
+// in 32 bits; at 10 m cells it renders.
+TEST(MapRender, AMapTooLargeToRenderIsRefusedNotBuilt) {
+  MapInputs inputs;
+  inputs.poses = {core::Pose2::Zero(), core::Pose2(1e5, 1e5, 0.0)};
+  try {
+    renderOccupancyMap(inputs, 0.05);
+    ADD_FAILURE() << "rendered";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("render it coarser"), std::string::npos) << e.what();
+  }
+  inputs.poses = {core::Pose2::Zero(), core::Pose2(1e5, 1e5, 0.0)};
+  EXPECT_NO_THROW(renderOccupancyMap(inputs, 10.0));
 }
 
 TEST(MapRender, LayeringNamesRoundTrip) {

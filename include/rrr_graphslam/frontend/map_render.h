@@ -88,7 +88,8 @@ std::string toString(MapLayering layering);
 MapLayering parseMapLayering(const std::string& text);
 
 /// The grid spans the trajectory's bounding box and grows to fit the rays. Throws
-/// std::invalid_argument for render parameters out of range.
+/// std::invalid_argument for render parameters out of range, or a map that would need more than
+/// 2^28 cells (its span and its rays' reach at `resolution_m`).
 mrpt::maps::COccupancyGridMap2D renderOccupancyMap(const MapInputs& inputs, double resolution_m);
 
 /// Where a remembered patch centred at a point of the map frame is anchored: a node and its map
