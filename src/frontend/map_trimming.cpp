@@ -5,7 +5,6 @@
 #include <cstdint>
 #include <deque>
 #include <exception>
-#include <limits>
 #include <map>
 #include <stdexcept>
 #include <unordered_set>
@@ -19,6 +18,7 @@
 #include "rrr_graphslam/core/optimizer.h"
 #include "rrr_graphslam/core/stopwatch.h"
 #include "rrr_graphslam/core/union_find.h"
+#include "rrr_graphslam/frontend/trim_memory.h"
 
 namespace rrr_graphslam::frontend {
 
@@ -94,9 +94,6 @@ namespace {
 
 using core::NodeId;
 using Cells = std::vector<std::uint64_t>;  // sorted cell keys in the map frame
-
-// Step 5's patches are cut into tiles of this side (m), each anchored to the node nearest it.
-constexpr double kMemoryTileM = 10.0;
 
 std::uint64_t cellKey(double x, double y, double resolution) {
   const auto ix = static_cast<std::int32_t>(std::floor(x / resolution));
@@ -214,78 +211,6 @@ void measureKl(const std::vector<Trusted>& trusted, const std::vector<char>& ali
         params.sparsification == Sparsification::kClt ? record.kl_clt_nats : record.kl_delete_nats;
   }
   record.kl_seconds = core::secondsSince(watch);
-}
-
-// The node that stays nearest to `at` (map frame); -1 if none stays.
-int nearestStaying(const Eigen::Vector2d& at, const std::vector<core::Pose2>& poses,
-                   const std::vector<char>& stays) {
-  int best = -1;
-  double best_d2 = std::numeric_limits<double>::infinity();
-  for (std::size_t k = 0; k < poses.size(); ++k) {
-    if (!stays[k]) continue;
-    const double d2 = (poses[k].head<2>() - at).squaredNorm();
-    if (d2 < best_d2) {
-      best_d2 = d2;
-      best = static_cast<int>(k);
-    }
-  }
-  return best;
-}
-
-Eigen::Vector2d patchCentre(const RememberedCells& patch, const core::Pose2& anchor_map_pose) {
-  const core::Pose2 centre = core::compose(
-      patchPose(patch, anchor_map_pose), core::Pose2(0.5 * patch.width * patch.resolution_m,
-                                                     0.5 * patch.height * patch.resolution_m, 0.0));
-  return centre.head<2>();
-}
-
-// Step 5's patches: per session, the cells its leaving nodes' scans decide together at `poses`
-// (a cell a session's passes saw from several submaps' scans is decided as the untrimmed map
-// would), in tiles anchored to the nearest node that stays.
-std::vector<RememberedCells> rememberLeaving(const MapSnapshot& map,
-                                             const std::vector<core::Pose2>& poses,
-                                             const std::vector<char>& stays,
-                                             const TrimParams& params,
-                                             const SubmapParams& submap_params) {
-  std::vector<std::vector<std::size_t>> of_session(map.sessions.size());
-  for (std::size_t k = 0; k < map.nodes.size(); ++k) {
-    if (!stays[k]) of_session[static_cast<std::size_t>(map.nodes[k].session)].push_back(k);
-  }
-  const PatchAnchor nearest = [&](const Eigen::Vector2d& centre) {
-    const int node = nearestStaying(centre, poses, stays);
-    return std::pair{node, poses[static_cast<std::size_t>(std::max(node, 0))]};
-  };
-  const int sessions = static_cast<int>(map.sessions.size());
-  std::vector<std::vector<RememberedCells>> made(map.sessions.size());
-  std::vector<std::exception_ptr> failed(map.sessions.size());
-#pragma omp parallel for schedule(dynamic) num_threads(params.threads) if (sessions > 1)
-  for (int s = 0; s < sessions; ++s) {
-    const std::vector<std::size_t>& nodes = of_session[static_cast<std::size_t>(s)];
-    if (nodes.empty()) continue;
-    try {
-      MapInputs inputs;
-      inputs.insertion = submap_params;
-      inputs.render = params.memory_evidence;
-      for (std::size_t k : nodes) {
-        inputs.poses.push_back(poses[k]);
-        inputs.scans.push_back(map.nodes[k].scan);
-      }
-      made[static_cast<std::size_t>(s)] =
-          rememberScans(inputs, params.memory_resolution_m,
-                        map.sessions[static_cast<std::size_t>(s)].number, kMemoryTileM, nearest);
-    } catch (...) {
-      failed[static_cast<std::size_t>(s)] = std::current_exception();
-    }
-  }
-  for (const std::exception_ptr& e : failed) {
-    if (e) std::rethrow_exception(e);
-  }
-  std::vector<RememberedCells> patches;
-  for (std::vector<RememberedCells>& of : made) {
-    patches.insert(patches.end(), std::make_move_iterator(of.begin()),
-                   std::make_move_iterator(of.end()));
-  }
-  return patches;
 }
 
 }  // namespace
@@ -436,29 +361,13 @@ TrimResult trimMap(const MapSnapshot& map, const TrimParams& params,
   if (!groups.empty()) optimizeTrusted(trusted, alive, poses);
   report.optimize_seconds = core::secondsSince(optimize_watch);
 
-  // 5. Memory, at the same estimate: the leaving scans' patches; the map's patches whose anchor
-  // leaves move to the nearest node that stays.
+  // 5. Memory, at the same estimate (trim_memory.h).
   const core::Clock::time_point memory_watch = core::Clock::now();
-  std::vector<RememberedCells> memory;
   std::vector<char> stays(n, 0);
   for (std::size_t k = 0; k < n; ++k) stays[k] = !leaves[k];
-  for (const RememberedCells& patch : map.memory) {
-    const auto anchor = static_cast<std::size_t>(patch.anchor_node);
-    if (stays[anchor]) {
-      memory.push_back(patch);
-      continue;
-    }
-    const int to = nearestStaying(patchCentre(patch, poses[anchor]), poses, stays);
-    if (to >= 0)  // some node always stays (the newest submaps): never dropped
-      memory.push_back(reanchored(patch, poses[anchor], to, poses[static_cast<std::size_t>(to)]));
-  }
-  if (params.remember_trimmed_cells && !groups.empty() &&
-      std::find(stays.begin(), stays.end(), 1) != stays.end()) {
-    std::vector<RememberedCells> made = rememberLeaving(map, poses, stays, params, submap_params);
-    report.remembered_patches = static_cast<int>(made.size());
-    memory.insert(memory.end(), std::make_move_iterator(made.begin()),
-                  std::make_move_iterator(made.end()));
-  }
+  TrimmedMemory memory = memoryAfterTrim(map, poses, stays, params, submap_params,
+                                         params.remember_trimmed_cells && !groups.empty());
+  report.remembered_patches = memory.made_patches;
   report.memory_seconds = core::secondsSince(memory_watch);
   std::vector<char> in_group(n, 0);
   for (const std::vector<NodeId>& group : groups) {
@@ -611,19 +520,10 @@ TrimResult trimMap(const MapSnapshot& map, const TrimParams& params,
                            new_index[static_cast<std::size_t>(span.last_node)]});
   }
   out.lifelong = map.lifelong;
-  for (RememberedCells& patch : memory) {
-    patch.anchor_node = new_index[static_cast<std::size_t>(patch.anchor_node)];
-  }
-  out.memory = std::move(memory);
-  if (report.remembered_patches > 0) {
-    const core::Clock::time_point watch = core::Clock::now();
-    std::vector<core::Pose2> anchors;
-    for (const MapSnapshot::Node& node : out.nodes) anchors.push_back(node.map_pose);
-    const std::size_t before = rememberedCells(out.memory);
-    out.memory = forgetSuperseded(out.memory, anchors, params.memory_resolution_m);
-    report.forgotten_cells = before - rememberedCells(out.memory);
-    report.memory_seconds += core::secondsSince(watch);
-  }
+  const core::Clock::time_point forget_watch = core::Clock::now();
+  report.forgotten_cells = settleMemory(memory, new_index, out, params);
+  out.memory = std::move(memory.patches);
+  report.memory_seconds += core::secondsSince(forget_watch);
   report.remembered_cells = rememberedCells(out.memory);
   report.trimmed_submaps = submaps - static_cast<int>(out.submaps.size());
   out.lifelong.trimmed_submaps += report.trimmed_submaps;
