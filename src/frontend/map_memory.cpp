@@ -63,10 +63,14 @@ bool isDecision(std::uint8_t value) {
          (value <= RememberedCells::kLastOccupied || value >= RememberedCells::kFirstFree);
 }
 
-float evidenceLogOdds(std::uint8_t value) {
-  const float p = std::clamp(freeProbability(value), 1e-3F, 1.0F - 1e-3F);
+float occupancyLogOdds(float free_probability) {
+  const float p = std::clamp(free_probability, 1e-3F, 1.0F - 1e-3F);
   return std::log((1.0F - p) / p);
 }
+
+float evidenceLogOdds(std::uint8_t value) { return occupancyLogOdds(freeProbability(value)); }
+
+float freeProbabilityOfLogOdds(float log_odds) { return 1.0F / (1.0F + std::exp(log_odds)); }
 
 core::Pose2 patchPose(const RememberedCells& patch, const core::Pose2& anchor_map_pose) {
   return core::compose(anchor_map_pose, patch.origin);

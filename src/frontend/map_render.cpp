@@ -106,12 +106,6 @@ struct MemoryUse {
   std::vector<std::vector<float>> added;
 };
 
-// The occupancy log-odds of a probability of being free.
-float occupancyLogOdds(float free_probability) {
-  const float p = std::clamp(free_probability, 1e-3F, 1.0F - 1e-3F);
-  return std::log((1.0F - p) / p);
-}
-
 mrpt::maps::COccupancyGridMap2D render(const MapInputs& inputs, double resolution_m,
                                        MemoryUse* use) {
   if (inputs.render) validate(*inputs.render);
@@ -305,8 +299,8 @@ mrpt::maps::COccupancyGridMap2D render(const MapInputs& inputs, double resolutio
     for (unsigned cx = 0; cx < grid.getSizeX(); ++cx) {
       const std::size_t g = static_cast<std::size_t>(cy) * grid.getSizeX() + cx;
       if (taken[g] || !has_evidence[g]) continue;
-      const float l = occupancyLogOdds(layered.getCell(cx, cy)) + evidence[g];
-      const float p = 1.0F / (1.0F + std::exp(l));
+      const float p =
+          freeProbabilityOfLogOdds(occupancyLogOdds(layered.getCell(cx, cy)) + evidence[g]);
       if (decides(p)) layered.setCell(cx, cy, p);
     }
   }
@@ -323,6 +317,29 @@ mrpt::maps::COccupancyGridMap2D render(const MapInputs& inputs, double resolutio
     }
   }
   return layered;
+}
+
+// The smallest box of cells (x, y) in [x_begin, x_end) x [y_begin, y_end) where keep(x, y) holds;
+// empty() if there is none.
+struct CellBox {
+  int x0 = std::numeric_limits<int>::max(), x1 = -1;
+  int y0 = std::numeric_limits<int>::max(), y1 = -1;
+  bool empty() const { return x1 < 0; }
+};
+
+template <class Keep>
+CellBox boundsOf(int x_begin, int x_end, int y_begin, int y_end, Keep&& keep) {
+  CellBox box;
+  for (int y = y_begin; y < y_end; ++y) {
+    for (int x = x_begin; x < x_end; ++x) {
+      if (!keep(x, y)) continue;
+      box.x0 = std::min(box.x0, x);
+      box.x1 = std::max(box.x1, x);
+      box.y0 = std::min(box.y0, y);
+      box.y1 = std::max(box.y1, y);
+    }
+  }
+  return box;
 }
 
 // The patch of `grid`'s decided cells within [x0, x1] x [y0, y1], anchored as asked.
@@ -378,21 +395,13 @@ std::vector<RememberedCells> rememberScans(const MapInputs& inputs, double resol
   std::vector<RememberedCells> patches;
   for (int ty = 0; ty < size_y; ty += tile) {
     for (int tx = 0; tx < size_x; tx += tile) {
-      int x0 = size_x, x1 = -1, y0 = size_y, y1 = -1;
-      for (int cy = ty; cy < std::min(ty + tile, size_y); ++cy) {
-        for (int cx = tx; cx < std::min(tx + tile, size_x); ++cx) {
-          if (!observed(grid.getCell(cx, cy))) continue;
-          x0 = std::min(x0, cx);
-          x1 = std::max(x1, cx);
-          y0 = std::min(y0, cy);
-          y1 = std::max(y1, cy);
-        }
-      }
-      if (x1 < 0) continue;
-      const Eigen::Vector2d centre(0.5 * (grid.idx2x(x0) + grid.idx2x(x1)),
-                                   0.5 * (grid.idx2y(y0) + grid.idx2y(y1)));
+      const CellBox box = boundsOf(tx, std::min(tx + tile, size_x), ty, std::min(ty + tile, size_y),
+                                   [&](int cx, int cy) { return observed(grid.getCell(cx, cy)); });
+      if (box.empty()) continue;
+      const Eigen::Vector2d centre(0.5 * (grid.idx2x(box.x0) + grid.idx2x(box.x1)),
+                                   0.5 * (grid.idx2y(box.y0) + grid.idx2y(box.y1)));
       const auto [node, node_pose] = anchor(centre);
-      patches.push_back(patchOf(grid, x0, x1, y0, y1, session, node, node_pose));
+      patches.push_back(patchOf(grid, box.x0, box.x1, box.y0, box.y1, session, node, node_pose));
     }
   }
   return patches;
@@ -403,8 +412,8 @@ std::vector<RememberedCells> forgetSuperseded(const std::vector<RememberedCells>
                                               double resolution_m) {
   if (memory.empty()) return {};
   // The patches alone, newest first. The kept scans are left out: a remembered cell a kept
-  // session decides is hidden while that session's scans stay, but their own patches may not
-  // decide it when they are trimmed (each holds one submap's leaving scans, not the session's).
+  // session decides is hidden while that session's scans stay, but the patches made of them when
+  // they leave may not decide it (not all of them leave at once).
   MapInputs patches;
   patches.poses = poses;
   patches.memory = memory;
@@ -416,18 +425,12 @@ std::vector<RememberedCells> forgetSuperseded(const std::vector<RememberedCells>
   for (std::size_t p = 0; p < memory.size(); ++p) {
     const RememberedCells& patch = memory[p];
     const std::vector<std::uint8_t>& cells = *patch.cells;
-    int x0 = patch.width, x1 = -1, y0 = patch.height, y1 = -1;
-    for (int j = 0; j < patch.height; ++j) {
-      for (int i = 0; i < patch.width; ++i) {
-        const std::size_t k = static_cast<std::size_t>(j) * patch.width + i;
-        if (cells[k] == RememberedCells::kUnknown || superseded[p][k]) continue;
-        x0 = std::min(x0, i);
-        x1 = std::max(x1, i);
-        y0 = std::min(y0, j);
-        y1 = std::max(y1, j);
-      }
-    }
-    if (x1 < 0) continue;  // all of it newer sessions decide
+    const CellBox box = boundsOf(0, patch.width, 0, patch.height, [&](int i, int j) {
+      const std::size_t k = static_cast<std::size_t>(j) * patch.width + i;
+      return cells[k] != RememberedCells::kUnknown && !superseded[p][k];
+    });
+    if (box.empty()) continue;  // a newer patch has all of it
+    const auto [x0, x1, y0, y1] = box;
     RememberedCells out = patch;
     out.width = x1 - x0 + 1;
     out.height = y1 - y0 + 1;
@@ -444,7 +447,7 @@ std::vector<RememberedCells> forgetSuperseded(const std::vector<RememberedCells>
         (*left)[static_cast<std::size_t>(j - y0) * out.width + (i - x0)] =
             added == 0.0F || isDecision(cells[k])
                 ? cells[k]
-                : rememberedValue(1.0F / (1.0F + std::exp(evidenceLogOdds(cells[k]) + added)));
+                : rememberedValue(freeProbabilityOfLogOdds(evidenceLogOdds(cells[k]) + added));
       }
     }
     out.cells = std::move(left);

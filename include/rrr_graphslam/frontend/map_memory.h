@@ -64,8 +64,11 @@ std::uint8_t rememberedValue(float free_probability);
 float freeProbability(std::uint8_t value);
 /// Whether a (known) cell's value is a decision rather than evidence.
 bool isDecision(std::uint8_t value);
-/// The occupancy log-odds log(p(occupied) / p(free)) of a value.
+/// The occupancy log-odds log(p(occupied) / p(free)) of a probability of being free, of a
+/// value, and back.
+float occupancyLogOdds(float free_probability);
 float evidenceLogOdds(std::uint8_t value);
+float freeProbabilityOfLogOdds(float log_odds);
 
 /// The patch's pose in the map frame, given its anchor node's map pose.
 core::Pose2 patchPose(const RememberedCells& patch, const core::Pose2& anchor_map_pose);
