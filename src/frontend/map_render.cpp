@@ -106,17 +106,13 @@ struct MemoryUse {
   std::vector<std::vector<float>> added;
 };
 
-mrpt::maps::COccupancyGridMap2D render(const MapInputs& inputs, double resolution_m,
-                                       MemoryUse* use) {
-  if (inputs.render) validate(*inputs.render);
+// The grid a rendering starts from: the trajectory's and the patches' bounding box (MRPT grows it
+// to fit the rays; the log's odometry origin may lie hundreds of metres away). Throws for a map
+// beyond the cell budget.
+mrpt::maps::COccupancyGridMap2D emptyGrid(const MapInputs& inputs,
+                                          const std::vector<PlacedPatch>& placed,
+                                          double resolution_m) {
   const std::vector<core::Pose2>& map = inputs.poses;
-  for (const RememberedCells& patch : inputs.memory) {
-    patch.check(static_cast<int>(map.size()));
-  }
-  std::vector<PlacedPatch> placed;
-  for (const RememberedCells& patch : inputs.memory) placed.push_back(place(patch, map));
-  // Start from the trajectory's bounding box (MRPT grows the grid to fit the rays); the log's
-  // odometry origin may lie hundreds of metres away.
   Eigen::Vector2d low(-1.0, -1.0);
   Eigen::Vector2d high(1.0, 1.0);
   if (!map.empty()) {
@@ -141,10 +137,194 @@ mrpt::maps::COccupancyGridMap2D render(const MapInputs& inputs, double resolutio
         std::to_string(high.y() - low.y()) + " m: more than " + std::to_string(kMaxRenderedCells) +
         " cells of " + std::to_string(resolution_m) + " m with its rays; render it coarser");
   }
-  mrpt::maps::COccupancyGridMap2D grid(
+  return mrpt::maps::COccupancyGridMap2D(
       static_cast<float>(low.x() - 1.0), static_cast<float>(high.x() + 1.0),
       static_cast<float>(low.y() - 1.0), static_cast<float>(high.y() + 1.0),
       static_cast<float>(resolution_m));
+}
+
+// The layers of a rendered map, painted newest first (map_render.h): each session's kept scans,
+// then its patches. A cell keeps the first layer that decides it (a map_server reader would see
+// it occupied or free: a glimpse does not overrule an older session's clear view); where none
+// does, the patches' evidence adds to the kept scans' (addEvidence). With `use`, what the
+// rendering made of every remembered cell is recorded for forgetSuperseded().
+class Layers {
+ public:
+  // `all_scans`: every kept scan in one grid (the fallback where no layer decides a cell);
+  // `scans_decide`: every scan alike (kAllScans), so the patches fill only what it leaves unknown.
+  Layers(const MapInputs& inputs, const std::vector<PlacedPatch>& placed,
+         const mrpt::maps::COccupancyGridMap2D& all_scans, bool scans_decide, bool record_use)
+      : inputs_(inputs),
+        placed_(placed),
+        grid_(all_scans),
+        layered_(all_scans),
+        taken_(cellCount(), 0),
+        won_(placed.size()),
+        lost_(placed.size()),
+        owner_(placed.size()),
+        fused_(placed.size()),
+        evidence_(placed.empty() ? 0 : cellCount(), 0.0F),
+        has_evidence_(evidence_.size(), 0),
+        record_use_(record_use),
+        evidence_owner_(record_use ? evidence_.size() : 0, {-1, 0}) {
+    if (record_use_) use_.added.assign(placed.size(), {});
+    if (!scans_decide) return;
+    for (unsigned cy = 0; cy < grid_.getSizeY(); ++cy) {
+      for (unsigned cx = 0; cx < grid_.getSizeX(); ++cx)
+        taken_[index(cx, cy)] = decides(grid_.getCell(cx, cy));
+    }
+  }
+
+  // One session's kept scans (`own`, a grid of the rendering's size) decide the cells no newer
+  // layer decided.
+  void paintSession(const mrpt::maps::COccupancyGridMap2D& own) {
+    for (unsigned cy = 0; cy < own.getSizeY(); ++cy) {
+      for (unsigned cx = 0; cx < own.getSizeX(); ++cx) {
+        char& t = taken_[index(cx, cy)];
+        const float p = own.getCell(cx, cy);
+        if (t || !decides(p)) continue;
+        layered_.setCell(cx, cy, p);
+        t = 1;
+      }
+    }
+  }
+
+  // Patch p: its decisions where no newer layer decided the cell (won, else lost); its evidence
+  // (lost under a decision) kept per grid cell for addEvidence, with its owner (the newest
+  // evidence of the cell, to which older evidence is added) or fused (added to the owner).
+  void paintPatch(std::size_t p) {
+    const std::size_t n_cells = inputs_.memory[p].cells->size();
+    for (auto* flags : {&won_, &lost_}) (*flags)[p].assign(n_cells, 0);
+    if (record_use_) {
+      for (auto* flags : {&owner_, &fused_}) (*flags)[p].assign(n_cells, 0);
+      use_.added[p].assign(n_cells, 0.0F);
+    }
+    forEachRemembered(grid_, placed_[p], [&](int cx, int cy, const Samples& samples) {
+      const std::size_t g = index(cx, cy);
+      paintDecisions(p, cx, cy, samples);
+      // The patch's glimpse of the grid cell, once per patch (the mean of its samples: a ray
+      // updates a coarse cell once, not once per fine cell).
+      float glimpse = 0.0F;
+      int glimpses = 0;
+      for (std::size_t n = 0; n < samples.n; ++n) {
+        const auto [k, v] = samples.cells[n];
+        if (isDecision(v)) continue;
+        if (taken_[g]) {
+          lost_[p][k] = 1;
+          continue;
+        }
+        glimpse += evidenceLogOdds(v);
+        ++glimpses;
+      }
+      if (glimpses == 0) return;
+      evidence_[g] += glimpse / static_cast<float>(glimpses);
+      has_evidence_[g] = 1;
+      if (record_use_) recordEvidence(p, g, samples, glimpses);
+    });
+  }
+
+  // Where no layer decides a cell, the patches' evidence adds to the kept scans' (every scan
+  // alike, as the untrimmed map's scans would add up).
+  void addEvidence() {
+    for (unsigned cy = 0; !evidence_.empty() && cy < grid_.getSizeY(); ++cy) {
+      for (unsigned cx = 0; cx < grid_.getSizeX(); ++cx) {
+        const std::size_t g = index(cx, cy);
+        if (taken_[g] || !has_evidence_[g]) continue;
+        const float p =
+            freeProbabilityOfLogOdds(occupancyLogOdds(layered_.getCell(cx, cy)) + evidence_[g]);
+        if (decides(p)) layered_.setCell(cx, cy, p);
+      }
+    }
+  }
+
+  const mrpt::maps::COccupancyGridMap2D& map() const { return layered_; }
+
+  // Only with `record_use`, after every patch was painted.
+  MemoryUse memoryUse() {
+    use_.superseded.assign(placed_.size(), {});
+    for (std::size_t p = 0; p < placed_.size(); ++p) {
+      const std::vector<std::uint8_t>& cells = *inputs_.memory[p].cells;
+      std::vector<char>& out = use_.superseded[p];
+      out.assign(cells.size(), 0);
+      for (std::size_t k = 0; k < out.size(); ++k) {
+        out[k] = isDecision(cells[k]) ? lost_[p][k] && !won_[p][k]
+                                      : (lost_[p][k] || fused_[p][k]) && !owner_[p][k];
+      }
+    }
+    return std::move(use_);
+  }
+
+ private:
+  std::size_t cellCount() const {
+    return static_cast<std::size_t>(grid_.getSizeX()) * grid_.getSizeY();
+  }
+  std::size_t index(unsigned cx, unsigned cy) const {
+    return static_cast<std::size_t>(cy) * grid_.getSizeX() + cx;
+  }
+
+  // The cell as a scan would leave it: occupied where a wall of the patch lies in it.
+  void paintDecisions(std::size_t p, int cx, int cy, const Samples& samples) {
+    char& t = taken_[index(cx, cy)];
+    float most_occupied = 1.0F;
+    bool decision = false;
+    for (std::size_t n = 0; n < samples.n; ++n) {
+      const auto [k, v] = samples.cells[n];
+      if (!isDecision(v)) continue;
+      decision = true;
+      (t ? lost_ : won_)[p][k] = 1;
+      most_occupied = std::min(most_occupied, freeProbability(v));
+    }
+    if (decision && !t) {
+      layered_.setCell(cx, cy, most_occupied);
+      t = 1;
+    }
+  }
+
+  // The first patch with evidence in grid cell g owns it; a later (older) patch's evidence there
+  // is added to the owner's cell once, however many grid cells it covers.
+  void recordEvidence(std::size_t p, std::size_t g, const Samples& samples, int glimpses) {
+    auto& [owner_patch, owner_cell] = evidence_owner_[g];
+    for (std::size_t n = 0; n < samples.n; ++n) {
+      const auto [k, v] = samples.cells[n];
+      if (isDecision(v)) continue;
+      if (owner_patch < 0) {
+        owner_patch = static_cast<int>(p);
+        owner_cell = k;
+        owner_[p][k] = 1;
+      } else if (static_cast<std::size_t>(owner_patch) != p && !fused_[p][k] && !owner_[p][k]) {
+        fused_[p][k] = 1;
+        use_.added[static_cast<std::size_t>(owner_patch)][owner_cell] +=
+            evidenceLogOdds(v) / static_cast<float>(glimpses);
+      }
+    }
+  }
+
+  const MapInputs& inputs_;
+  const std::vector<PlacedPatch>& placed_;
+  const mrpt::maps::COccupancyGridMap2D& grid_;
+  mrpt::maps::COccupancyGridMap2D layered_;
+  std::vector<char> taken_;  // per grid cell: a layer decided it
+  // Per patch and cell: decisions won (shown) or lost (a newer layer decided the cell); evidence
+  // lost (under a decision), owner or fused (owner_ and fused_ with record_use only).
+  std::vector<std::vector<char>> won_, lost_, owner_, fused_;
+  // Per grid cell, only with a memory: the patches' evidence where no layer decides.
+  std::vector<float> evidence_;
+  std::vector<char> has_evidence_;
+  bool record_use_;
+  std::vector<std::pair<int, std::size_t>> evidence_owner_;  // per grid cell: (patch, cell)
+  MemoryUse use_;
+};
+
+mrpt::maps::COccupancyGridMap2D render(const MapInputs& inputs, double resolution_m,
+                                       MemoryUse* use) {
+  if (inputs.render) validate(*inputs.render);
+  const std::vector<core::Pose2>& map = inputs.poses;
+  for (const RememberedCells& patch : inputs.memory) {
+    patch.check(static_cast<int>(map.size()));
+  }
+  std::vector<PlacedPatch> placed;
+  for (const RememberedCells& patch : inputs.memory) placed.push_back(place(patch, map));
+  mrpt::maps::COccupancyGridMap2D grid = emptyGrid(inputs, placed, resolution_m);
   SubmapParams insertion = inputs.insertion;
   if (inputs.render) {
     insertion.hit_probability = static_cast<float>(inputs.render->hit_probability);
@@ -164,100 +344,8 @@ mrpt::maps::COccupancyGridMap2D render(const MapInputs& inputs, double resolutio
     session_numbers.insert(inputs.sessions.begin(), inputs.sessions.begin() + nodes);
   if (placed.empty() && (!by_session || session_numbers.size() < 2)) return grid;
 
-  // Layers, newest first: each session's kept scans, then its patches (the newest first). A cell
-  // keeps the first layer that decides it (a map_server reader would see it occupied or free: a
-  // glimpse does not overrule an older session's clear view).
-  std::vector<int> patch_order(placed.size());
-  for (std::size_t p = 0; p < placed.size(); ++p) patch_order[p] = static_cast<int>(p);
-  std::stable_sort(patch_order.begin(), patch_order.end(), [&](int a, int b) {
-    const int sa = inputs.memory[static_cast<std::size_t>(a)].session;
-    const int sb = inputs.memory[static_cast<std::size_t>(b)].session;
-    return sa != sb ? sa > sb : a > b;
-  });
-  mrpt::maps::COccupancyGridMap2D layered = grid;
-  std::vector<char> taken(static_cast<std::size_t>(grid.getSizeX()) * grid.getSizeY(), 0);
-  auto cell = [&](int cx, int cy) -> char& {
-    return taken[static_cast<std::size_t>(cy) * grid.getSizeX() + static_cast<std::size_t>(cx)];
-  };
-  if (!by_session) {  // every scan alike: the memory fills what the scans leave unknown
-    for (unsigned cy = 0; cy < grid.getSizeY(); ++cy) {
-      for (unsigned cx = 0; cx < grid.getSizeX(); ++cx)
-        cell(cx, cy) = decides(grid.getCell(cx, cy));
-    }
-  }
-  // Decisions: won (shown) or lost (a newer layer decided the cell). Evidence: lost under a
-  // decision, owner (the newest evidence of its grid cell, to which older evidence is added) or
-  // fused (added to a newer patch's evidence).
-  std::vector<std::vector<char>> won(placed.size()), lost(placed.size());
-  std::vector<std::vector<char>> owner(placed.size()), fused(placed.size());  // with `use` only
-  // Per grid cell, only with a memory (and the owners only to forget).
-  const std::size_t grid_cells = placed.empty() ? 0 : taken.size();
-  std::vector<float> evidence(grid_cells, 0.0F);  // the patches' evidence, where no layer decides
-  std::vector<char> has_evidence(grid_cells, 0);
-  std::vector<std::pair<int, std::size_t>> evidence_owner(use ? grid_cells : 0, {-1, 0});
-  if (use) use->added.assign(placed.size(), {});
-  auto paintPatch = [&](int p) {
-    const auto index = static_cast<std::size_t>(p);
-    const std::size_t n_cells = inputs.memory[index].cells->size();
-    for (auto* flags : {&won, &lost}) (*flags)[index].assign(n_cells, 0);
-    if (use) {
-      for (auto* flags : {&owner, &fused}) (*flags)[index].assign(n_cells, 0);
-      use->added[index].assign(n_cells, 0.0F);
-    }
-    forEachRemembered(grid, placed[index], [&](int cx, int cy, const Samples& samples) {
-      const std::size_t g =
-          static_cast<std::size_t>(cy) * grid.getSizeX() + static_cast<std::size_t>(cx);
-      char& t = taken[g];
-      // The cell as a scan would leave it: occupied where a wall of the patch lies in it.
-      float most_occupied = 1.0F;
-      bool decision = false;
-      for (std::size_t n = 0; n < samples.n; ++n) {
-        const auto [k, v] = samples.cells[n];
-        if (!isDecision(v)) continue;
-        decision = true;
-        (t ? lost : won)[index][k] = 1;
-        most_occupied = std::min(most_occupied, freeProbability(v));
-      }
-      if (decision && !t) {
-        layered.setCell(cx, cy, most_occupied);
-        t = 1;
-      }
-      // Evidence: the patch's glimpse of the grid cell, once per patch (the mean of its samples:
-      // a ray updates a coarse cell once, not once per fine cell).
-      float glimpse = 0.0F;
-      int glimpses = 0;
-      for (std::size_t n = 0; n < samples.n; ++n) {
-        const auto [k, v] = samples.cells[n];
-        if (isDecision(v)) continue;
-        if (t) {
-          lost[index][k] = 1;
-          continue;
-        }
-        glimpse += evidenceLogOdds(v);
-        ++glimpses;
-      }
-      if (glimpses == 0) return;
-      glimpse /= static_cast<float>(glimpses);
-      evidence[g] += glimpse;
-      has_evidence[g] = 1;
-      if (!use) return;
-      auto& [owner_patch, owner_cell] = evidence_owner[g];
-      for (std::size_t n = 0; n < samples.n; ++n) {
-        const auto [k, v] = samples.cells[n];
-        if (isDecision(v)) continue;
-        if (owner_patch < 0) {
-          owner_patch = p;
-          owner_cell = k;
-          owner[index][k] = 1;
-        } else if (owner_patch != p && !fused[index][k] && !owner[index][k]) {
-          // Added to the newest evidence of the cell once, however many grid cells it covers.
-          fused[index][k] = 1;
-          use->added[static_cast<std::size_t>(owner_patch)][owner_cell] +=
-              evidenceLogOdds(v) / static_cast<float>(glimpses);
-        }
-      }
-    });
-  };
+  Layers layers(inputs, placed, grid, !by_session, use != nullptr);
+  // One session's kept scans in a grid of their own.
   auto paintSession = [&](int session) {
     mrpt::maps::COccupancyGridMap2D own(grid.getXMin(), grid.getXMax(), grid.getYMin(),
                                         grid.getYMax(), grid.getResolution());
@@ -268,55 +356,33 @@ mrpt::maps::COccupancyGridMap2D render(const MapInputs& inputs, double resolutio
       insert(own, k);
       any = true;
     }
-    if (!any || own.getSizeX() != grid.getSizeX() || own.getSizeY() != grid.getSizeY()) return;
-    for (unsigned cy = 0; cy < own.getSizeY(); ++cy) {
-      for (unsigned cx = 0; cx < own.getSizeX(); ++cx) {
-        char& t = cell(cx, cy);
-        const float p = own.getCell(cx, cy);
-        if (t || !decides(p)) continue;
-        layered.setCell(cx, cy, p);
-        t = 1;
-      }
-    }
+    if (any && own.getSizeX() == grid.getSizeX() && own.getSizeY() == grid.getSizeY())
+      layers.paintSession(own);
   };
+  // The patches newest first: by session, then the later patch first.
+  std::vector<std::size_t> patch_order(placed.size());
+  for (std::size_t p = 0; p < placed.size(); ++p) patch_order[p] = p;
+  std::stable_sort(patch_order.begin(), patch_order.end(), [&](std::size_t a, std::size_t b) {
+    const int sa = inputs.memory[a].session;
+    const int sb = inputs.memory[b].session;
+    return sa != sb ? sa > sb : a > b;
+  });
   auto next_patch = patch_order.begin();
   if (by_session) {
     if (one_session) session_numbers.insert(std::numeric_limits<int>::max());
     for (int session : session_numbers) {
       // Patches of newer sessions than this one (a session that left the map whole).
-      for (; next_patch != patch_order.end() &&
-             inputs.memory[static_cast<std::size_t>(*next_patch)].session > session;
+      for (; next_patch != patch_order.end() && inputs.memory[*next_patch].session > session;
            ++next_patch) {
-        paintPatch(*next_patch);
+        layers.paintPatch(*next_patch);
       }
       paintSession(session);
     }
   }
-  for (; next_patch != patch_order.end(); ++next_patch) paintPatch(*next_patch);
-  // Where no layer decides a cell, the patches' evidence adds to the kept scans' (every scan
-  // alike, as the untrimmed map's scans would add up).
-  for (unsigned cy = 0; grid_cells > 0 && cy < grid.getSizeY(); ++cy) {
-    for (unsigned cx = 0; cx < grid.getSizeX(); ++cx) {
-      const std::size_t g = static_cast<std::size_t>(cy) * grid.getSizeX() + cx;
-      if (taken[g] || !has_evidence[g]) continue;
-      const float p =
-          freeProbabilityOfLogOdds(occupancyLogOdds(layered.getCell(cx, cy)) + evidence[g]);
-      if (decides(p)) layered.setCell(cx, cy, p);
-    }
-  }
-  if (use) {
-    use->superseded.assign(placed.size(), {});
-    for (std::size_t p = 0; p < placed.size(); ++p) {
-      const std::vector<std::uint8_t>& cells = *inputs.memory[p].cells;
-      std::vector<char>& out = use->superseded[p];
-      out.assign(cells.size(), 0);
-      for (std::size_t k = 0; k < out.size(); ++k) {
-        out[k] = isDecision(cells[k]) ? lost[p][k] && !won[p][k]
-                                      : (lost[p][k] || fused[p][k]) && !owner[p][k];
-      }
-    }
-  }
-  return layered;
+  for (; next_patch != patch_order.end(); ++next_patch) layers.paintPatch(*next_patch);
+  layers.addEvidence();
+  if (use) *use = layers.memoryUse();
+  return layers.map();
 }
 
 // The smallest box of cells (x, y) in [x_begin, x_end) x [y_begin, y_end) where keep(x, y) holds;
