@@ -371,6 +371,9 @@ def check_world_targets(results: Dict[str, List[SessionResult]], ate_margin_m: f
             seen = "" if c.changed_observed < 0 else (
                 f"; of the {c.changed_observed} the last session's laser swept "
                 f"{c.changed_observed_agree} = {c.changed_observed_agreement:.3f}")
+            if c.changed_knowable >= 0:
+                seen += (f"; of the {c.changed_knowable} whose newest look saw them as they are now "
+                         f"{c.changed_knowable_agree} = {c.changed_knowable_agreement:.3f}")
             out.append(Target(config, f"changed world after {n} sessions ({layering}): the map agrees with the "
                                       f"world now in >= {changed_min:.0%} of the changed cells",
                               f"{c.changed_agree} of {c.changed_cells} = {c.changed_agreement:.3f} (stale "
@@ -430,7 +433,8 @@ def table(rows: Sequence[SessionResult]) -> str:
 
 WORLD_HEADER = ("| config | session | ATE of the map / of the session's scans (cm) | changed cells: agree / "
                 "stale / unknown of N, every scan alike | the same, newest session per cell | changed cells the "
-                "session's laser swept: agree of N (alike / newest) | static cells' F1 (alike / newest) |")
+                "session's laser swept: agree of N (alike / newest) | changed cells whose newest look saw them as now: "
+                "agree of N (alike / newest) | static cells' F1 (alike / newest) |")
 
 
 def world_table(rows: Sequence[SessionResult]) -> str:
@@ -447,10 +451,14 @@ def world_table(rows: Sequence[SessionResult]) -> str:
         swept = " / ".join("–" if w is None or w.comparison.changed_observed < 0 else
                            f"{w.comparison.changed_observed_agree}" for w in (alike, newest))
         n_swept = next((w.comparison.changed_observed for w in (alike, newest) if w is not None), -1)
+        knowable = " / ".join("–" if w is None or w.comparison.changed_knowable < 0 else
+                              f"{w.comparison.changed_knowable_agree}" for w in (alike, newest))
+        n_knowable = max((w.comparison.changed_knowable for w in (alike, newest) if w is not None), default=-1)
         f1 = " / ".join("–" if w is None else f"{w.comparison.static_f1:.3f}" for w in (alike, newest))
         lines.append(f"| {r.config} | {r.session + 1} | {_f(r.ate_map * 100, '{:.2f}')} / "
                      f"{_f(r.ate_session * 100, '{:.2f}')} | {changed(alike)} | {changed(newest)} | "
-                     f"{swept} of {n_swept if n_swept >= 0 else '–'} | {f1} |")
+                     f"{swept} of {n_swept if n_swept >= 0 else '–'} | "
+                     f"{knowable} of {n_knowable if n_knowable >= 0 else '–'} | {f1} |")
     return "\n".join(lines)
 
 
@@ -675,7 +683,8 @@ def score_world(tools: Tools, world: SimulatedWorld, row: SessionResult, stem: s
     worlds = [world.world(j) for j in range(k + 1)]
     for layering in LAYERINGS:
         rendered = tools.render_map(stem + ".rrrmap", f"{stem}.map_{layering}", resolution, layering)
-        row.world[layering] = score_map(rendered, transform, worlds, world.observed(k), layering)
+        row.world[layering] = score_map(rendered, transform, worlds, world.observed(k), layering,
+                                        world.knowable(k))
 
 
 def evaluate_config(tools: Tools, data, runs, config: str, criteria: Criteria,

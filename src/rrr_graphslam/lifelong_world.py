@@ -23,7 +23,8 @@ from .evaluation import alignment_errors
 from .graph_io import Pose, write_text_atomically
 from .relations import read_tum
 from .world_compare import (FREE, OCCUPIED, UNKNOWN, GridMap, WorldComparison, agreement, align,
-                            changed_cells, compare, map_in_world, observed_by_log, read_map_server)
+                            changed_cells, compare, map_in_world, observed_by_log, read_map_server,
+                            seen_as_now)
 
 
 class SimulatedTruth:
@@ -124,6 +125,11 @@ class SimulatedWorld:
             self._observed[k] = observed_by_log(self.world(k), self.logs[k], self.truth.pose)
         return self._observed[k]
 
+    def knowable(self, k: int) -> np.ndarray:
+        """The cells of session k's world whose newest observation up to session k saw them as
+        they are in it (world_compare.seen_as_now)."""
+        return seen_as_now([self.world(j) for j in range(k + 1)], [self.observed(j) for j in range(k + 1)])
+
     def use_local_motion(self, trajectory: str) -> None:
         """The true poses need no help from a run (bench_sessions' corrected logs do)."""
 
@@ -163,12 +169,13 @@ def world_from_map(trajectory: str, truth: SimulatedTruth) -> Pose:
 
 
 def score_map(map_yaml: str, transform: Pose, worlds: Sequence[GridMap], observed: Optional[np.ndarray],
-              layering: str) -> WorldScore:
+              layering: str, knowable: Optional[np.ndarray] = None) -> WorldScore:
     """The rendered map `map_yaml` against `worlds` (the sessions so far, the last being the world
     now), placed in the world by `transform` (world_from_map); with `observed` (the cells the last
-    session's laser swept, SimulatedWorld.observed), those changed cells are scored apart."""
-    return WorldScore(layering, compare(read_map_server(map_yaml), worlds, transform, observed=observed),
-                      transform)
+    session's laser swept, SimulatedWorld.observed) and `knowable` (those whose newest observation
+    saw them as now, SimulatedWorld.knowable), those changed cells are scored apart."""
+    return WorldScore(layering, compare(read_map_server(map_yaml), worlds, transform, observed=observed,
+                                        knowable=knowable), transform)
 
 
 def plot_final_maps(maps: Sequence[Tuple[str, str, Pose, Sequence[str]]], path: str, title: str) -> str:

@@ -16,6 +16,9 @@ trajectory in the map frame and the true poses at the same timestamps (least-squ
   each beam and the cell a beam ends in). A change no robot looked at cannot be in any map; the
   agreement over these is what a map can reach. *Stale*: changed cells where the map has the
   earlier state (not unknown, not the last world's).
+- Changed cells a map could know (`--logs`, every session's log): those whose newest observation,
+  by any session, saw the state they have now. The others no session looked at, or they changed
+  after the last look (the far side of a door that closed, seen open and never again from behind).
 - Static cells: the known cells of the last world that never changed, where the map observed
   something within `tolerance_cells` (the map cannot be asked about rooms no session entered).
   Occupancy F1 over them with the same tolerance: an occupied map cell is a true positive when
@@ -161,6 +164,8 @@ class WorldComparison:
     changed_stale: int = 0    # the map has an earlier world's state there
     changed_observed: int = -1        # changed cells the last session observed (-1: not asked)
     changed_observed_agree: int = -1  # ... where the map agrees
+    changed_knowable: int = -1        # changed cells whose newest observation saw them as now (-1: not asked)
+    changed_knowable_agree: int = -1  # ... where the map agrees
 
     @property
     def changed_agreement(self) -> float:
@@ -169,6 +174,11 @@ class WorldComparison:
     @property
     def changed_observed_agreement(self) -> float:
         return (self.changed_observed_agree / self.changed_observed if self.changed_observed > 0
+                else math.nan)
+
+    @property
+    def changed_knowable_agreement(self) -> float:
+        return (self.changed_knowable_agree / self.changed_knowable if self.changed_knowable > 0
                 else math.nan)
 
 
@@ -232,6 +242,24 @@ def changed_cells(worlds: Sequence[GridMap]) -> np.ndarray:
     return changed & (free_now | ((last.cells == OCCUPIED) & _dilate(free_now, 1)))
 
 
+def seen_as_now(worlds: Sequence[GridMap], observed: Sequence[np.ndarray]) -> np.ndarray:
+    """The cells whose newest observation saw them as they are now: the last session whose laser
+    swept a cell (`observed[k]`, observed_cells of session k in its world `worlds[k]`) saw the
+    last world's state there. Elsewhere no map made of the sessions' scans can know a cell's state
+    now: no session looked at it, or it changed after the last look (the far side of a door that
+    closed, seen open and never again from that side)."""
+    if len(observed) != len(worlds):
+        raise ValueError(f"{len(observed)} observed masks for {len(worlds)} worlds")
+    last = worlds[-1].cells
+    knowable = np.zeros(last.shape, dtype=bool)
+    looked = np.zeros(last.shape, dtype=bool)
+    for world, seen in zip(reversed(worlds), reversed(observed)):
+        newest_look = seen & ~looked
+        knowable |= newest_look & (world.cells == last)
+        looked |= newest_look
+    return knowable
+
+
 def agreement(seen: np.ndarray, world: GridMap, tolerance_cells: int = 1,
               near_seen_occupied: np.ndarray = None) -> np.ndarray:
     """Where the map (`seen`, on the world's grid) has the world's state: a free cell seen free, an
@@ -243,10 +271,12 @@ def agreement(seen: np.ndarray, world: GridMap, tolerance_cells: int = 1,
 
 
 def compare(slam_map: GridMap, worlds: Sequence[GridMap], world_from_map: Pose,
-            tolerance_cells: int = 1, observed: np.ndarray = None) -> WorldComparison:
+            tolerance_cells: int = 1, observed: np.ndarray = None,
+            knowable: np.ndarray = None) -> WorldComparison:
     """The map (in its frame) against the worlds of the sessions (all the same grid), the last
     being the world now; `world_from_map` from align(); `observed`, the cells the last session
-    observed (observed_cells), if known."""
+    observed (observed_cells), if known; `knowable`, the cells whose newest observation saw them
+    as they are now (seen_as_now), if known."""
     last = worlds[-1]
     changed = changed_cells(worlds)
     seen = map_in_world(slam_map, last, world_from_map)
@@ -261,6 +291,9 @@ def compare(slam_map: GridMap, worlds: Sequence[GridMap], world_from_map: Pose,
     if observed is not None:
         in_sight = changed & _dilate(observed, tolerance_cells)
         n_observed, observed_agree = int(in_sight.sum()), int((agrees & in_sight).sum())
+    n_knowable = knowable_agree = -1
+    if knowable is not None:
+        n_knowable, knowable_agree = int((changed & knowable).sum()), int((agrees & changed & knowable).sum())
 
     observed = near_seen_occ | near_seen_free
     static = (~changed) & (last.cells != UNKNOWN) & observed
@@ -273,7 +306,7 @@ def compare(slam_map: GridMap, worlds: Sequence[GridMap], world_from_map: Pose,
     recall = tp_recall / int(truth_occ.sum()) if truth_occ.any() else math.nan
     f1 = 2 * precision * recall / (precision + recall) if precision + recall > 0 else 0.0
     return WorldComparison(n_changed, agree, unknown, precision, recall, f1, int(static.sum()),
-                           stale, n_observed, observed_agree)
+                           stale, n_observed, observed_agree, n_knowable, knowable_agree)
 
 
 def main(argv=None) -> int:
@@ -289,6 +322,10 @@ def main(argv=None) -> int:
     parser.add_argument("--observed-by", metavar="LOG",
                         help="the last session's CARMEN log (its scans placed at --truth's poses): "
                              "also score the changed cells it observed")
+    parser.add_argument("--logs", nargs="+", metavar="LOG",
+                        help="every session's CARMEN log, one per --worlds entry (their scans placed at "
+                             "--truth's poses): also score the changed cells whose newest observation "
+                             "saw them as they are now (the cells a map could know)")
     args = parser.parse_args(argv)
     stamps, poses = read_tum(args.trajectory)
     truth = dict(zip(*read_tum(args.truth)))
@@ -303,7 +340,15 @@ def main(argv=None) -> int:
             observed = observed_by_log(worlds[-1], args.observed_by, truth.get)
         except ValueError as e:
             parser.error(str(e))
-    result = compare(read_map_server(args.map), worlds, transform, args.tolerance_cells, observed)
+    knowable = None
+    if args.logs:
+        if len(args.logs) != len(worlds):
+            parser.error(f"--logs names {len(args.logs)} logs for {len(worlds)} worlds")
+        try:
+            knowable = seen_as_now(worlds, [observed_by_log(w, log, truth.get) for w, log in zip(worlds, args.logs)])
+        except ValueError as e:
+            parser.error(str(e))
+    result = compare(read_map_server(args.map), worlds, transform, args.tolerance_cells, observed, knowable)
     print(f"changed_cells {result.changed_cells}")
     print(f"changed_agree {result.changed_agree}")
     print(f"changed_unknown {result.changed_unknown}")
@@ -313,6 +358,10 @@ def main(argv=None) -> int:
         print(f"changed_observed {result.changed_observed}")
         print(f"changed_observed_agree {result.changed_observed_agree}")
         print(f"changed_observed_agreement {result.changed_observed_agreement:.4f}")
+    if knowable is not None:
+        print(f"changed_knowable {result.changed_knowable}")
+        print(f"changed_knowable_agree {result.changed_knowable_agree}")
+        print(f"changed_knowable_agreement {result.changed_knowable_agreement:.4f}")
     print(f"static_cells {result.static_cells}")
     print(f"static_precision {result.static_precision:.4f}")
     print(f"static_recall {result.static_recall:.4f}")

@@ -252,11 +252,11 @@ def test_plots_are_written(tmp_path):
 
 
 def world_score(agree, cells, stale=0, unknown=0, f1=0.99, observed=-1, observed_agree=-1,
-                layering="newest-session"):
+                layering="newest-session", knowable=-1, knowable_agree=-1):
     from rrr_graphslam.lifelong_world import WorldScore
     from rrr_graphslam.world_compare import WorldComparison
     return WorldScore(layering, WorldComparison(cells, agree, unknown, 0.99, 0.99, f1, 5000, stale, observed,
-                                             observed_agree), (0.0, 0.0, 0.0))
+                                             observed_agree, knowable, knowable_agree), (0.0, 0.0, 0.0))
 
 
 def test_world_targets_judge_the_last_sessions_map_and_the_ate_against_the_untrimmed_run():
@@ -267,7 +267,8 @@ def test_world_targets_judge_the_last_sessions_map_and_the_ate_against_the_untri
         a.config = "untrimmed"
         a.ate_map, b.ate_map = 0.02, 0.02 + 0.035 * k  # session 3: 9 cm against 2 cm
     untrimmed[-1].world["newest-session"] = world_score(96, 100, observed=90, observed_agree=90)
-    clt[-1].world["newest-session"] = world_score(80, 100, stale=5, unknown=15, f1=0.94)
+    clt[-1].world["newest-session"] = world_score(80, 100, stale=5, unknown=15, f1=0.94, knowable=90,
+                                                  knowable_agree=79)
     clt[-1].world["all"] = world_score(10, 100, layering="all")  # every scan alike: in the table only
     clt[0].world["newest-session"] = world_score(0, 0)  # only the last session's map is judged
     targets = check_world_targets({"untrimmed": untrimmed, "clt": clt})
@@ -276,7 +277,8 @@ def test_world_targets_judge_the_last_sessions_map_and_the_ate_against_the_untri
            "of the changed cells: 96 of 100 = 0.960 (stale 0, unknown 0; of the 90 the last session's laser " \
            "swept 90 = 1.000)" in lines
     assert any(x.startswith("FAIL  clt: changed world after 3 sessions (newest-session)") and "80 of 100 = 0.800 "
-               "(stale 5, unknown 15)" in x for x in lines)
+               "(stale 5, unknown 15; of the 90 whose newest look saw them as they are now 79 = 0.878)" in x
+               for x in lines)
     assert not any("(all)" in x for x in lines)
     assert any(x.startswith("FAIL  clt: static cells' occupancy F1 >= 0.95") and "0.940" in x for x in lines)
     ate = [t for t in targets if t.what.startswith("ATE")]
@@ -298,13 +300,13 @@ def test_world_table_rows_have_the_headers_columns():
     rows[1].world["all"] = world_score(82, 181, stale=24, unknown=75, observed=124, observed_agree=69,
                                        layering="all")
     rows[1].world["newest-session"] = world_score(85, 181, stale=20, unknown=76, f1=0.98, observed=124,
-                                                  observed_agree=71)
+                                                  observed_agree=71, knowable=150, knowable_agree=80)
     lines = world_table(rows).splitlines()
     assert lines[0] == WORLD_HEADER and len(lines) == 4
     assert all(line.count("|") == WORLD_HEADER.count("|") for line in lines)
-    assert lines[2] == "| clt | 1 | – / – | – | – | – / – of – | – / – |"
+    assert lines[2] == "| clt | 1 | – / – | – | – | – / – of – | – / – of – | – / – |"
     assert lines[3] == "| clt | 2 | 1.75 / 1.51 | 82 / 24 / 75 of 181 | 85 / 20 / 76 of 181 | 69 / 71 of 124 | " \
-                       "0.990 / 0.980 |"
+                       "– / 80 of 150 | 0.990 / 0.980 |"
 
 
 def write_tum(path, rows):

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from rrr_graphslam.world_compare import (FREE, OCCUPIED, UNKNOWN, GridMap, align, compare,
-                                         observed_cells, read_map_server)
+                                         observed_cells, read_map_server, seen_as_now)
 
 
 def room(box: bool) -> GridMap:
@@ -86,3 +86,70 @@ def test_only_the_changes_the_last_session_observed_are_scored_apart():
     up_to_date = compare(now, [before, now], (0.0, 0.0, 0.0), observed=observed)
     assert up_to_date.changed_observed_agreement == 1.0 and up_to_date.changed_stale == 0
     assert compare(now, [before, now], (0.0, 0.0, 0.0)).changed_observed == -1
+
+
+def test_a_change_is_knowable_only_where_the_newest_look_saw_it_as_it_is_now():
+    # Session 1: the box; session 2: it left; session 3: it is back.
+    box, empty = room(box=True), room(box=False)
+    x, y = box.centres()
+    row = (np.abs(y - 1.05) < 1e-9) & (x > 0.3) & (x < 1.9)  # the west wall to the east wall
+    # Session 1 sweeps the box's row from the west (up to its face), session 2 the whole row,
+    # session 3 looks elsewhere: the row's box cells were last seen empty, the box is back now.
+    west = observed_cells(box, [(0.0, 0.1, 5.0, [0.5])], [(0.35, 1.05, 0.0)])
+    whole = observed_cells(empty, [(0.0, 0.1, 5.0, [1.6])], [(0.35, 1.05, 0.0)])
+    nothing = np.zeros(box.cells.shape, dtype=bool)
+    worlds = [box, empty, box]
+    knowable = seen_as_now(worlds, [west, whole, nothing])
+    in_box = row & (box.cells == OCCUPIED)
+    assert in_box.sum() == 4 and not knowable[in_box].any()  # changed since the last look
+    assert knowable[row & (box.cells == FREE) & whole].all()  # free then and now
+    assert not knowable[~(west | whole)].any()  # never looked at
+    # Session 3 looks at the box's west face: that cell is knowable again, the rest stays hidden.
+    face = observed_cells(box, [(0.0, 0.1, 5.0, [0.5])], [(0.35, 1.05, 0.0)])
+    knowable = seen_as_now(worlds, [west, whole, face])
+    assert knowable[in_box].sum() == 1
+    # Scored: a map of session 2's world (stale) agrees on none of the box cells, on every free one.
+    result = compare(empty, worlds, (0.0, 0.0, 0.0), knowable=knowable)
+    assert result.changed_knowable == int((knowable & (box.cells != empty.cells)).sum()) == 1
+    assert result.changed_knowable_agree == 0
+    assert compare(box, worlds, (0.0, 0.0, 0.0), knowable=knowable).changed_knowable_agreement == 1.0
+    assert compare(box, worlds, (0.0, 0.0, 0.0)).changed_knowable == -1
+    with pytest.raises(ValueError, match="2 observed masks for 3 worlds"):
+        seen_as_now(worlds, [west, whole])
+
+
+def write_world(path, world: GridMap):
+    """A map_server pair of a world (trinary pixels)."""
+    pixels = np.where(world.cells == OCCUPIED, 0, np.where(world.cells == FREE, 254, 205)).astype(np.uint8)
+    rows, cols = pixels.shape
+    (path.parent / (path.name + ".pgm")).write_bytes(f"P5\n{cols} {rows}\n255\n".encode() + pixels.tobytes())
+    (path.parent / (path.name + ".yaml")).write_text(
+        f"image: {path.name}.pgm\nresolution: {world.resolution}\norigin: [{world.origin[0]}, {world.origin[1]}, 0.0]\n"
+        "negate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.196\n")
+    return str(path.parent / (path.name + ".yaml"))
+
+
+def test_the_command_scores_the_knowable_changes_from_every_sessions_log(tmp_path, capsys):
+    from rrr_graphslam.world_compare import main
+    box, empty = room(box=True), room(box=False)
+    worlds = [write_world(tmp_path / "w0", box), write_world(tmp_path / "w1", empty)]
+    slam_map = write_world(tmp_path / "map", empty)
+    # One scan per session from (0.35, 1.05) facing +x: readings south, east, north.
+    logs = []
+    for k, east in enumerate([0.5, 1.6]):
+        log = tmp_path / f"s{k}.clf"
+        log.write_text(f"FLASER 3 0.3 {east} 0.3 0.35 1.05 0 0.35 1.05 0 {k + 1}.0 host {k + 1}.0\n")
+        logs.append(str(log))
+    tum = "1.0 0.35 1.05 0 0 0 0 1\n2.0 0.5 1.05 0 0 0 0 1\n"
+    (tmp_path / "traj.txt").write_text(tum)
+    (tmp_path / "truth.txt").write_text(tum)
+    args = [slam_map, "--worlds", *worlds, "--trajectory", str(tmp_path / "traj.txt"),
+            "--truth", str(tmp_path / "truth.txt")]
+    assert main(args + ["--logs", *logs]) == 0
+    out = dict(line.split(" ", 1) for line in capsys.readouterr().out.splitlines())
+    # The box's row (4 cells) was swept empty by session 2: knowable, and the map has them free.
+    assert out["changed_cells"] == "16" and out["changed_knowable"] == "4"
+    assert out["changed_knowable_agree"] == "4" and out["changed_knowable_agreement"] == "1.0000"
+    with pytest.raises(SystemExit):
+        main(args + ["--logs", logs[0]])
+    assert "--logs names 1 logs for 2 worlds" in capsys.readouterr().err
