@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cassert>
 #include <cmath>
 #include <functional>
 #include <limits>
@@ -146,16 +147,15 @@ mrpt::maps::COccupancyGridMap2D emptyGrid(const MapInputs& inputs,
 // The layers of a rendered map, painted newest first (map_render.h): each session's kept scans,
 // then its patches. A cell keeps the first layer that decides it (a map_server reader would see
 // it occupied or free: a glimpse does not overrule an older session's clear view); where none
-// does, the patches' evidence adds to the kept scans' (addEvidence). With `use`, what the
+// does, the patches' evidence adds to the kept scans' (addEvidence). With `record_use`, what the
 // rendering made of every remembered cell is recorded for forgetSuperseded().
 class Layers {
  public:
   // `all_scans`: every kept scan in one grid (the fallback where no layer decides a cell);
   // `scans_decide`: every scan alike (kAllScans), so the patches fill only what it leaves unknown.
-  Layers(const MapInputs& inputs, const std::vector<PlacedPatch>& placed,
-         const mrpt::maps::COccupancyGridMap2D& all_scans, bool scans_decide, bool record_use)
-      : inputs_(inputs),
-        placed_(placed),
+  Layers(const std::vector<PlacedPatch>& placed, const mrpt::maps::COccupancyGridMap2D& all_scans,
+         bool scans_decide, bool record_use)
+      : placed_(placed),
         grid_(all_scans),
         layered_(all_scans),
         taken_(cellCount(), 0),
@@ -193,7 +193,7 @@ class Layers {
   // (lost under a decision) kept per grid cell for addEvidence, with its owner (the newest
   // evidence of the cell, to which older evidence is added) or fused (added to the owner).
   void paintPatch(std::size_t p) {
-    const std::size_t n_cells = inputs_.memory[p].cells->size();
+    const std::size_t n_cells = placed_[p].patch->cells->size();
     for (auto* flags : {&won_, &lost_}) (*flags)[p].assign(n_cells, 0);
     if (record_use_) {
       for (auto* flags : {&owner_, &fused_}) (*flags)[p].assign(n_cells, 0);
@@ -237,13 +237,15 @@ class Layers {
     }
   }
 
-  const mrpt::maps::COccupancyGridMap2D& map() const { return layered_; }
+  // The rendered map, once every layer was painted.
+  mrpt::maps::COccupancyGridMap2D takeMap() && { return std::move(layered_); }
 
-  // Only with `record_use`, after every patch was painted.
-  MemoryUse memoryUse() {
+  // What the rendering made of the memory; only with `record_use`, after every patch was painted.
+  MemoryUse takeMemoryUse() {
+    assert(record_use_);
     use_.superseded.assign(placed_.size(), {});
     for (std::size_t p = 0; p < placed_.size(); ++p) {
-      const std::vector<std::uint8_t>& cells = *inputs_.memory[p].cells;
+      const std::vector<std::uint8_t>& cells = *placed_[p].patch->cells;
       std::vector<char>& out = use_.superseded[p];
       out.assign(cells.size(), 0);
       for (std::size_t k = 0; k < out.size(); ++k) {
@@ -299,7 +301,6 @@ class Layers {
     }
   }
 
-  const MapInputs& inputs_;
   const std::vector<PlacedPatch>& placed_;
   const mrpt::maps::COccupancyGridMap2D& grid_;
   mrpt::maps::COccupancyGridMap2D layered_;
@@ -344,7 +345,7 @@ mrpt::maps::COccupancyGridMap2D render(const MapInputs& inputs, double resolutio
     session_numbers.insert(inputs.sessions.begin(), inputs.sessions.begin() + nodes);
   if (placed.empty() && (!by_session || session_numbers.size() < 2)) return grid;
 
-  Layers layers(inputs, placed, grid, !by_session, use != nullptr);
+  Layers layers(placed, grid, !by_session, use != nullptr);
   // One session's kept scans in a grid of their own.
   auto paintSession = [&](int session) {
     mrpt::maps::COccupancyGridMap2D own(grid.getXMin(), grid.getXMax(), grid.getYMin(),
@@ -381,8 +382,8 @@ mrpt::maps::COccupancyGridMap2D render(const MapInputs& inputs, double resolutio
   }
   for (; next_patch != patch_order.end(); ++next_patch) layers.paintPatch(*next_patch);
   layers.addEvidence();
-  if (use) *use = layers.memoryUse();
-  return layers.map();
+  if (use) *use = layers.takeMemoryUse();
+  return std::move(layers).takeMap();
 }
 
 // The smallest box of cells (x, y) in [x_begin, x_end) x [y_begin, y_end) where keep(x, y) holds;

@@ -68,7 +68,8 @@ GraphSlamRos::GraphSlamRos(ros::NodeHandle nh, ros::NodeHandle private_nh)
       } catch (const std::exception& e) {
         throw std::invalid_argument(params_.map_file + ": " + e.what());
       }
-      ROS_INFO("rrr_graphslam: continuing %s: %zu sessions, %zu nodes, %zu submaps",
+      ROS_INFO("rrr_graphslam: %s %s: %zu sessions, %zu nodes, %zu submaps",
+               params_.mode == "localization" ? "localizing in" : "continuing",
                params_.map_file.c_str(), map.sessions.size(), map.nodes.size(), map.submaps.size());
     }
     map_pub_ = nh_.advertise<nav_msgs::OccupancyGrid>("map", 1, true);

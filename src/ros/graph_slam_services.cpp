@@ -180,8 +180,10 @@ bool GraphSlamRos::loadMap(LoadMap::Request& req, LoadMap::Response& res) {
         return "loaded " + std::to_string(map.sessions.size()) + " sessions, " +
                std::to_string(map.nodes.size()) + " nodes and " +
                std::to_string(map.submaps.size()) + " submaps from " + req.path + " in " +
-               std::to_string(secondsSince(start)) + " s; the next scans start session " +
-               std::to_string(map.sessions.size());
+               std::to_string(secondsSince(start)) + " s; " +
+               (params_.mode == "localization"
+                    ? std::string("the next scans are localized in it")
+                    : "the next scans start session " + std::to_string(map.sessions.size()));
       },
       res.message);
   logServiceResult("~load_map", res.success, res.message);

@@ -450,7 +450,7 @@ def world_table(rows: Sequence[SessionResult]) -> str:
         alike, newest = r.world.get("all"), r.world.get("newest-session")
         swept = " / ".join("–" if w is None or w.comparison.changed_observed < 0 else
                            f"{w.comparison.changed_observed_agree}" for w in (alike, newest))
-        n_swept = next((w.comparison.changed_observed for w in (alike, newest) if w is not None), -1)
+        n_swept = max((w.comparison.changed_observed for w in (alike, newest) if w is not None), default=-1)
         knowable = " / ".join("–" if w is None or w.comparison.changed_knowable < 0 else
                               f"{w.comparison.changed_knowable_agree}" for w in (alike, newest))
         n_knowable = max((w.comparison.changed_knowable for w in (alike, newest) if w is not None), default=-1)

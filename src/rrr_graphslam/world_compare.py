@@ -13,12 +13,14 @@ trajectory in the map frame and the true poses at the same timestamps (least-squ
   `tolerance_cells` (the face of a box, one cell off, agrees); an unknown map cell does not.
 - Changed cells the last session observed (`--observed-by` its log, with `--truth` its true
   poses): among the changed cells, those its laser swept at its true poses (the free cells along
-  each beam and the cell a beam ends in). A change no robot looked at cannot be in any map; the
-  agreement over these is what a map can reach. *Stale*: changed cells where the map has the
-  earlier state (not unknown, not the last world's).
-- Changed cells a map could know (`--logs`, every session's log): those whose newest observation,
-  by any session, saw the state they have now. The others no session looked at, or they changed
-  after the last look (the far side of a door that closed, seen open and never again from behind).
+  each beam and the cell a beam ends in; a cell within `tolerance_cells` of a swept one counted
+  too). A change no robot looked at cannot be in any map. *Stale*: changed cells where the map
+  has the earlier state (not unknown, not the last world's).
+- Changed cells a map could know (`--logs`, every session's log, with `--truth` holding every
+  session's true poses): those whose newest observation, by any session, saw the state they
+  have now, cell by cell (no tolerance). The others no session looked at, or they changed after
+  the last look (the far side of a door that closed, seen open and never again from behind); a
+  map can still agree on an occupied one through the tolerance (a face seen one cell over).
 - Static cells: the known cells of the last world that never changed, where the map observed
   something within `tolerance_cells` (the map cannot be asked about rooms no session entered).
   Occupancy F1 over them with the same tolerance: an occupied map cell is a true positive when
@@ -317,18 +319,22 @@ def main(argv=None) -> int:
     parser.add_argument("--worlds", nargs="+", required=True,
                         help="the true worlds' YAMLs, one per session in order (rrr_simulate's session_K_world.yaml)")
     parser.add_argument("--trajectory", required=True, help="a trajectory in the map frame (TUM)")
-    parser.add_argument("--truth", required=True, help="the true poses at its timestamps (TUM, world frame)")
+    parser.add_argument("--truth", nargs="+", required=True,
+                        help="the true poses at its timestamps (TUM, world frame); several files (one per "
+                             "session, rrr_simulate's session_K_truth.txt) are read as one")
     parser.add_argument("--tolerance-cells", type=int, default=1)
     parser.add_argument("--observed-by", metavar="LOG",
                         help="the last session's CARMEN log (its scans placed at --truth's poses): "
                              "also score the changed cells it observed")
     parser.add_argument("--logs", nargs="+", metavar="LOG",
                         help="every session's CARMEN log, one per --worlds entry (their scans placed at "
-                             "--truth's poses): also score the changed cells whose newest observation "
+                             "--truth's poses: give every session's): also score the changed cells whose newest observation "
                              "saw them as they are now (the cells a map could know)")
     args = parser.parse_args(argv)
     stamps, poses = read_tum(args.trajectory)
-    truth = dict(zip(*read_tum(args.truth)))
+    truth = {}
+    for path in args.truth:
+        truth.update(zip(*read_tum(path)))
     pairs = [(p, truth[t]) for t, p in zip(stamps, poses) if t in truth]
     if len(pairs) < 2:
         parser.error("fewer than two timestamps of --trajectory are in --truth")

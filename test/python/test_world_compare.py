@@ -89,33 +89,34 @@ def test_only_the_changes_the_last_session_observed_are_scored_apart():
 
 
 def test_a_change_is_knowable_only_where_the_newest_look_saw_it_as_it_is_now():
-    # Session 1: the box; session 2: it left; session 3: it is back.
-    box, empty = room(box=True), room(box=False)
+    # Session 1: an empty room; sessions 2 and 3: a box in it.
+    empty, box = room(box=False), room(box=True)
     x, y = box.centres()
     row = (np.abs(y - 1.05) < 1e-9) & (x > 0.3) & (x < 1.9)  # the west wall to the east wall
-    # Session 1 sweeps the box's row from the west (up to its face), session 2 the whole row,
-    # session 3 looks elsewhere: the row's box cells were last seen empty, the box is back now.
-    west = observed_cells(box, [(0.0, 0.1, 5.0, [0.5])], [(0.35, 1.05, 0.0)])
-    whole = observed_cells(empty, [(0.0, 0.1, 5.0, [1.6])], [(0.35, 1.05, 0.0)])
-    nothing = np.zeros(box.cells.shape, dtype=bool)
-    worlds = [box, empty, box]
-    knowable = seen_as_now(worlds, [west, whole, nothing])
     in_box = row & (box.cells == OCCUPIED)
-    assert in_box.sum() == 4 and not knowable[in_box].any()  # changed since the last look
-    assert knowable[row & (box.cells == FREE) & whole].all()  # free then and now
-    assert not knowable[~(west | whole)].any()  # never looked at
-    # Session 3 looks at the box's west face: that cell is knowable again, the rest stays hidden.
-    face = observed_cells(box, [(0.0, 0.1, 5.0, [0.5])], [(0.35, 1.05, 0.0)])
-    knowable = seen_as_now(worlds, [west, whole, face])
-    assert knowable[in_box].sum() == 1
-    # Scored: a map of session 2's world (stale) agrees on none of the box cells, on every free one.
-    result = compare(empty, worlds, (0.0, 0.0, 0.0), knowable=knowable)
-    assert result.changed_knowable == int((knowable & (box.cells != empty.cells)).sum()) == 1
-    assert result.changed_knowable_agree == 0
+    face = in_box & (x < 0.9)  # the box's west face in that row
+    # Session 1 sweeps the whole row (empty then); session 2 sees the box's west face from the
+    # west; session 3 looks elsewhere.
+    whole = observed_cells(empty, [(0.0, 0.1, 5.0, [1.6])], [(0.35, 1.05, 0.0)])
+    west = observed_cells(box, [(0.0, 0.1, 5.0, [0.5])], [(0.35, 1.05, 0.0)])
+    nothing = np.zeros(box.cells.shape, dtype=bool)
+    worlds = [empty, box, box]
+    knowable = seen_as_now(worlds, [whole, west, nothing])
+    assert in_box.sum() == 4 and face.sum() == 1
+    assert knowable[face].all()  # session 2 saw the face as it is now
+    assert not knowable[in_box & ~face].any()  # last seen by session 1, before the box came
+    assert knowable[row & (box.cells == FREE)].all()  # free then and now, west and east of it
+    assert not knowable[~(whole | west)].any()  # never looked at
+    # Scored: the box cells are the changed ones; a map of the empty room agrees on none of
+    # the knowable ones, a map of the room now on all.
+    changed = box.cells != empty.cells
+    stale = compare(empty, worlds, (0.0, 0.0, 0.0), knowable=knowable)
+    assert stale.changed_knowable == int((knowable & changed).sum()) == 1
+    assert stale.changed_knowable_agree == 0
     assert compare(box, worlds, (0.0, 0.0, 0.0), knowable=knowable).changed_knowable_agreement == 1.0
     assert compare(box, worlds, (0.0, 0.0, 0.0)).changed_knowable == -1
     with pytest.raises(ValueError, match="2 observed masks for 3 worlds"):
-        seen_as_now(worlds, [west, whole])
+        seen_as_now(worlds, [whole, west])
 
 
 def write_world(path, world: GridMap):
@@ -140,11 +141,12 @@ def test_the_command_scores_the_knowable_changes_from_every_sessions_log(tmp_pat
         log = tmp_path / f"s{k}.clf"
         log.write_text(f"FLASER 3 0.3 {east} 0.3 0.35 1.05 0 0.35 1.05 0 {k + 1}.0 host {k + 1}.0\n")
         logs.append(str(log))
-    tum = "1.0 0.35 1.05 0 0 0 0 1\n2.0 0.5 1.05 0 0 0 0 1\n"
-    (tmp_path / "traj.txt").write_text(tum)
-    (tmp_path / "truth.txt").write_text(tum)
+    (tmp_path / "traj.txt").write_text("1.0 0.35 1.05 0 0 0 0 1\n2.0 0.5 1.05 0 0 0 0 1\n")
+    # Each session's true poses in a file of its own, as rrr_simulate writes them.
+    (tmp_path / "truth0.txt").write_text("1.0 0.35 1.05 0 0 0 0 1\n")
+    (tmp_path / "truth1.txt").write_text("2.0 0.5 1.05 0 0 0 0 1\n")
     args = [slam_map, "--worlds", *worlds, "--trajectory", str(tmp_path / "traj.txt"),
-            "--truth", str(tmp_path / "truth.txt")]
+            "--truth", str(tmp_path / "truth0.txt"), str(tmp_path / "truth1.txt")]
     assert main(args + ["--logs", *logs]) == 0
     out = dict(line.split(" ", 1) for line in capsys.readouterr().out.splitlines())
     # The box's row (4 cells) was swept empty by session 2: knowable, and the map has them free.
