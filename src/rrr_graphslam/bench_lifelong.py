@@ -26,11 +26,13 @@ that of a run that only reads and writes the graph (--max-iterations 0), each th
 machine.
 
 Ground truth for loops: every session is the same log, so a node's true pose is that of its
-scan (same stamp) in any session. A node of run K's --output gets its stamp from the map it
-loaded (the first lines of run K's --trajectory are the loaded nodes, in id order), or, for the
-session's own nodes, from the saved map's node with the same pose (digit for digit); a node the
-save trimmed takes the stamp of the session's scan (--session-trajectory) nearest to it in
-pose, between the stamps of its kept neighbours."""
+scan (same stamp) in any session. Each run writes the stamp and the session of every node of its
+--output (--node-stamps). For runs kept from before that flag, a node's stamp comes from the map
+the run loaded (the first lines of run K's --trajectory are the loaded nodes, in id order), or,
+for the session's own nodes, from the saved map's node with the same pose (digit for digit); a
+node the save trimmed takes the stamp of the session's scan (--session-trajectory) nearest to
+it in pose, between the stamps of its kept neighbours (not valid when the save trims and moves
+the session's own nodes: --keep-current-session false)."""
 
 import argparse
 import bisect
@@ -49,7 +51,7 @@ from .bench_sessions import (LOGS, Criteria, LoopCheck, MapInfo, RunSummary, che
                              random_transforms)
 from .carmen import write_moved_log
 from .evaluation import read_decisions
-from .graph_io import Pose, write_text_atomically
+from .graph_io import GraphFileError, Pose, write_text_atomically
 from .lifelong_world import (SimulatedWorld, WorldScore, plot_final_maps, score_map, simulation_key,
                              trajectory_ate, world_from_map, world_name)
 from .relations import RelationError, read_tum, relation_error
@@ -192,6 +194,24 @@ def read_lines(path: str) -> List[str]:
 
 # ---------------------------------------------------------------------------------------------
 # Node stamps for the loop check
+
+
+def read_node_stamps(path: str) -> Tuple[List[Optional[float]], List[Optional[int]]]:
+    """rrr_slam_offline --node-stamps: the stamp and the session index of every node id (None
+    for an id the file does not name)."""
+    rows = {}
+    with open(path) as f:
+        for number, line in enumerate(f, 1):
+            if not line.strip() or line.startswith("#"):
+                continue
+            fields = line.split()
+            try:
+                rows[int(fields[0])] = (float(fields[1]), int(fields[2]))
+            except (ValueError, IndexError):
+                raise GraphFileError(path, number, f"expected 'id timestamp session', found '{line.strip()}'") from None
+    n = max(rows) + 1 if rows else 0
+    return ([rows[k][0] if k in rows else None for k in range(n)],
+            [rows[k][1] if k in rows else None for k in range(n)])
 
 
 def node_stamps(run_graph_lines: Sequence[str], loaded_stamps: Sequence[float], loaded: int,
@@ -659,7 +679,7 @@ def run_config(tools: Tools, logs: Sequence[str], out_dir: str, config: str) -> 
         stem = os.path.join(out_dir, f"s{k}")
         args = ["--output", stem + ".g2o", "--decisions", stem + ".tsv", "--trajectory", stem + ".traj.txt",
                 "--session-trajectory", stem + ".session.txt", "--save-map", stem + ".rrrmap",
-                "--session-name", f"s{k}"]
+                "--session-name", f"s{k}", "--node-stamps", stem + ".stamps.txt"]
         if k > 0:
             args += ["--load-map", os.path.join(out_dir, f"s{k - 1}.rrrmap")]
         if tools.no_run and not os.path.exists(stem + ".out"):
@@ -718,21 +738,29 @@ def evaluate_config(tools: Tools, data, runs, config: str, criteria: Criteria,
             s_stamps, s_poses = read_tum(stem + ".session.txt")
             if data.relations:
                 row.relation = relation_error(s_stamps, s_poses, data.relations)
-            # The loaded nodes still in the run's graph: all of the map it loaded, unless online
-            # trims removed some (the session's own nodes are never trimmed: the saved map's last
-            # session holds them all). Their ids keep their order, so --trajectory's first lines
-            # are theirs; session_of() tells them from the session's, not their own sessions apart.
-            run_nodes = sum(1 for line in run_lines if line.startswith("VERTEX_SE2 "))
-            loaded = run_nodes - (info.nodes - info.first_nodes()[-1])
-            loaded_stamps = read_tum(stem + ".traj.txt")[0][:loaded]
-            stamps = node_stamps(run_lines, loaded_stamps, loaded, map_lines, read_tum(stem + ".map.traj.txt")[0],
-                                 s_stamps, s_poses)
-            prev_first = [] if prev_info is None else prev_info.first_nodes()
+            if os.path.exists(stem + ".stamps.txt"):  # the run's own record (--node-stamps)
+                stamps, sessions = read_node_stamps(stem + ".stamps.txt")
+                own_session = max((x for x in sessions if x is not None), default=0)
 
-            def session_of(node: int, loaded=loaded, prev_first=prev_first, k=k) -> int:
-                if node >= loaded:
-                    return k
-                return bisect.bisect_right(prev_first, node) - 1
+                def session_of(node: int, sessions=sessions, own_session=own_session, k=k) -> int:
+                    return k if sessions[node] == own_session else sessions[node]
+            else:  # runs made before --node-stamps: reconstructed (node_stamps)
+                # The loaded nodes still in the run's graph: all of the map it loaded, unless
+                # online trims removed some (the session's own nodes are never trimmed: the saved
+                # map's last session holds them all). Their ids keep their order, so --trajectory's
+                # first lines are theirs; session_of() tells them from the session's, not their
+                # own sessions apart.
+                run_nodes = sum(1 for line in run_lines if line.startswith("VERTEX_SE2 "))
+                loaded = run_nodes - (info.nodes - info.first_nodes()[-1])
+                loaded_stamps = read_tum(stem + ".traj.txt")[0][:loaded]
+                stamps = node_stamps(run_lines, loaded_stamps, loaded, map_lines,
+                                     read_tum(stem + ".map.traj.txt")[0], s_stamps, s_poses)
+                prev_first = [] if prev_info is None else prev_info.first_nodes()
+
+                def session_of(node: int, loaded=loaded, prev_first=prev_first, k=k) -> int:
+                    if node >= loaded:
+                        return k
+                    return bisect.bisect_right(prev_first, node) - 1
 
             def truth(t):
                 return None if t is None else data.truth.pose(t)
@@ -740,7 +768,8 @@ def evaluate_config(tools: Tools, data, runs, config: str, criteria: Criteria,
             accepted = [loop for loop, verdict in decided if verdict == "accepted"]
             row.loops = check_loops(accepted, stamps, session_of, truth, criteria.false_m, criteria.false_deg,
                                     involving=k)
-            own = [(loop, verdict) for loop, verdict in decided if max(loop.source, loop.target) >= loaded]
+            own = [(loop, verdict) for loop, verdict in decided
+                   if k in (session_of(loop.source), session_of(loop.target))]
             row.own_candidates = check_loops([loop for loop, _ in own], stamps, session_of, truth,
                                              criteria.false_m, criteria.false_deg)
             row.own_accepted = check_loops([loop for loop, verdict in own if verdict == "accepted"], stamps,

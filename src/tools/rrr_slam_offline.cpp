@@ -15,8 +15,10 @@
 #include <iostream>
 #include <memory>
 #include <optional>
+#include <stdexcept>
 #include <string>
 #include <type_traits>
+#include <vector>
 
 #include "decision_stream.h"
 #include "false_loops.h"
@@ -53,6 +55,30 @@ using tools::slam_offline::parseArguments;
 void writeTrajectory(const std::string& path, const std::vector<double>& stamps,
                      const std::vector<core::Pose2>& poses, std::size_t first) {
   tools::writeTumTrajectory(path, "rrr_slam_offline", stamps, poses, first);
+}
+
+// `id timestamp session` per node of the run's graph (--output's ids; the session's index in the
+// map, as rrr_map_info numbers them).
+void writeNodeStamps(const std::string& path, const frontend::LaserSlam& slam) {
+  const std::vector<rrr::OnlineRrr::NodeId>& ids = slam.rrr().nodeIds();
+  const std::vector<double>& stamps = slam.nodeTimestamps();
+  if (ids.size() != stamps.size()) {
+    throw std::logic_error("--node-stamps: " + std::to_string(ids.size()) + " nodes but " +
+                           std::to_string(stamps.size()) + " node timestamps");
+  }
+  const auto& sessions = slam.sessions();
+  core::writeFileAtomically(path, [&](std::ostream& out) {
+    out << "# node_id ipc_timestamp session (rrr_slam_offline; ids as in --output)\n"
+        << std::fixed << std::setprecision(6);
+    std::size_t session = 0;
+    for (std::size_t k = 0; k < ids.size(); ++k) {
+      while (session + 1 < sessions.size() &&
+             sessions[session + 1].first_node <= static_cast<int>(k)) {
+        ++session;
+      }
+      out << ids[k] << ' ' << stamps[k] << ' ' << session << '\n';
+    }
+  });
 }
 
 // The optimized pose of every scan in the map (nodes of loaded sessions one each); this run's
@@ -243,6 +269,10 @@ int main(int argc, char** argv) {
     if (!args.output.empty()) {
       core::writePoseGraph(slam.rrr().mapPoseGraph(), args.output);
       std::printf("output         %s\n", args.output.c_str());
+    }
+    if (!args.node_stamps.empty()) {
+      writeNodeStamps(args.node_stamps, slam);
+      std::printf("node stamps    %s\n", args.node_stamps.c_str());
     }
     if (!args.decisions.empty()) {
       rrr::writeDecisions(args.decisions, slam.rrr().decisionRows());

@@ -66,6 +66,7 @@ inline const std::string& usage() {
       "                        [--decision-stream STREAM.tsv]\n"
       "                        [--load-map IN.rrrmap] [--save-map OUT.rrrmap]\n"
       "                        [--session-name NAME] [--session-trajectory TRAJ.txt]\n"
+      "                        [--node-stamps STAMPS.txt]\n"
       "                        [--false-loops F [--false-loops-seed S]]\n"
       "                        [--initial-pose X,Y,THETA] [--localization-only]\n"
       "                        [--lifelong [--trim-overlap R] [--keep-recent-submaps N]\n"
@@ -80,6 +81,10 @@ inline const std::string& usage() {
       "  --output          the pose graph: nodes at their optimized poses, odometry and every "
       "loop\n"
       "                    candidate (rrr_offline can decide it again)\n"
+      "  --node-stamps     'id timestamp session', one line per node of --output's graph:\n"
+      "                    the ipc_timestamp of the node's scan and its session's index in the\n"
+      "                    map (loaded sessions' nodes too), to score loops against a ground\n"
+      "                    truth by time\n"
       "  --decisions       TSV 'from to cluster verdict reason', one row per loop candidate\n"
       "  --decision-stream TSV of the decisions as the run made them: a row per arrival and per\n"
       "                    verdict change, with the scan and node at which it happened and the\n"
@@ -173,6 +178,7 @@ struct Arguments {
   bool localization_only = false;
   std::string session_name;
   std::string session_trajectory;
+  std::string node_stamps;
   std::optional<core::Pose2> initial_pose;
   bool lifelong = false;
   frontend::TrimParams trim;
@@ -305,6 +311,8 @@ inline Arguments parseArguments(int argc, char** argv) {
       args.session_name = cli.value(i, a);
     } else if (a == "--session-trajectory") {
       args.session_trajectory = cli.value(i, a);
+    } else if (a == "--node-stamps") {
+      args.node_stamps = cli.value(i, a);
     } else if (a == "--initial-pose") {
       Eigen::Vector3d pose;
       tools::parseParam(cli, a, core::ParamInfo{"--initial-pose", -1e6, 1e6, ""}, cli.value(i, a),

@@ -251,6 +251,18 @@ def test_plots_are_written(tmp_path):
 # The simulated changing world (--world)
 
 
+def test_node_stamps_are_read_from_the_runs_own_record(tmp_path):
+    from rrr_graphslam.bench_lifelong import read_node_stamps
+    from rrr_graphslam.graph_io import GraphFileError
+    path = tmp_path / "s1.stamps.txt"
+    path.write_text("# node_id ipc_timestamp session\n0 10.5 0\n1 11.0 0\n3 10.5 1\n")
+    stamps, sessions = read_node_stamps(str(path))
+    assert stamps == [10.5, 11.0, None, 10.5] and sessions == [0, 0, None, 1]
+    path.write_text("0 10.5 0\n1 11.0\n")
+    with pytest.raises(GraphFileError, match=r"s1.stamps.txt:2: expected 'id timestamp session'"):
+        read_node_stamps(str(path))
+
+
 def world_score(agree, cells, stale=0, unknown=0, f1=0.99, observed=-1, observed_agree=-1,
                 layering="newest-session", knowable=-1, knowable_agree=-1):
     from rrr_graphslam.lifelong_world import WorldScore

@@ -440,8 +440,21 @@ def test_a_saved_map_is_continued_as_a_new_session_from_another_odometry_frame(t
     write_moved_log(ACES_HEAD, str(moved), (100.0, -40.0, 2.0))
     second = run(SLAM_OFFLINE, moved, "--load-map", first_map, "--save-map", first_map,
                  "--session-trajectory", tmp_path / "t2.txt", "--trajectory", tmp_path / "all.txt",
+                 "--output", tmp_path / "g2.g2o", "--node-stamps", tmp_path / "stamps.txt",
                  "--refine-resolution", 0, "--quiet", *SMALL_SUBMAPS)
     assert second.returncode == 0, second.stderr
+    # --node-stamps: every node of --output's graph with its scan's stamp, the loaded ones first.
+    rows = [line.split() for line in (tmp_path / "stamps.txt").read_text().splitlines()
+            if not line.startswith("#")]
+    ids = [int(r[0]) for r in rows]
+    stamps = [float(r[1]) for r in rows]
+    sessions = [int(r[2]) for r in rows]
+    assert ids == sorted(read_graph(str(tmp_path / "g2.g2o")).poses)
+    loaded = len(node_stamps)
+    assert stamps[:loaded] == pytest.approx(node_stamps, abs=1e-6)
+    own = stamps[loaded:]
+    assert own and own == sorted(own) and all(t in run_stamps for t in own)
+    assert sessions == [0] * loaded + [1] * len(own)
     assert "relocalized    at node" in second.stdout, second.stdout
     info = run(MAP_INFO, first_map)
     keys = dict(line.split(" ", 1) for line in info.stdout.splitlines())
