@@ -888,8 +888,9 @@ def main(argv=None):
             finals = [(f"{c}, session {r.session + 1}", os.path.join(out, c, f"s{r.session}.map_newest-session.yaml"),
                        r.world["newest-session"].world_from_map, data.world_files[:r.session + 1])
                       for c in args.configs if results[c] for r in results[c][-1:]]
+            knowable = [data.knowable(r.session) for c in args.configs if results[c] for r in results[c][-1:]]
             paths.append(plot_final_maps(finals, prefix + "_world.png",
-                                         f"{title}: the final maps (newest session per cell)"))
+                                         f"{title}: the final maps (newest session per cell)", knowable))
         for p in paths:
             print(f"- plot: {p}")
         print()

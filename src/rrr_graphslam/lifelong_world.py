@@ -178,11 +178,13 @@ def score_map(map_yaml: str, transform: Pose, worlds: Sequence[GridMap], observe
                                         knowable=knowable), transform)
 
 
-def plot_final_maps(maps: Sequence[Tuple[str, str, Pose, Sequence[str]]], path: str, title: str) -> str:
+def plot_final_maps(maps: Sequence[Tuple[str, str, Pose, Sequence[str]]], path: str, title: str,
+                    knowable: Optional[Sequence[np.ndarray]] = None) -> str:
     """PATH (PNG): the newest true world, then each (label, map YAML, world_from_map, the true
     worlds of the sessions that made it) resampled on the world's grid, the changed cells
     coloured by what the map shows there against its own last world (that world now: green; an
-    earlier world's state: red; unknown: orange)."""
+    earlier world's state: red; unknown: orange); with `knowable` (one mask per map,
+    SimulatedWorld.knowable), the changed cells no session saw as they are now in purple."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -201,7 +203,7 @@ def plot_final_maps(maps: Sequence[Tuple[str, str, Pose, Sequence[str]]], path: 
     axes[0].imshow(np.ma.masked_where(~changed, np.zeros(changed.shape)), cmap=ListedColormap(["tab:blue"]),
                    alpha=0.8, interpolation="nearest")
     axes[0].set_title(f"true world of session {len(newest)}\n(blue: cells that changed)", fontsize=8)
-    for ax, (label, map_yaml, transform, world_files) in zip(axes[1:], maps):
+    for m, (ax, (label, map_yaml, transform, world_files)) in enumerate(zip(axes[1:], maps)):
         own = [read_map_server(w) for w in world_files]
         last, changed = own[-1], changed_cells(own)
         seen = map_in_world(read_map_server(map_yaml), last, transform)
@@ -211,9 +213,14 @@ def plot_final_maps(maps: Sequence[Tuple[str, str, Pose, Sequence[str]]], path: 
         marks[changed & agrees] = 0
         marks[changed & ~agrees & (seen != UNKNOWN)] = 1
         marks[changed & (seen == UNKNOWN)] = 2
-        ax.imshow(np.ma.masked_where(marks < 0, marks), cmap=ListedColormap(["tab:green", "tab:red", "tab:orange"]),
-                  vmin=0, vmax=2, alpha=0.9, interpolation="nearest")
-        ax.set_title(f"{label}\n(changed cells: green now, red stale, orange unknown)", fontsize=8)
+        legend = "green now, red stale, orange unknown"
+        if knowable is not None:
+            marks[changed & ~knowable[m]] = 3
+            legend += ",\npurple: no session saw them as they are now"
+        ax.imshow(np.ma.masked_where(marks < 0, marks),
+                  cmap=ListedColormap(["tab:green", "tab:red", "tab:orange", "tab:purple"]),
+                  vmin=0, vmax=3, alpha=0.9, interpolation="nearest")
+        ax.set_title(f"{label}\n(changed cells: {legend})", fontsize=8)
     for ax in axes:
         ax.set_xticks([])
         ax.set_yticks([])
