@@ -155,3 +155,15 @@ def test_the_command_scores_the_knowable_changes_from_every_sessions_log(tmp_pat
     with pytest.raises(SystemExit):
         main(args + ["--logs", logs[0]])
     assert "--logs names 1 logs for 2 worlds" in capsys.readouterr().err
+
+
+def test_the_final_maps_plot_marks_what_no_session_saw_as_it_is_now(tmp_path):
+    pytest.importorskip("matplotlib")
+    from rrr_graphslam.lifelong_world import plot_final_maps
+    box, empty = room(box=True), room(box=False)
+    worlds = [write_world(tmp_path / "w0", box), write_world(tmp_path / "w1", empty)]
+    slam_map = write_world(tmp_path / "map", box)  # stale: the box is still in it
+    knowable = np.zeros(box.cells.shape, dtype=bool)
+    out = plot_final_maps([("stale", slam_map, (0.0, 0.0, 0.0), worlds)], str(tmp_path / "p.png"), "t",
+                          [knowable])
+    assert out == str(tmp_path / "p.png") and (tmp_path / "p.png").read_bytes().startswith(b"\x89PNG")
