@@ -401,6 +401,13 @@ def test_a_session_that_never_tied_fails_its_target_and_its_graph_is_not_timed(t
     fake.write_text("#!/bin/sh\necho 'rrr_optimize: g.g2o:3: bad vertex' >&2\nexit 1\n")
     with pytest.raises(RuntimeError, match="bad vertex"):
         tools.optimize_time(str(tmp_path / "g.g2o"), "lago")
+    # The CPU time rrr_optimize states is taken as it is (the least of the repeats).
+    count = tmp_path / "runs"
+    fake.write_text(f"#!/bin/sh\necho x >> {count}\nn=$(wc -l < {count})\n"
+                    "echo \"cpu time       0.00$n s (initialization 0.0001 s, optimization 0.000$n s)\"\n")
+    tools = Tools("rrr_slam_offline", "rrr_map_info", str(fake), [], False, 3)
+    assert tools.optimize_time(str(tmp_path / "g.g2o"), "lago") == pytest.approx(0.001)
+    assert count.read_text().count("x") == 3  # no baseline run needed
     rows = [result(0, 10, 10, 1.0, 1.0), result(1, 20, 20, 1.0, math.nan), result(2, 20, 20, 1.0, 1.0)]
     rows[1].summary.relocalized = "no"
     rows[2].summary.relocalized = "at"
