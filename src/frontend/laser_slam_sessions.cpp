@@ -43,6 +43,19 @@ std::vector<std::pair<std::string, std::string>> LaserSlam::snapshotParams() con
   return params;
 }
 
+std::vector<int> LaserSlam::nodeSessions() const {
+  std::vector<int> out(node_local_poses_.size(), 0);
+  std::size_t session = 0;
+  for (std::size_t k = 0; k < out.size(); ++k) {
+    while (session + 1 < sessions_.size() &&
+           sessions_[session + 1].first_node <= static_cast<int>(k)) {
+      ++session;
+    }
+    out[k] = static_cast<int>(session);
+  }
+  return out;
+}
+
 MapSnapshot LaserSlam::snapshot() const {
   if (mode_ == SessionMode::kLocalization) {
     throw std::logic_error(
@@ -60,14 +73,10 @@ MapSnapshot LaserSlam::snapshot() const {
     map.sessions.pop_back();
   }
   const std::vector<core::Pose2> map_poses = rrr_->mapPoses();
-  std::size_t session = 0;
+  const std::vector<int> session = nodeSessions();
   for (std::size_t k = 0; k < node_local_poses_.size(); ++k) {
-    while (session + 1 < map.sessions.size() &&
-           map.sessions[session + 1].first_node <= static_cast<int>(k)) {
-      ++session;
-    }
-    map.nodes.push_back({static_cast<int>(session), node_timestamps_[k], node_local_poses_[k],
-                         map_poses[k], node_scans_[k]});
+    map.nodes.push_back(
+        {session[k], node_timestamps_[k], node_local_poses_[k], map_poses[k], node_scans_[k]});
   }
   const core::PoseGraph graph = rrr_->toPoseGraph();  // odometry, then candidates in arrival order
   const std::vector<rrr::DecisionRow> rows = rrr_->decisionRows();

@@ -112,6 +112,7 @@ class SimulatedWorld:
         self.truth = SimulatedTruth(self.truth_files)
         self._worlds: Dict[int, GridMap] = {}
         self._observed: Dict[int, np.ndarray] = {}
+        self._knowable: Dict[int, np.ndarray] = {}
 
     def world(self, k: int) -> GridMap:
         """Session k's true world (read once)."""
@@ -127,8 +128,11 @@ class SimulatedWorld:
 
     def knowable(self, k: int) -> np.ndarray:
         """The cells of session k's world whose newest observation up to session k saw them as
-        they are in it (world_compare.seen_as_now)."""
-        return seen_as_now([self.world(j) for j in range(k + 1)], [self.observed(j) for j in range(k + 1)])
+        they are in it (world_compare.seen_as_now; computed once)."""
+        if k not in self._knowable:
+            self._knowable[k] = seen_as_now([self.world(j) for j in range(k + 1)],
+                                            [self.observed(j) for j in range(k + 1)])
+        return self._knowable[k]
 
     def use_local_motion(self, trajectory: str) -> None:
         """The true poses need no help from a run (bench_sessions' corrected logs do)."""

@@ -351,7 +351,11 @@ def main(argv=None) -> int:
         if len(args.logs) != len(worlds):
             parser.error(f"--logs names {len(args.logs)} logs for {len(worlds)} worlds")
         try:
-            knowable = seen_as_now(worlds, [observed_by_log(w, log, truth.get) for w, log in zip(worlds, args.logs)])
+            # The last session's sweep is --observed-by's when that names the same log.
+            swept = [observed if observed is not None and k == len(worlds) - 1 and log == args.observed_by
+                     else observed_by_log(w, log, truth.get)
+                     for k, (w, log) in enumerate(zip(worlds, args.logs))]
+            knowable = seen_as_now(worlds, swept)
         except ValueError as e:
             parser.error(str(e))
     result = compare(read_map_server(args.map), worlds, transform, args.tolerance_cells, observed, knowable)

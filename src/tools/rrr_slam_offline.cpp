@@ -66,17 +66,12 @@ void writeNodeStamps(const std::string& path, const frontend::LaserSlam& slam) {
     throw std::logic_error("--node-stamps: " + std::to_string(ids.size()) + " nodes but " +
                            std::to_string(stamps.size()) + " node timestamps");
   }
-  const auto& sessions = slam.sessions();
+  const std::vector<int> sessions = slam.nodeSessions();
   core::writeFileAtomically(path, [&](std::ostream& out) {
     out << "# node_id ipc_timestamp session (rrr_slam_offline; ids as in --output)\n"
         << std::fixed << std::setprecision(6);
-    std::size_t session = 0;
     for (std::size_t k = 0; k < ids.size(); ++k) {
-      while (session + 1 < sessions.size() &&
-             sessions[session + 1].first_node <= static_cast<int>(k)) {
-        ++session;
-      }
-      out << ids[k] << ' ' << stamps[k] << ' ' << session << '\n';
+      out << ids[k] << ' ' << stamps[k] << ' ' << sessions[k] << '\n';
     }
   });
 }

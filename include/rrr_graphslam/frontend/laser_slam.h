@@ -189,6 +189,8 @@ class LaserSlam {
   const std::vector<RememberedCells>& memory() const { return memory_; }
   /// Timestamp of every node.
   const std::vector<double>& nodeTimestamps() const { return node_timestamps_; }
+  /// The index in sessions() of every node's session.
+  std::vector<int> nodeSessions() const;
 
   /// Map pose of every scan so far (log order), following the current node estimates. Nodes of
   /// loaded sessions count as one scan each.
