@@ -194,9 +194,8 @@ class Layers {
   // evidence of the cell, to which older evidence is added) or fused (added to the owner).
   void paintPatch(std::size_t p) {
     const std::size_t n_cells = placed_[p].patch->cells->size();
-    for (auto* flags : {&won_, &lost_}) (*flags)[p].assign(n_cells, 0);
     if (record_use_) {
-      for (auto* flags : {&owner_, &fused_}) (*flags)[p].assign(n_cells, 0);
+      for (auto* flags : {&won_, &lost_, &owner_, &fused_}) (*flags)[p].assign(n_cells, 0);
       use_.added[p].assign(n_cells, 0.0F);
     }
     forEachRemembered(grid_, placed_[p], [&](int cx, int cy, const Samples& samples) {
@@ -210,7 +209,7 @@ class Layers {
         const auto [k, v] = samples.cells[n];
         if (isDecision(v)) continue;
         if (taken_[g]) {
-          lost_[p][k] = 1;
+          if (record_use_) lost_[p][k] = 1;
           continue;
         }
         glimpse += evidenceLogOdds(v);
@@ -273,7 +272,7 @@ class Layers {
       const auto [k, v] = samples.cells[n];
       if (!isDecision(v)) continue;
       decision = true;
-      (t ? lost_ : won_)[p][k] = 1;
+      if (record_use_) (t ? lost_ : won_)[p][k] = 1;
       most_occupied = std::min(most_occupied, freeProbability(v));
     }
     if (decision && !t) {
@@ -305,8 +304,8 @@ class Layers {
   const mrpt::maps::COccupancyGridMap2D& grid_;
   mrpt::maps::COccupancyGridMap2D layered_;
   std::vector<char> taken_;  // per grid cell: a layer decided it
-  // Per patch and cell: decisions won (shown) or lost (a newer layer decided the cell); evidence
-  // lost (under a decision), owner or fused (owner_ and fused_ with record_use only).
+  // Per patch and cell, with record_use only (forgetting): decisions won (shown) or lost (a newer
+  // layer decided the cell); evidence lost (under a decision), owner or fused.
   std::vector<std::vector<char>> won_, lost_, owner_, fused_;
   // Per grid cell, only with a memory: the patches' evidence where no layer decides.
   std::vector<float> evidence_;
