@@ -55,6 +55,18 @@ inline core::Pose2 truthAt(int k) {
   return {7.5 + 1.5 * std::cos(a), 2.5 + 1.5 * std::sin(a), a + M_PI / 2};
 }
 
+/// Front-end parameters sized for this room: submaps of 20 scans (about a fifth of a lap), loop
+/// searches every second node from 15 nodes back, one search thread (deterministic tests).
+inline LaserSlamParams roomSizedParams() {
+  LaserSlamParams p;
+  p.local.submap.scans_per_submap = 20;
+  p.loops.min_node_separation = 15;
+  p.loops.search_every_n_nodes = 2;
+  p.loops.search_min_points = 60;
+  p.loops.threads = 1;
+  return p;
+}
+
 /// Drives scans first .. first + scans - 1 of the circle, 0.1 s apart from t0; the odometry is
 /// the truth seen from `odom_frame`.
 inline void drive(LaserSlam& slam, const core::Pose2& odom_frame, int scans, double t0,

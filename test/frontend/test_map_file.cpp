@@ -33,12 +33,7 @@ using testing::room;
 using testing::truthAt;
 
 LaserSlamParams smallMaps() {
-  LaserSlamParams p;
-  p.local.submap.scans_per_submap = 20;
-  p.loops.min_node_separation = 15;
-  p.loops.search_every_n_nodes = 2;
-  p.loops.search_min_points = 60;
-  p.loops.threads = 1;
+  LaserSlamParams p = testing::roomSizedParams();
   p.loops.relocalization_confirm_distance_m = 3.0;  // a third of a lap of the room
   return p;
 }

@@ -24,22 +24,13 @@ namespace {
 using testing::castScan;
 using testing::drive;
 using testing::room;
+using testing::roomSizedParams;
 using testing::truthAt;
-
-LaserSlamParams smallMaps() {
-  LaserSlamParams p;
-  p.local.submap.scans_per_submap = 20;
-  p.loops.min_node_separation = 15;
-  p.loops.search_every_n_nodes = 2;
-  p.loops.search_min_points = 60;
-  p.loops.threads = 1;
-  return p;
-}
 
 // Three laps of the room: the last laps' submaps cover the first lap's.
 const MapSnapshot& threeLaps() {
   static const MapSnapshot map = [] {
-    LaserSlam slam(smallMaps(), "laps");
+    LaserSlam slam(roomSizedParams(), "laps");
     drive(slam, core::Pose2::Zero(), 320, 0.0);
     slam.finish();
     return slam.snapshot();
@@ -67,7 +58,7 @@ int countKind(const MapSnapshot& map, MapSnapshot::EdgeKind kind) {
 TEST(MapTrimming, CoveredSubmapsLeaveAndTheirNodesBecomeMarginalEdges) {
   const MapSnapshot& map = threeLaps();
   ASSERT_GT(map.submaps.size(), 10u);
-  const TrimResult trimmed = trimMap(map, trimParams(), smallMaps().local.submap);
+  const TrimResult trimmed = trimMap(map, trimParams(), roomSizedParams().local.submap);
   const TrimReport& report = trimmed.report;
   EXPECT_GT(report.trimmed_submaps, 0);
   ASSERT_FALSE(report.trims.empty());
@@ -102,7 +93,7 @@ TEST(MapTrimming, CoveredSubmapsLeaveAndTheirNodesBecomeMarginalEdges) {
   // 5.6 nats when written).
   TrimParams plain_params = trimParams();
   plain_params.chow_liu.conservative = false;
-  const TrimReport plain = trimMap(map, plain_params, smallMaps().local.submap).report;
+  const TrimReport plain = trimMap(map, plain_params, roomSizedParams().local.submap).report;
   int plain_worse = 0;
   double plain_total = 0.0, conservative_total = 0.0;
   for (const TrimRecord& t : plain.trims) {
@@ -113,7 +104,7 @@ TEST(MapTrimming, CoveredSubmapsLeaveAndTheirNodesBecomeMarginalEdges) {
   EXPECT_GT(plain_worse, 0);
   EXPECT_LT(conservative_total, 0.5 * plain_total);
   // Trimming again with the same rule finds nothing more to trim among the kept submaps' cover.
-  const TrimResult again = trimMap(trimmed.map, trimParams(), smallMaps().local.submap);
+  const TrimResult again = trimMap(trimmed.map, trimParams(), roomSizedParams().local.submap);
   EXPECT_LE(again.report.trimmed_submaps, report.trimmed_submaps);
 }
 
@@ -147,13 +138,13 @@ TEST(MapTrimming, TheTreeLeavesTheKeptNodesAtTheirMinimum) {
   };
   TrimParams params = trimParams();
   params.report_kl = false;
-  const TrimResult clt = trimMap(map, params, smallMaps().local.submap);
+  const TrimResult clt = trimMap(map, params, roomSizedParams().local.submap);
   ASSERT_GT(clt.report.trims.size(), 3u);
   EXPECT_EQ(clt.report.trims.front().kl_seconds, 0.0);
   const double clt_move = largestMove(clt.map);
   EXPECT_LT(clt_move, 1e-6);
   params.sparsification = Sparsification::kDelete;
-  const double delete_move = largestMove(trimMap(map, params, smallMaps().local.submap).map);
+  const double delete_move = largestMove(trimMap(map, params, roomSizedParams().local.submap).map);
   EXPECT_GT(delete_move, 10.0 * clt_move);
 }
 
@@ -161,10 +152,10 @@ TEST(MapTrimming, TheTreeLeavesTheKeptNodesAtTheirMinimum) {
 // every cell it saw), the first session's that it covers go; judged all alike, the second
 // session's own earlier submaps go too.
 TEST(MapTrimming, TheCurrentSessionsSubmapsStay) {
-  LaserSlam first(smallMaps(), "first");
+  LaserSlam first(roomSizedParams(), "first");
   testing::drive(first, core::Pose2::Zero(), 210, 0.0);
   first.finish();
-  auto second = LaserSlam::fromMap(first.snapshot(), smallMaps(), "second");
+  auto second = LaserSlam::fromMap(first.snapshot(), roomSizedParams(), "second");
   testing::drive(*second, core::Pose2(1.0, -2.0, 0.3), 210, 1000.0);
   second->finish();
   const MapSnapshot map = second->snapshot();
@@ -178,13 +169,13 @@ TEST(MapTrimming, TheCurrentSessionsSubmapsStay) {
   for (const auto& s : map.submaps) second_submaps += ofSecond(map, s);
   TrimParams params = trimParams();
   params.keep_current_session = true;
-  const TrimResult kept = trimMap(map, params, smallMaps().local.submap);
+  const TrimResult kept = trimMap(map, params, roomSizedParams().local.submap);
   EXPECT_GT(kept.report.trimmed_submaps, 0);
   int kept_second = 0;
   for (const auto& s : kept.map.submaps) kept_second += ofSecond(kept.map, s);
   EXPECT_EQ(kept_second, second_submaps);
   params.keep_current_session = false;
-  const TrimResult judged = trimMap(map, params, smallMaps().local.submap);
+  const TrimResult judged = trimMap(map, params, roomSizedParams().local.submap);
   int judged_second = 0;
   for (const auto& s : judged.map.submaps) judged_second += ofSecond(judged.map, s);
   EXPECT_LT(judged_second, second_submaps);
@@ -194,7 +185,7 @@ TEST(MapTrimming, TheCurrentSessionsSubmapsStay) {
 TEST(MapTrimming, TrimmedMapSavesLoadsAndContinues) {
   TrimParams params = trimParams();
   params.keep_recent_submaps = 12;  // the last lap's loops to the second stay loops
-  const TrimResult trimmed = trimMap(threeLaps(), params, smallMaps().local.submap);
+  const TrimResult trimmed = trimMap(threeLaps(), params, roomSizedParams().local.submap);
   ASSERT_GT(trimmed.report.marginal_edges_kept, 0);
   const std::string path = ::testing::TempDir() + "trimmed.rrrmap";
   writeMapFile(trimmed.map, path);
@@ -209,7 +200,7 @@ TEST(MapTrimming, TrimmedMapSavesLoadsAndContinues) {
   EXPECT_EQ(read.lifelong.marginalized_nodes, trimmed.map.lifelong.marginalized_nodes);
 
   // A new session continues it: the marginal edges stay what they were, the map where it was.
-  auto slam = LaserSlam::fromMap(read, smallMaps(), "next");
+  auto slam = LaserSlam::fromMap(read, roomSizedParams(), "next");
   EXPECT_EQ(slam->rrr().status().marginal_edges, countKind(read, MapSnapshot::EdgeKind::kMarginal));
   // Decided again at load, the loops the trimmed map kept are accepted again: the marginal edges
   // close cycles with the odometry (they carry the loops that bent it), and RRR's joint tests
@@ -249,7 +240,7 @@ TEST(MapTrimming, TrimmedMapSavesLoadsAndContinues) {
 TEST(MapTrimming, ARunningSessionTrimsTheEarlierOnesAndGoesOnAsBefore) {
   // Each submap searched once in a while: the clusters of loops close behind the robot (in
   // this small room every submap is always in reach, and frequent searches keep them open).
-  LaserSlamParams sparse = smallMaps();
+  LaserSlamParams sparse = roomSizedParams();
   sparse.loops.search_every_n_nodes = 150;
   auto running = LaserSlam::fromMap(threeLaps(), sparse, "running");
   EXPECT_THROW(running->checkpoint(), std::logic_error);  // no node of its own yet
@@ -272,7 +263,8 @@ TEST(MapTrimming, ARunningSessionTrimsTheEarlierOnesAndGoesOnAsBefore) {
   for (auto& e : open.edges) {
     if ((e.from < open_first) != (e.to < open_first)) e.cluster = -1;
   }
-  const TrimResult held = trimMap(open, params, smallMaps().local.submap, NewestSession::kRunning);
+  const TrimResult held =
+      trimMap(open, params, roomSizedParams().local.submap, NewestSession::kRunning);
   EXPECT_GT(held.report.waiting_submaps, 0);
   EXPECT_LT(held.report.trimmed_submaps, trimmed.report.trimmed_submaps);
   EXPECT_EQ(held.map.nodes.size() - static_cast<std::size_t>(held.map.sessions.back().first_node),
@@ -328,7 +320,7 @@ TEST(MapTrimming, ARunningSessionTrimsTheEarlierOnesAndGoesOnAsBefore) {
 // The online trimmer: in line or behind the running map (the scans that came meanwhile given
 // to the trimmed one), the running session goes on exactly as without trimming.
 TEST(MapTrimming, TheOnlineTrimmerTrimsInLineOrBehindTheMap) {
-  LaserSlamParams sparse = smallMaps();
+  LaserSlamParams sparse = roomSizedParams();
   sparse.loops.search_every_n_nodes = 150;
   const core::Pose2 odom_frame(3.0, -2.0, 0.7);
   auto reference = LaserSlam::fromMap(threeLaps(), sparse, "running");
@@ -386,7 +378,7 @@ TEST(MapTrimming, TheOnlineTrimmerTrimsInLineOrBehindTheMap) {
 TEST(MapTrimming, AnEndlessSessionTrimsItsOwnOlderSubmaps) {
   // The robot never leaves this small room: with the default gap its loops (every 10 nodes) would
   // make one cluster that never closes, and the submaps open clusters touch wait.
-  LaserSlamParams sparse = smallMaps();
+  LaserSlamParams sparse = roomSizedParams();
   sparse.loops.search_every_n_nodes = 150;
   sparse.rrr.rrr.cluster_gap = 4;
   constexpr int kScans = 640;  // six laps
@@ -475,7 +467,7 @@ TEST(MapTrimming, AnEndlessSessionTrimsItsOwnOlderSubmaps) {
     TrimParams p = trimParams();
     p.report_kl = false;
     p.revisit_gap_nodes = gap;
-    return trimMap(laps, p, smallMaps().local.submap, NewestSession::kRunning).report;
+    return trimMap(laps, p, roomSizedParams().local.submap, NewestSession::kRunning).report;
   };
   const int any_newer = trimmedRunning(0).trimmed_submaps;
   const int next_lap = trimmedRunning(60).trimmed_submaps;
@@ -490,7 +482,7 @@ TEST(MapTrimming, AnEndlessSessionTrimsItsOwnOlderSubmaps) {
                   p.revisit_gap_nodes = 1000;
                   return p;
                 }(),
-                smallMaps().local.submap)
+                roomSizedParams().local.submap)
                 .report.trimmed_submaps,
             any_newer);  // a finished session's submaps are judged against every newer one
 
@@ -534,7 +526,7 @@ TEST(MapTrimming, ALoadedTrimmedMapKeepsItsLoops) {
 
 TEST(MapTrimming, SubmapsWithPendingLoopsWaitAndRejectedLoopsGoWithTheirNodes) {
   MapSnapshot map = threeLaps();
-  const TrimResult plain = trimMap(map, trimParams(), smallMaps().local.submap);
+  const TrimResult plain = trimMap(map, trimParams(), roomSizedParams().local.submap);
   ASSERT_FALSE(plain.report.trims.empty());
   // A pending loop touching a node of the first trimmed submap holds it back.
   const MapSnapshot::Submap span =
@@ -557,7 +549,7 @@ TEST(MapTrimming, SubmapsWithPendingLoopsWaitAndRejectedLoopsGoWithTheirNodes) {
     e.measurement = core::between(map.nodes[e.from].map_pose, map.nodes[e.to].map_pose);
     map.edges.push_back(e);
   }
-  const TrimResult waiting = trimMap(map, trimParams(), smallMaps().local.submap);
+  const TrimResult waiting = trimMap(map, trimParams(), roomSizedParams().local.submap);
   EXPECT_GE(waiting.report.waiting_submaps, 1);
   for (const TrimRecord& t : waiting.report.trims)
     EXPECT_NE(t.submap, plain.report.trims[0].submap);
@@ -583,7 +575,7 @@ TEST(MapTrimming, SubmapsWithPendingLoopsWaitAndRejectedLoopsGoWithTheirNodes) {
   rejected_loop(span.first_node, span.first_node + 5);  // both ends leave
   rejected_loop(span.first_node, last);                 // one end leaves
   rejected_loop(last - 20, last);                       // both stay
-  const TrimResult dropped = trimMap(with_rejected, trimParams(), smallMaps().local.submap);
+  const TrimResult dropped = trimMap(with_rejected, trimParams(), roomSizedParams().local.submap);
   EXPECT_EQ(dropped.report.dropped_rejected_loops, 2);
   int rejected_out = 0;
   for (const auto& e : dropped.map.edges) rejected_out += e.verdict == rrr::Verdict::kRejected;
@@ -593,7 +585,7 @@ TEST(MapTrimming, SubmapsWithPendingLoopsWaitAndRejectedLoopsGoWithTheirNodes) {
 // Sessions of the room, one per entry of `extras`: what stands in the room besides its walls
 // that day. Each later session starts from the map of the ones before, tied to it.
 MapSnapshot sessionsOf(const std::vector<std::vector<testing::Segment>>& extras) {
-  LaserSlamParams params = smallMaps();
+  LaserSlamParams params = roomSizedParams();
   params.loops.relocalization_confirm_distance_m = 3.0;  // a third of a lap: the sessions tie
   // What changed stands in space another session saw free: no free-space check of the matches.
   params.loops.relocalization_max_conflict = 1.0;
@@ -633,7 +625,7 @@ bool allTied(const MapSnapshot& map) {
 // The map as written, newest session per cell, at 0.05 m.
 mrpt::maps::COccupancyGridMap2D renderedMap(const MapSnapshot& map) {
   MapInputs inputs = renderInputs(map);
-  inputs.insertion = smallMaps().local.submap;
+  inputs.insertion = roomSizedParams().local.submap;
   inputs.render = MapRenderParams{};
   inputs.layering = MapLayering::kNewestSession;
   return renderOccupancyMap(inputs, 0.05);
@@ -666,7 +658,7 @@ TEST(MapTrimming, TheCellsOfTrimmedSubmapsStayInTheMap) {
   params.keep_current_session = true;
   params.trim_overlap_ratio = 0.5;
   params.report_kl = false;
-  const SubmapParams submap = smallMaps().local.submap;
+  const SubmapParams submap = roomSizedParams().local.submap;
 
   params.remember_trimmed_cells = false;
   const TrimResult plain = trimMap(map, params, submap);
@@ -710,7 +702,7 @@ TEST(MapTrimming, TheCellsOfTrimmedSubmapsStayInTheMap) {
   for (std::size_t s = 0; s < read.sessions.size(); ++s) {
     EXPECT_EQ(read.sessions[s].number, kept.map.sessions[s].number);
   }
-  auto next = LaserSlam::fromMap(read, smallMaps(), "day4");
+  auto next = LaserSlam::fromMap(read, roomSizedParams(), "day4");
   EXPECT_EQ(next->sessions().back().number, kept.map.sessions.back().number + 1);
   EXPECT_EQ(next->mapInputs().memory.size(), read.memory.size());
   EXPECT_EQ(rememberedCells(next->memory()), rememberedCells(read.memory));
@@ -719,14 +711,14 @@ TEST(MapTrimming, TheCellsOfTrimmedSubmapsStayInTheMap) {
 TEST(MapTrimming, DeletionAndTheFreshAreaRuleAreTheAlternatives) {
   TrimParams params = trimParams();
   params.sparsification = Sparsification::kDelete;
-  const TrimResult deleted = trimMap(threeLaps(), params, smallMaps().local.submap);
+  const TrimResult deleted = trimMap(threeLaps(), params, roomSizedParams().local.submap);
   EXPECT_EQ(deleted.report.marginalEdges(), 0);
   EXPECT_EQ(countKind(deleted.map, MapSnapshot::EdgeKind::kMarginal), 0);
   for (const TrimRecord& t : deleted.report.trims) EXPECT_EQ(t.kl_nats, t.kl_delete_nats);
 
   // Cartographer's rule: nothing is fresh enough to keep below a huge area, everything old goes;
   // with no area required nothing goes.
-  const SubmapParams submap = smallMaps().local.submap;
+  const SubmapParams submap = roomSizedParams().local.submap;
   const TrimResult all = trimMap(threeLaps(), trimParams(), FreshAreaTrimming(1e6), submap);
   EXPECT_EQ(all.report.trimmed_submaps, static_cast<int>(threeLaps().submaps.size()) -
                                             trimParams().keep_recent_submaps -

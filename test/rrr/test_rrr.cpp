@@ -17,6 +17,14 @@ namespace {
 
 const std::string kData = RRR_TEST_DATA_DIR;
 
+// Pose k along a 10 m square, 1 m steps, one lap every 40 poses.
+core::Pose2 squarePose(int k) {
+  const int side = (k / 10) % 4, along = k % 10;
+  const double x[] = {double(along), 10.0, 10.0 - along, 0.0};
+  const double y[] = {0.0, double(along), 10.0, 10.0 - along};
+  return core::Pose2(x[side], y[side], core::normalizeAngle(side * M_PI / 2));
+}
+
 // Each edge's ends as node indices (k-th smallest id).
 struct Counts {
   int tp = 0, fp = 0, fn = 0;
@@ -262,20 +270,15 @@ TEST(Rrr, OnlineASingleLinkWaitsUntilTheMapCanTestIt) {
   core::PoseGraph g;
   const Eigen::Matrix3d odo = Eigen::Vector3d(400.0, 400.0, 2500.0).asDiagonal();
   const Eigen::Matrix3d loop = Eigen::Vector3d(100.0, 100.0, 400.0).asDiagonal();
-  auto square = [](int k) {  // pose k along a 10 m square, 1 m steps, one lap every 40 poses
-    const int side = (k / 10) % 4, along = k % 10;
-    const double x[] = {double(along), 10.0, 10.0 - along, 0.0};
-    const double y[] = {0.0, double(along), 10.0, 10.0 - along};
-    return core::Pose2(x[side], y[side], core::normalizeAngle(side * M_PI / 2));
-  };
   const int nodes = 165;
   for (int k = 0; k < nodes; ++k) {
-    g.addNode(k, square(k));
+    g.addNode(k, squarePose(k));
     if (k > 0)
-      g.addEdge(k - 1, k, core::between(square(k - 1), square(k)), odo, core::EdgeKind::kOdometry);
+      g.addEdge(k - 1, k, core::between(squarePose(k - 1), squarePose(k)), odo,
+                core::EdgeKind::kOdometry);
   }
   auto add_loop = [&](int from, int to, const core::Pose2& error) {
-    g.addEdge(from, to, core::compose(core::between(square(from), square(to)), error), loop,
+    g.addEdge(from, to, core::compose(core::between(squarePose(from), squarePose(to)), error), loop,
               core::EdgeKind::kLoopCandidate);
   };
   for (int k = 45; k < 50; ++k) add_loop(k - 40, k, core::Pose2::Zero());  // lap 2 revisits lap 1
@@ -479,22 +482,16 @@ TEST(Rrr, SessionsJoinOnlyThroughAcceptedLinks) {
   core::PoseGraph g;
   const Eigen::Matrix3d odo = Eigen::Vector3d(400.0, 400.0, 2500.0).asDiagonal();
   const Eigen::Matrix3d loop = Eigen::Vector3d(100.0, 100.0, 400.0).asDiagonal();
-  auto square = [](int k) {  // pose k along a 10 m square, 1 m steps
-    const int side = (k / 10) % 4, along = k % 10;
-    const double x[] = {double(along), 10.0, 10.0 - along, 0.0};
-    const double y[] = {0.0, double(along), 10.0, 10.0 - along};
-    return core::Pose2(x[side], y[side], core::normalizeAngle(side * M_PI / 2));
-  };
   const int per_session = 40;
   const core::Pose2 frames[] = {core::Pose2(0, 0, 0), core::Pose2(5, -3, 0.7),
                                 core::Pose2(-8, 2, -1.0)};
   for (int s = 0; s < 3; ++s) {
     for (int k = 0; k < per_session; ++k) {
       g.addNode(static_cast<core::PoseGraph::NodeId>(s * per_session + k),
-                core::compose(frames[s], square(k)));
+                core::compose(frames[s], squarePose(k)));
       if (k > 0) {
         const auto id = static_cast<core::PoseGraph::NodeId>(s * per_session + k);
-        g.addEdge(id - 1, id, core::between(square(k - 1), square(k)), odo,
+        g.addEdge(id - 1, id, core::between(squarePose(k - 1), squarePose(k)), odo,
                   core::EdgeKind::kOdometry);
       }
     }
@@ -521,8 +518,9 @@ TEST(Rrr, SessionsJoinOnlyThroughAcceptedLinks) {
     const auto& poses = graph.optimizer().poses();
     // B now sits on A; C, never linked, keeps its own frame.
     EXPECT_LT((poses[per_session + 7] - poses[7]).head<2>().norm(), 1e-3);
-    EXPECT_LT((poses[2 * per_session + 3] - core::compose(frames[2], square(3))).head<2>().norm(),
-              1e-3);
+    EXPECT_LT(
+        (poses[2 * per_session + 3] - core::compose(frames[2], squarePose(3))).head<2>().norm(),
+        1e-3);
   }
 }
 
@@ -534,20 +532,14 @@ TEST(Rrr, ASessionInAFarOdometryFrameJoinsThroughItsTrueClusters) {
   core::PoseGraph g;
   const Eigen::Matrix3d odo = Eigen::Vector3d(400.0, 400.0, 2500.0).asDiagonal();
   const Eigen::Matrix3d loop = Eigen::Vector3d(100.0, 100.0, 400.0).asDiagonal();
-  auto square = [](int k) {  // pose k along a 10 m square, 1 m steps
-    const int side = (k / 10) % 4, along = k % 10;
-    const double x[] = {double(along), 10.0, 10.0 - along, 0.0};
-    const double y[] = {0.0, double(along), 10.0, 10.0 - along};
-    return core::Pose2(x[side], y[side], core::normalizeAngle(side * M_PI / 2));
-  };
   const int n = 40;
   const core::Pose2 frames[] = {core::Pose2(0, 0, 0), core::Pose2(100, -60, 2.5)};
   for (int s = 0; s < 2; ++s) {
     for (int k = 0; k < n; ++k) {
       const auto id = static_cast<core::PoseGraph::NodeId>(s * n + k);
-      g.addNode(id, core::compose(frames[s], square(k)));
+      g.addNode(id, core::compose(frames[s], squarePose(k)));
       if (k > 0) {
-        g.addEdge(id - 1, id, core::between(square(k - 1), square(k)), odo,
+        g.addEdge(id - 1, id, core::between(squarePose(k - 1), squarePose(k)), odo,
                   core::EdgeKind::kOdometry);
       }
     }
