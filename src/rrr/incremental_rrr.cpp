@@ -31,10 +31,15 @@ bool IncrementalRrr::advanceTo(int node) {
   const std::vector<std::vector<int>> closed = open_.advanceTo(node);
   if (closed.empty()) return false;
   for (const std::vector<int>& members : closed) rrr_.addCluster(members);
-  if (open_.currentNode() >= next_rebatch_) {
-    scheduleNextRebatch();
-    if (!defer_) rrr_.decideFromScratch();
-  } else if (!defer_) {
+  const bool rebatch = open_.currentNode() >= next_rebatch_;
+  if (rebatch) scheduleNextRebatch();
+  if (defer_) return true;
+  // Sessions are placed again from scratch (with the previous map as a contender, see
+  // Rrr::decideFromScratch); within one session a decision from scratch over part of the run
+  // holds fewer loops against a false group than the online decisions (doc/rrr_extensions.md).
+  if (rebatch && graph_.numTrustedComponents() > 1) {
+    rrr_.decideFromScratch();
+  } else {
     rrr_.decideIncrementally();
   }
   return true;

@@ -140,7 +140,8 @@ core::Pose2 onCircle(int k, int per_lap) {
 TEST(OnlineRrr, ALoadedGraphDecidesItsNextClusterOnlineNotFromScratch) {
   // A graph whose replay passes a multiple of incremental_rebatch_every after its last cluster
   // closed: the decision from scratch is the loaded graph's own (finish), and the next cluster
-  // after it is decided online, as if the graph had been built here.
+  // after it is decided online, as if the graph had been built here. Two sessions (a rebatch
+  // acts only with several): nodes 0-9, and the rest, tied to them by the cluster.
   constexpr int kPerLap = 60;
   OnlineRrrParams params = paramsWithGap(3);
   params.rrr.incremental_rebatch_every = 100;
@@ -148,7 +149,7 @@ TEST(OnlineRrr, ALoadedGraphDecidesItsNextClusterOnlineNotFromScratch) {
   core::PoseGraph graph;
   for (int k = 0; k < 130; ++k) {
     graph.addNode(k, onCircle(k, kPerLap));
-    if (k > 0) {
+    if (k > 0 && k != 10) {
       graph.addEdge(k - 1, k, core::between(onCircle(k - 1, kPerLap), onCircle(k, kPerLap)), info,
                     core::EdgeKind::kOdometry);
     }

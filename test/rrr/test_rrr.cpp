@@ -325,58 +325,66 @@ TEST(Rrr, OnlineASingleLinkWaitsUntilTheMapCanTestIt) {
 
 // A robot's view: nodes arrive one by one with their odometry, candidates once both ends
 // exist. Decisions are made on the way, and the final ones equal batch RRR on the whole graph.
-// Passing a multiple of incremental_rebatch_every nodes, the clusters closed so far are decided
-// from scratch: the same verdicts and map as a twin that decides incrementally and is then asked
-// for the batch decision over its closed clusters at that point.
-TEST(Rrr, RebatchDecidesTheClosedClustersFromScratch) {
+// Passing a multiple of incremental_rebatch_every nodes in a graph of several sessions, the
+// clusters closed so far are decided from scratch: the same verdicts and map as a twin that
+// decides incrementally and is then asked for the batch decision over its closed clusters at that
+// point. Within one session they are decided online, as the twin does.
+TEST(Rrr, RebatchDecidesTheClosedClustersFromScratchWhenThereAreSessions) {
   const testing::LabelledGraph input = testing::withOutliers(kData + "/intel.g2o.gz", 100, 1, 11);
-  RrrParams rebatching;
-  rebatching.cluster_gap = 3;
-  rebatching.incremental_rebatch_every = 400;
-  RrrParams never = rebatching;
-  never.incremental_rebatch_every = 0;
-  VerificationGraph a(rebatching.optimizer), b(never.optimizer);
-  IncrementalRrr ia(a, rebatching, 3), ib(b, never, 3);
-
   const auto ids = input.graph.nodeIds();
   const std::vector<ReplayEdge> edges = replayEdges(input.graph);
   const std::vector<NodeArrivals> arriving = arrivalsByNode(static_cast<int>(ids.size()), edges);
-  auto distance = [&] {
-    double d = 0.0;
-    for (int n = 0; n < a.numNodes(); ++n) {
-      d = std::max(d, (a.optimizer().poses()[static_cast<std::size_t>(n)] -
-                       b.optimizer().poses()[static_cast<std::size_t>(n)])
-                          .lpNorm<Eigen::Infinity>());
-    }
-    return d;
-  };
-  bool compared = false;
-  for (std::size_t n = 0; n < ids.size() && !compared; ++n) {
-    for (VerificationGraph* g : {&a, &b}) g->addNode(ids[n], input.graph.pose(ids[n]));
-    for (int i : arriving[n].odometry) {
-      const auto k = static_cast<std::size_t>(i);
-      for (VerificationGraph* g : {&a, &b}) {
-        g->addOdometry(edges[k].from, edges[k].to, input.graph.measurement(k),
-                       input.graph.information(k));
+  for (const bool two_sessions : {true, false}) {
+    SCOPED_TRACE(two_sessions ? "two sessions" : "one session");
+    RrrParams rebatching;
+    rebatching.cluster_gap = 3;
+    rebatching.incremental_rebatch_every = 400;
+    RrrParams never = rebatching;
+    never.incremental_rebatch_every = 0;
+    VerificationGraph a(rebatching.optimizer), b(never.optimizer);
+    IncrementalRrr ia(a, rebatching, 3), ib(b, never, 3);
+    auto distance = [&] {
+      double d = 0.0;
+      for (int n = 0; n < a.numNodes(); ++n) {
+        d = std::max(d, (a.optimizer().poses()[static_cast<std::size_t>(n)] -
+                         b.optimizer().poses()[static_cast<std::size_t>(n)])
+                            .lpNorm<Eigen::Infinity>());
+      }
+      return d;
+    };
+    bool compared = false;
+    for (std::size_t n = 0; n < ids.size() && !compared; ++n) {
+      for (VerificationGraph* g : {&a, &b}) g->addNode(ids[n], input.graph.pose(ids[n]));
+      for (int i : arriving[n].odometry) {
+        const auto k = static_cast<std::size_t>(i);
+        if (two_sessions && n == 200) continue;  // a second session starts at node 200
+        for (VerificationGraph* g : {&a, &b}) {
+          g->addOdometry(edges[k].from, edges[k].to, input.graph.measurement(k),
+                         input.graph.information(k));
+        }
+      }
+      for (int i : arriving[n].candidates) {
+        const auto k = static_cast<std::size_t>(i);
+        const core::Pose2& z = input.graph.measurement(k);
+        const Eigen::Matrix3d& info = input.graph.information(k);
+        const bool closed = ia.addCandidate(a.addCandidate(edges[k].from, edges[k].to, z, info, k));
+        ASSERT_EQ(ib.addCandidate(b.addCandidate(edges[k].from, edges[k].to, z, info, k)), closed);
+        if (!closed || ia.currentNode() < 400 || compared) continue;
+        // The first decision past node 400: from scratch in `a` if it holds two sessions,
+        // incremental in `b`.
+        ASSERT_EQ(a.numTrustedComponents(), two_sessions ? 2 : 1);
+        if (two_sessions) {
+          EXPECT_GT(distance(), 1e-6) << "the incremental map differs from the batch one";
+          ib.decideClosedFromScratch();
+        }
+        for (int c = 0; c < a.numCandidates(); ++c)
+          EXPECT_EQ(ia.rrr().verdict(c), ib.rrr().verdict(c)) << "candidate " << c;
+        EXPECT_LT(distance(), 1e-6);
+        compared = true;
       }
     }
-    for (int i : arriving[n].candidates) {
-      const auto k = static_cast<std::size_t>(i);
-      const core::Pose2& z = input.graph.measurement(k);
-      const Eigen::Matrix3d& info = input.graph.information(k);
-      const bool closed = ia.addCandidate(a.addCandidate(edges[k].from, edges[k].to, z, info, k));
-      ASSERT_EQ(ib.addCandidate(b.addCandidate(edges[k].from, edges[k].to, z, info, k)), closed);
-      if (!closed || ia.currentNode() < 400 || compared) continue;
-      // The first decision past node 400: from scratch in `a`, incremental in `b`.
-      EXPECT_GT(distance(), 1e-6) << "the incremental map differs from the batch one";
-      ib.decideClosedFromScratch();
-      for (int c = 0; c < a.numCandidates(); ++c)
-        EXPECT_EQ(ia.rrr().verdict(c), ib.rrr().verdict(c)) << "candidate " << c;
-      EXPECT_LT(distance(), 1e-6);
-      compared = true;
-    }
+    EXPECT_TRUE(compared);
   }
-  EXPECT_TRUE(compared);
 }
 
 TEST(Rrr, ArrivalsByNodeSayWhatArrivesWithEachNode) {

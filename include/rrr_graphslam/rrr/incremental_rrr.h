@@ -29,8 +29,9 @@ class IncrementalRrr {
   /// a lone link the map cannot test yet, left waiting: RrrParams::online_untestable_ratio).
   /// Returns true if a cluster was closed (and, unless deferred, a decision made).
   bool addCandidate(int candidate);
-  /// The robot reached `node`: closes and decides the clusters it has left behind (from scratch
-  /// when it passed a multiple of RrrParams::incremental_rebatch_every since the last time).
+  /// The robot reached `node`: closes and decides the clusters it has left behind (from scratch,
+  /// in a graph of several sessions, when it passed a multiple of
+  /// RrrParams::incremental_rebatch_every since the last time).
   bool advanceTo(int node);
   /// After the last candidate: closes every open cluster and decides all of them from scratch.
   /// Clusters waiting for their session to be placed still wait (Rrr::rejectUnplaced ends that).
