@@ -5,6 +5,7 @@
 #include <optional>
 #include <utility>
 
+#include "rrr_graphslam/core/chi2.h"
 #include "rrr_graphslam/rrr/linearized_tests.h"
 #include "rrr_graphslam/rrr/rrr.h"
 
@@ -58,6 +59,33 @@ bool Rrr::mayWaitForTheMap(int cluster) const {
   // A link to another session is the placement rules' (a session not yet tied hangs from nothing).
   const LoopCandidate& link = graph_.candidate(kept.front());
   return graph_.chain().sameSession(link.from, link.to);
+}
+
+double Rrr::goodSetChi2() const {
+  double d2 = graph_.trustedChi2At(base_) - graph_.trustedChi2();
+  for (int k : acceptedCandidates()) d2 += linkChi2(k, base_);
+  return d2;
+}
+
+bool Rrr::undoIfIncreaseFails(DecisionState before, double good_chi2_before) {
+  std::vector<int> added;
+  int links = 0;
+  for (int c : clustersWith(Status::kGood)) {
+    if (before.clusters[static_cast<std::size_t>(c)].status == Status::kGood) continue;
+    added.push_back(c);
+    links += static_cast<int>(kept_links_[static_cast<std::size_t>(c)].size());
+  }
+  if (added.empty()) return false;
+  const double increase = goodSetChi2() - good_chi2_before;
+  const int dof = 3 * links;
+  if (increase < core::chi2Quantile(params_.alpha, dof)) return false;
+  restoreDecisionState(std::move(before));
+  for (int c : added) {
+    setStatus(c, Status::kRejected,
+              "online: joint increase " + chi2Test("D2", increase, params_.alpha, dof));
+  }
+  holdGoodMap();
+  return true;
 }
 
 void Rrr::refreshGoodMap() {
@@ -133,8 +161,17 @@ void Rrr::decideAgainstMap() {
     unoptimized_accepts_ = 0;
     const bool placing = !placing_groups.empty();
     placing_groups.clear();
+    // The increase test needs the decision before the joint test, to undo it (a placing group
+    // moves a session that nothing held: its increase says nothing).
+    std::optional<DecisionState> before;
+    double good_chi2_before = 0.0;
+    if (params_.online_increase_test && !placing) {
+      before = decisionState();
+      good_chi2_before = goodSetChi2();
+    }
     bool grew =
         realize(joint, params_.warm_start ? base_ : graph_.initialPoses(), "realize", true, true);
+    if (grew && before && undoIfIncreaseFails(std::move(*before), good_chi2_before)) grew = false;
     joint.clear();
     // The joint test may have kept fewer of a placing group than tie a session.
     if (placing && holdLoosePlacements()) refreshGoodMap();

@@ -323,6 +323,71 @@ TEST(Rrr, OnlineASingleLinkWaitsUntilTheMapCanTestIt) {
   }
 }
 
+// Four laps of a square, lap 2 revisiting lap 1 at every node. Lap 4 hangs from the map by the
+// odometry of lap 3 when a group of five links claims that its stretch lies 5 m beside where it
+// is (one rigid offset: the links agree with each other and with the odometry on both sides).
+// The joint test over every link passes with it (the map bends), but the group raises the good
+// set's chi2 by more than five links may: online_increase_test undoes that joint test and
+// rejects the group, where without it the group is accepted online (until lap 4 revisits lap 1
+// where it truly is).
+TEST(Rrr, OnlineAGroupThatBendsTheMapIsUndoneByTheIncreaseTest) {
+  core::PoseGraph g;
+  const Eigen::Matrix3d odo = Eigen::Vector3d(400.0, 400.0, 2500.0).asDiagonal();
+  const Eigen::Matrix3d loop = Eigen::Vector3d(100.0, 100.0, 400.0).asDiagonal();
+  const int nodes = 150;
+  for (int k = 0; k < nodes; ++k) {
+    g.addNode(k, squarePose(k));
+    if (k > 0)
+      g.addEdge(k - 1, k, core::between(squarePose(k - 1), squarePose(k)), odo,
+                core::EdgeKind::kOdometry);
+  }
+  for (int k = 41; k < 80; ++k) {  // lap 2 revisits lap 1
+    g.addEdge(k - 40, k, core::between(squarePose(k - 40), squarePose(k)), loop,
+              core::EdgeKind::kLoopCandidate);
+  }
+  const core::Pose2 offset(0.0, 5.0, 0.0);
+  const int false_from = 10, false_to = 130;  // lap 4's nodes 130-134 are lap 1's 10-14
+  for (int j = 0; j < 5; ++j) {
+    g.addEdge(
+        false_from + j, false_to + j,
+        core::between(squarePose(false_from + j), core::compose(offset, squarePose(false_to + j))),
+        loop, core::EdgeKind::kLoopCandidate);
+  }
+  for (int k = 140; k < 145; ++k) {  // lap 4 then revisits lap 1, where it truly is
+    g.addEdge(k - 120, k, core::between(squarePose(k - 120), squarePose(k)), loop,
+              core::EdgeKind::kLoopCandidate);
+  }
+  auto run = [&](bool increase_test) {
+    RrrParams params;
+    params.cluster_gap = 3;
+    params.online_increase_test = increase_test;
+    VerificationGraph graph(g, params.optimizer);
+    std::vector<Verdict> verdicts;
+    std::vector<int> clusters;
+    std::vector<ReplayEvent> events;
+    runIncrementalRrr(graph, params, verdicts, clusters, {}, nullptr, nullptr, &events);
+    std::vector<ReplayEvent> changes;  // of the group's first link, before the end
+    for (const ReplayEvent& e : events) {
+      const LoopCandidate& c = graph.candidate(e.candidate);
+      if (c.from == false_from && c.to == false_to && e.previous != e.verdict && !e.final)
+        changes.push_back(e);
+    }
+    return std::make_pair(changes, verdicts);
+  };
+  const auto [off, off_verdicts] = run(false);
+  ASSERT_FALSE(off.empty());
+  EXPECT_EQ(off.front().verdict, Verdict::kAccepted) << "precondition: " << off.front().reason;
+  const auto [on, verdicts] = run(true);
+  ASSERT_EQ(on.size(), 1u);
+  EXPECT_EQ(on.front().verdict, Verdict::kRejected);
+  EXPECT_EQ(on.front().reason.rfind("online: joint increase D2", 0), 0u) << on.front().reason;
+  EXPECT_EQ(verdicts, off_verdicts) << "the final decisions are the batch ones either way";
+  for (std::size_t k = 0; k < verdicts.size(); ++k) {
+    const bool is_false = k >= 39 && k < 44;  // in edge order: 39 true, the group, 5 true
+    EXPECT_EQ(verdicts[k], is_false ? Verdict::kRejected : Verdict::kAccepted) << k;
+  }
+}
+
 // A robot's view: nodes arrive one by one with their odometry, candidates once both ends
 // exist. Decisions are made on the way, and the final ones equal batch RRR on the whole graph.
 // Passing a multiple of incremental_rebatch_every nodes in a graph of several sessions, the

@@ -255,6 +255,13 @@ class Rrr {
   void factorGoodMap();
   /// The optimizer holding the good set's map: the accepted links switched on, the poses base_.
   void holdGoodMap();
+  /// D2_G of the good set at base_: the chi2 of the trusted constraints and the accepted links
+  /// above the trusted constraints' own optimum.
+  double goodSetChi2() const;
+  /// online_increase_test after a joint test that grew the good set from `before` (whose D2_G
+  /// was `good_chi2_before`): if the clusters it added raised D2_G by chi2(alpha, 3 x their
+  /// links) or more, `before` is restored and they are rejected. Returns whether it undid.
+  bool undoIfIncreaseFails(DecisionState before, double good_chi2_before);
   /// rrr::predictedIndex of a cluster's kept links at base_.
   std::optional<double> predictedIndex(int cluster) const;
   /// At least far_retry_min_links kept links (the far retry and the leave-one-out check).

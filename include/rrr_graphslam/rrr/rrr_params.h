@@ -112,6 +112,11 @@ struct RrrParams {
   /// Clusters of several links test one another (intra-cluster) and are decided at once; links
   /// between sessions are left to the placement rules. Default 100; 0: off (paper).
   double online_untestable_ratio = 100.0;
+  /// An online joint test that grows the good set is undone, and the clusters it added rejected,
+  /// when the good set's chi2 (D2_G) rose by more than chi2(alpha, 3 x the links added): the
+  /// joint test over every link absorbs the excess of one group that bends the map to fit
+  /// (the far retry's increase test, online). Default true; false: off (paper).
+  bool online_increase_test = true;
   /// Re-optimize the good set after this many clusters were accepted without it; default 32.
   int incremental_map_update_every = 32;
   /// In a graph of several sessions (parts no trusted constraint joins), when the robot passes
@@ -201,6 +206,10 @@ void forEachParam(Params& p, F&& f) {
               "incremental: a one-link cluster the map must move to fit waits while the map's "
               "uncertainty of it exceeds this times its own (0: off)"},
     p.online_untestable_ratio);
+  f(ParamInfo{"online_increase_test", 0, 1,
+              "incremental: a joint test whose added links raise the good set's chi2 beyond "
+              "their own chi2 quantile is undone"},
+    p.online_increase_test);
   f(ParamInfo{"incremental_map_update_every", 1, 1e9,
               "incremental: re-optimize the map after this many accepted clusters"},
     p.incremental_map_update_every);
