@@ -40,6 +40,22 @@ core::PoseGraph squareWithOdometry(int nodes) {
 }
 const Eigen::Matrix3d kSquareLoopInformation = Eigen::Vector3d(100.0, 100.0, 400.0).asDiagonal();
 
+// The incremental replay of `g` (runIncrementalRrr): every arrival and verdict change, the final
+// verdicts, and the candidates the events' indices name.
+struct ReplayRun {
+  std::vector<ReplayEvent> events;
+  std::vector<Verdict> verdicts;
+  std::vector<LoopCandidate> candidates;
+};
+ReplayRun replayWithEvents(const core::PoseGraph& g, const RrrParams& params) {
+  VerificationGraph graph(g, params.optimizer);
+  ReplayRun run;
+  std::vector<int> clusters;
+  runIncrementalRrr(graph, params, run.verdicts, clusters, {}, nullptr, nullptr, &run.events);
+  for (int k = 0; k < graph.numCandidates(); ++k) run.candidates.push_back(graph.candidate(k));
+  return run;
+}
+
 // Each edge's ends as node indices (k-th smallest id).
 struct Counts {
   int tp = 0, fp = 0, fn = 0;
@@ -297,19 +313,15 @@ TEST(Rrr, OnlineASingleLinkWaitsUntilTheMapCanTestIt) {
     RrrParams params;
     params.cluster_gap = 3;
     params.online_untestable_ratio = ratio;
-    VerificationGraph graph(g, params.optimizer);
-    std::vector<Verdict> verdicts;
-    std::vector<int> clusters;
-    std::vector<ReplayEvent> events;
-    runIncrementalRrr(graph, params, verdicts, clusters, {}, nullptr, nullptr, &events);
+    const ReplayRun run = replayWithEvents(g, params);
     std::vector<ReplayEvent> changes;  // of the false link
     Verdict lap4 = Verdict::kPending;  // the first verdict of lap 4's first link
-    for (const ReplayEvent& e : events) {
-      const LoopCandidate& c = graph.candidate(e.candidate);
+    for (const ReplayEvent& e : run.events) {
+      const LoopCandidate& c = run.candidates[static_cast<std::size_t>(e.candidate)];
       if (c.from == false_from && c.to == false_to && e.previous != e.verdict) changes.push_back(e);
       if (c.to == 136 && lap4 == Verdict::kPending) lap4 = e.verdict;
     }
-    return std::make_tuple(changes, verdicts, lap4);
+    return std::make_tuple(changes, run.verdicts, lap4);
   };
   const auto [off, off_verdicts, off_lap4] = first_changes(0.0);
   ASSERT_FALSE(off.empty());
@@ -360,18 +372,14 @@ TEST(Rrr, OnlineAGroupThatBendsTheMapIsUndoneByTheIncreaseTest) {
     RrrParams params;
     params.cluster_gap = 3;
     params.online_increase_test = increase_test;
-    VerificationGraph graph(g, params.optimizer);
-    std::vector<Verdict> verdicts;
-    std::vector<int> clusters;
-    std::vector<ReplayEvent> events;
-    runIncrementalRrr(graph, params, verdicts, clusters, {}, nullptr, nullptr, &events);
+    const ReplayRun replay = replayWithEvents(g, params);
     std::vector<ReplayEvent> changes;  // of the group's first link, before the end
-    for (const ReplayEvent& e : events) {
-      const LoopCandidate& c = graph.candidate(e.candidate);
+    for (const ReplayEvent& e : replay.events) {
+      const LoopCandidate& c = replay.candidates[static_cast<std::size_t>(e.candidate)];
       if (c.from == false_from && c.to == false_to && e.previous != e.verdict && !e.final)
         changes.push_back(e);
     }
-    return std::make_pair(changes, verdicts);
+    return std::make_pair(changes, replay.verdicts);
   };
   const auto [off, off_verdicts] = run(false);
   ASSERT_FALSE(off.empty());
