@@ -162,10 +162,11 @@ void Rrr::decideAgainstMap() {
     const bool placing = !placing_groups.empty();
     placing_groups.clear();
     // The increase test needs the decision before the joint test, to undo it (a placing group
-    // moves a session that nothing held: its increase says nothing).
+    // moves a session that nothing held: its increase says nothing). A joint test of the good
+    // set alone (a map update) cannot grow it: no copy then.
     std::optional<DecisionState> before;
     double good_chi2_before = 0.0;
-    if (params_.online_increase_test && !placing) {
+    if (params_.online_increase_test && !placing && !joint.empty()) {
       before = decisionState();
       good_chi2_before = goodSetChi2();
     }
