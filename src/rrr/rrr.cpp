@@ -212,6 +212,8 @@ void Rrr::startFromIntraResults() {
   base_ = graph_.initialPoses();
   base_is_solution_ = false;
   unoptimized_accepts_ = 0;
+  revisits_tried_.clear();
+  good_when_tried_.clear();
   last_removed_.clear();
 }
 

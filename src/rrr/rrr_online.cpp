@@ -2,6 +2,7 @@
 // decided against the good set's map, and jointly with the good set when the map cannot tell.
 
 #include <algorithm>
+#include <cstdlib>
 #include <optional>
 #include <utility>
 
@@ -55,10 +56,55 @@ Rrr::OnlineVerdict Rrr::checkAgainstMap(int cluster, double& statistic) const {
 
 bool Rrr::mayWaitForTheMap(int cluster) const {
   const auto& kept = kept_links_[static_cast<std::size_t>(cluster)];
-  if (params_.online_untestable_ratio <= 0.0 || kept.size() != 1) return false;
-  // A link to another session is the placement rules' (a session not yet tied hangs from nothing).
-  const LoopCandidate& link = graph_.candidate(kept.front());
-  return graph_.chain().sameSession(link.from, link.to);
+  if (params_.online_untestable_ratio <= 0.0 || kept.empty()) return false;
+  // A link to another session is the placement rules' (a session not yet tied hangs from nothing;
+  // a cluster's links all join the same two sessions).
+  const LoopCandidate& first = graph_.candidate(kept.front());
+  if (!graph_.chain().sameSession(first.from, first.to)) return false;
+  if (kept.size() == 1) return true;
+  // Several links: a revisit (a loop within the robot's recent path says nothing about where
+  // that path lies in the map), within its wait.
+  const int wait = params_.online_group_wait_nodes;
+  if (wait <= 0) return false;
+  int newest = 0;
+  for (int k : kept) {
+    const LoopCandidate& link = graph_.candidate(k);
+    if (std::abs(link.to - link.from) <= wait) return false;
+    newest = std::max({newest, link.from, link.to});
+  }
+  return graph_.numNodes() - newest <= wait;
+}
+
+bool Rrr::acceptAgreeingRevisits(const std::vector<int>& waiting) {
+  std::vector<int> revisits;
+  for (int c : waiting) {
+    if (kept_links_[static_cast<std::size_t>(c)].size() >= 2) revisits.push_back(c);
+  }
+  if (revisits.size() < 2) return false;
+  std::vector<int> good = clustersWith(Status::kGood);
+  if (revisits == revisits_tried_ && good == good_when_tried_) return false;
+  DecisionState before = decisionState();
+  const double good_chi2_before = goodSetChi2();
+  realize(revisits, base_, "revisits agree", true, true);
+  int agreeing = 0;
+  int links = 0;
+  for (int c : revisits) {
+    if (clusters_[static_cast<std::size_t>(c)].status != Status::kGood) continue;
+    ++agreeing;
+    links += static_cast<int>(kept_links_[static_cast<std::size_t>(c)].size());
+  }
+  // Two revisits that agree with each other and with the map say where the path lies; one alone
+  // (the others removed) says no more than it did waiting.
+  if (agreeing >= 2 && increaseFits(goodSetChi2() - good_chi2_before, links)) return true;
+  restoreDecisionState(std::move(before));
+  holdGoodMap();
+  revisits_tried_ = std::move(revisits);
+  good_when_tried_ = std::move(good);
+  return false;
+}
+
+bool Rrr::increaseFits(double increase, int links) const {
+  return increase < core::chi2Quantile(params_.alpha, 3 * links);
 }
 
 double Rrr::goodSetChi2() const {
@@ -77,12 +123,11 @@ bool Rrr::undoIfIncreaseFails(DecisionState before, double good_chi2_before) {
   }
   if (added.empty()) return false;
   const double increase = goodSetChi2() - good_chi2_before;
-  const int dof = 3 * links;
-  if (increase < core::chi2Quantile(params_.alpha, dof)) return false;
+  if (increaseFits(increase, links)) return false;
   restoreDecisionState(std::move(before));
   for (int c : added) {
     setStatus(c, Status::kRejected,
-              "online: joint increase " + chi2Test("D2", increase, params_.alpha, dof));
+              "online: joint increase " + chi2Test("D2", increase, params_.alpha, 3 * links));
   }
   holdGoodMap();
   return true;
@@ -97,7 +142,7 @@ void Rrr::refreshGoodMap() {
 void Rrr::decideAgainstMap() {
   std::vector<int> joint;
   std::vector<int> placing_groups;  // in `joint`: groups placing an untied session
-  std::vector<int> waiting;         // one-link clusters the map cannot test yet
+  std::vector<int> waiting;         // clusters the map cannot test yet
   bool factored = false;            // a factor of the good map was made for this decision
   auto sort_out = [&](int c, const char* step) {
     double statistic = 0.0;
@@ -152,6 +197,12 @@ void Rrr::decideAgainstMap() {
   if (!waiting.empty() && unoptimized_accepts_ > 0) {
     refreshGoodMap();
     for (int c : std::exchange(waiting, {})) sort_out(c, "online");
+  }
+  // Revisits waiting for one another: two that agree are accepted together, and the clusters
+  // they may have pinned are looked at again.
+  if (acceptAgreeingRevisits(waiting)) {
+    unoptimized_accepts_ = 0;
+    for (int c : recoverHypotheses(true)) sort_out(c, "recover");
   }
   // Joint tests (realize / reverse) of the good set and the undecided clusters, which also fold
   // the clusters accepted since the last update into the map; while the good set grows, the

@@ -28,6 +28,7 @@ void applyPreset(const std::string& name, RrrParams& params) {
     p.place_sessions = false;
     p.online_map_check = false;
     p.online_untestable_ratio = 0.0;
+    p.online_group_wait_nodes = 0;
     p.online_increase_test = false;
     p.incremental_rebatch_every = 0;
     p.incremental_factor_updates = false;

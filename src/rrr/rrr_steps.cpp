@@ -301,7 +301,7 @@ bool Rrr::recoverFar(std::vector<char>& tried) {
     const int dof = 3 * static_cast<int>(links.size());
     const int own_dof = 3 * static_cast<int>(own.size());
     bool consistent = chi2 < core::chi2Quantile(params_.alpha, dof) &&
-                      chi2 - good_chi2 < core::chi2Quantile(params_.alpha, own_dof);
+                      increaseFits(chi2 - good_chi2, static_cast<int>(own.size()));
     for (std::size_t i = 0; consistent && i < tested.size(); ++i) {
       consistent = indexAt(tested[i], poses) < 1.0;
     }

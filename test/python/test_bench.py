@@ -264,8 +264,9 @@ def test_ablation_switches_are_those_the_paper_preset_changes():
                                "rrr_params.cpp")).read()
     paper = source[source.index('if (name == "paper")'):source.index("} else if")]
     changed = dict(re.findall(r"p\.(\w+) = ([^;]+);", paper))
-    incremental_only = {"online_map_check", "online_untestable_ratio", "online_increase_test",
-                        "incremental_rebatch_every", "incremental_factor_updates"}
+    incremental_only = {"online_map_check", "online_untestable_ratio", "online_group_wait_nodes",
+                        "online_increase_test", "incremental_rebatch_every",
+                        "incremental_factor_updates"}
     ablated = {switch.replace("-", "_"): value for switch, value in ABLATION_SWITCHES}
     assert set(ablated) == set(changed) - incremental_only
 

@@ -372,6 +372,7 @@ TEST(Rrr, OnlineAGroupThatBendsTheMapIsUndoneByTheIncreaseTest) {
     RrrParams params;
     params.cluster_gap = 3;
     params.online_increase_test = increase_test;
+    params.online_group_wait_nodes = 0;  // the group would wait (tested below)
     const ReplayRun replay = replayWithEvents(g, params);
     std::vector<ReplayEvent> changes;  // of the group's first link, before the end
     for (const ReplayEvent& e : replay.events) {
@@ -391,6 +392,70 @@ TEST(Rrr, OnlineAGroupThatBendsTheMapIsUndoneByTheIncreaseTest) {
   EXPECT_EQ(verdicts, off_verdicts) << "the final decisions are the batch ones either way";
   for (std::size_t k = 0; k < verdicts.size(); ++k) {
     const bool is_false = k >= 39 && k < 44;  // in edge order: 39 true, the group, 5 true
+    EXPECT_EQ(verdicts[k], is_false ? Verdict::kRejected : Verdict::kAccepted) << k;
+  }
+}
+
+// Lap 4 lies 0.6 m beside where its odometry puts it, and a false group of five links claims it
+// lies 4 m beside (one rigid offset); the increase test is off. Without online_group_wait_nodes
+// the joint test accepts the group on arrival (the map bends to fit it, lap 4 hanging from the
+// map by the odometry of lap 3) and lap 4's two true revisits of lap 1 after it are rejected
+// online against the bent map. With it, the group is a revisit that may wait, so it is checked
+// against the good map factored first, whose linearized test rejects it; the two true revisits,
+// which the map must move to fit, wait for each other and are accepted together.
+TEST(Rrr, OnlineARevisitWaitsForASecondOneThatAgrees) {
+  core::PoseGraph g = squareWithOdometry(165);
+  const Eigen::Matrix3d loop = kSquareLoopInformation;
+  for (int k = 41; k < 80; ++k) {  // lap 2 revisits lap 1
+    g.addEdge(k - 40, k, core::between(squarePose(k - 40), squarePose(k)), loop,
+              core::EdgeKind::kLoopCandidate);
+  }
+  const core::Pose2 offset(0.0, 4.0, 0.0);
+  const int false_from = 10, false_to = 130;
+  for (int j = 0; j < 5; ++j) {
+    g.addEdge(
+        false_from + j, false_to + j,
+        core::between(squarePose(false_from + j), core::compose(offset, squarePose(false_to + j))),
+        loop, core::EdgeKind::kLoopCandidate);
+  }
+  const core::Pose2 drift(0.0, 0.6, 0.0);  // where lap 4 truly is, against its odometry
+  for (int k : {140, 141, 142, 143, 144, 150, 151, 152}) {  // two revisits of lap 1
+    g.addEdge(k - 120, k, core::between(squarePose(k - 120), core::compose(drift, squarePose(k))),
+              loop, core::EdgeKind::kLoopCandidate);
+  }
+  auto run = [&](int wait) {
+    RrrParams params;
+    params.cluster_gap = 3;
+    params.online_increase_test = false;
+    params.online_group_wait_nodes = wait;
+    const ReplayRun replay = replayWithEvents(g, params);
+    std::vector<ReplayEvent> group, revisit;  // the online changes of a link of each
+    for (const ReplayEvent& e : replay.events) {
+      const LoopCandidate& c = replay.candidates[static_cast<std::size_t>(e.candidate)];
+      if (e.previous == e.verdict || e.final) continue;
+      if (c.from == false_from && c.to == false_to) group.push_back(e);
+      if (c.to == 150) revisit.push_back(e);
+    }
+    return std::make_tuple(group, revisit, replay.verdicts);
+  };
+  const auto [off, off_revisit, off_verdicts] = run(0);
+  ASSERT_FALSE(off.empty());
+  EXPECT_EQ(off.front().verdict, Verdict::kAccepted) << "precondition: " << off.front().reason;
+  EXPECT_LT(off.front().nodes, 140) << "on arrival";
+  ASSERT_FALSE(off_revisit.empty());
+  EXPECT_EQ(off_revisit.front().verdict, Verdict::kRejected) << off_revisit.front().reason;
+
+  const auto [on, revisit, verdicts] = run(30);
+  ASSERT_FALSE(revisit.empty());
+  EXPECT_EQ(revisit.back().verdict, Verdict::kAccepted);
+  EXPECT_EQ(revisit.back().reason.rfind("revisits agree:", 0), 0u) << revisit.back().reason;
+  ASSERT_FALSE(on.empty());
+  for (const ReplayEvent& e : on) EXPECT_NE(e.verdict, Verdict::kAccepted) << e.reason;
+  EXPECT_EQ(on.back().verdict, Verdict::kRejected) << "rejected online: " << on.back().reason;
+  EXPECT_LE(on.back().nodes, revisit.back().nodes) << "once the revisits hold the path";
+  EXPECT_EQ(verdicts, off_verdicts) << "the final decisions are the batch ones either way";
+  for (std::size_t k = 0; k < verdicts.size(); ++k) {
+    const bool is_false = k >= 39 && k < 44;  // in edge order: 39 true, the group, 8 true
     EXPECT_EQ(verdicts[k], is_false ? Verdict::kRejected : Verdict::kAccepted) << k;
   }
 }

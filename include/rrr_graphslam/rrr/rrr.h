@@ -233,8 +233,13 @@ class Rrr {
 
   // --- Incremental (rrr_online.cpp).
   OnlineVerdict checkAgainstMap(int cluster, double& statistic) const;
-  /// online_untestable_ratio applies: on, one kept link, both ends in one session.
+  /// online_untestable_ratio applies: on, both ends in one session, and one kept link or a
+  /// revisit within its wait (online_group_wait_nodes).
   bool mayWaitForTheMap(int cluster) const;
+  /// online_group_wait_nodes: the waiting clusters of several links tested jointly with the good
+  /// set; kept when at least two of them pass and their increase fits, else undone. Returns true
+  /// if they were kept.
+  bool acceptAgreeingRevisits(const std::vector<int>& waiting);
   /// The good set optimized (the clusters accepted on the map's word folded in) and factored.
   void refreshGoodMap();
   /// decideIncrementally() after syncing with the graph.
@@ -262,6 +267,9 @@ class Rrr {
   /// was `good_chi2_before`): if the clusters it added raised D2_G by chi2(alpha, 3 x their
   /// links) or more, `before` is restored and they are rejected. Returns whether it undid.
   bool undoIfIncreaseFails(DecisionState before, double good_chi2_before);
+  /// A rise of D2_G by `increase` from `links` added links stays below chi2(alpha, 3 x links):
+  /// the test of an innovation against its own degrees of freedom (far retry, online tests).
+  bool increaseFits(double increase, int links) const;
   /// rrr::predictedIndex of a cluster's kept links at base_.
   std::optional<double> predictedIndex(int cluster) const;
   /// At least far_retry_min_links kept links (the far retry and the leave-one-out check).
@@ -287,6 +295,9 @@ class Rrr {
   std::vector<int> last_removed_;         // clusters the last joint test rejected
   int time_clusters_ = 0;                 // addCluster calls so far
   int unoptimized_accepts_ = 0;           // accepted by decideIncrementally, not yet in the map
+  // The waiting revisits and the good set of acceptAgreeingRevisits' last undone test: the same
+  // test is not made again.
+  std::vector<int> revisits_tried_, good_when_tried_;
   int optimizations_ = 0;
   ProgressFunction progress_;
 };

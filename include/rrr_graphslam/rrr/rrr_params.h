@@ -112,6 +112,16 @@ struct RrrParams {
   /// Clusters of several links test one another (intra-cluster) and are decided at once; links
   /// between sessions are left to the placement rules. Default 100; 0: off (paper).
   double online_untestable_ratio = 100.0;
+  /// With online_untestable_ratio: a cluster of several links, every one between nodes more than
+  /// this many apart (a revisit, not a loop within the robot's recent path), both ends in one
+  /// session, that the map would have to move to fit and whose relative pose it leaves open waits
+  /// up to this many nodes after its newest link for a second such cluster. The waiting clusters
+  /// are tested jointly with the good set and accepted only when at least two of them pass and
+  /// their increase of D2_G stays below chi2(alpha, 3 x their links); at the end of its wait a
+  /// cluster gets the joint test alone. A group of agreeing false loops onto the robot's newest
+  /// nodes, which hang from the map by odometry, fits wherever it points: a second revisit is what
+  /// can contradict it. Default 0 (off, as the paper); 100 measured (doc/rrr_extensions.md).
+  int online_group_wait_nodes = 0;
   /// An online joint test that grows the good set is undone, and the clusters it added rejected,
   /// when the good set's chi2 (D2_G) rose by more than chi2(alpha, 3 x the links added): the
   /// joint test over every link absorbs the excess of one group that bends the map to fit
@@ -206,6 +216,10 @@ void forEachParam(Params& p, F&& f) {
               "incremental: a one-link cluster the map must move to fit waits while the map's "
               "uncertainty of it exceeds this times its own (0: off)"},
     p.online_untestable_ratio);
+  f(ParamInfo{"online_group_wait_nodes", 0, 1e9,
+              "incremental: a cluster of several links between nodes more than N apart that the "
+              "map cannot test waits up to N nodes for a second one that agrees with it (0: off)"},
+    p.online_group_wait_nodes);
   f(ParamInfo{"online_increase_test", 0, 1,
               "incremental: a joint test whose added links raise the good set's chi2 beyond "
               "their own chi2 quantile is undone"},
