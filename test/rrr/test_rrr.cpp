@@ -40,6 +40,23 @@ core::PoseGraph squareWithOdometry(int nodes) {
 }
 const Eigen::Matrix3d kSquareLoopInformation = Eigen::Vector3d(100.0, 100.0, 400.0).asDiagonal();
 
+// squareWithOdometry(nodes), lap 2 revisiting lap 1 at every node, and a group of five links that
+// claims lap 4's nodes 130-134 lie at `offset` from lap 1's 10-14 (one rigid offset: the links
+// agree with each other and with the odometry on both sides).
+core::PoseGraph squareWithFalseGroupOnLap4(int nodes, const core::Pose2& offset) {
+  core::PoseGraph g = squareWithOdometry(nodes);
+  for (int k = 41; k < 80; ++k) {
+    g.addEdge(k - 40, k, core::between(squarePose(k - 40), squarePose(k)), kSquareLoopInformation,
+              core::EdgeKind::kLoopCandidate);
+  }
+  for (int j = 0; j < 5; ++j) {
+    g.addEdge(10 + j, 130 + j,
+              core::between(squarePose(10 + j), core::compose(offset, squarePose(130 + j))),
+              kSquareLoopInformation, core::EdgeKind::kLoopCandidate);
+  }
+  return g;
+}
+
 // The incremental replay of `g` (runIncrementalRrr): every arrival and verdict change, the final
 // verdicts, and the candidates the events' indices name.
 struct ReplayRun {
@@ -350,22 +367,10 @@ TEST(Rrr, OnlineASingleLinkWaitsUntilTheMapCanTestIt) {
 // rejects the group, where without it the group is accepted online (until lap 4 revisits lap 1
 // where it truly is).
 TEST(Rrr, OnlineAGroupThatBendsTheMapIsUndoneByTheIncreaseTest) {
-  core::PoseGraph g = squareWithOdometry(150);
-  const Eigen::Matrix3d loop = kSquareLoopInformation;
-  for (int k = 41; k < 80; ++k) {  // lap 2 revisits lap 1
-    g.addEdge(k - 40, k, core::between(squarePose(k - 40), squarePose(k)), loop,
-              core::EdgeKind::kLoopCandidate);
-  }
-  const core::Pose2 offset(0.0, 5.0, 0.0);
   const int false_from = 10, false_to = 130;  // lap 4's nodes 130-134 are lap 1's 10-14
-  for (int j = 0; j < 5; ++j) {
-    g.addEdge(
-        false_from + j, false_to + j,
-        core::between(squarePose(false_from + j), core::compose(offset, squarePose(false_to + j))),
-        loop, core::EdgeKind::kLoopCandidate);
-  }
+  core::PoseGraph g = squareWithFalseGroupOnLap4(150, core::Pose2(0.0, 5.0, 0.0));
   for (int k = 140; k < 145; ++k) {  // lap 4 then revisits lap 1, where it truly is
-    g.addEdge(k - 120, k, core::between(squarePose(k - 120), squarePose(k)), loop,
+    g.addEdge(k - 120, k, core::between(squarePose(k - 120), squarePose(k)), kSquareLoopInformation,
               core::EdgeKind::kLoopCandidate);
   }
   auto run = [&](bool increase_test) {
@@ -404,24 +409,12 @@ TEST(Rrr, OnlineAGroupThatBendsTheMapIsUndoneByTheIncreaseTest) {
 // against the good map factored first, whose linearized test rejects it; the two true revisits,
 // which the map must move to fit, wait for each other and are accepted together.
 TEST(Rrr, OnlineARevisitWaitsForASecondOneThatAgrees) {
-  core::PoseGraph g = squareWithOdometry(165);
-  const Eigen::Matrix3d loop = kSquareLoopInformation;
-  for (int k = 41; k < 80; ++k) {  // lap 2 revisits lap 1
-    g.addEdge(k - 40, k, core::between(squarePose(k - 40), squarePose(k)), loop,
-              core::EdgeKind::kLoopCandidate);
-  }
-  const core::Pose2 offset(0.0, 4.0, 0.0);
   const int false_from = 10, false_to = 130;
-  for (int j = 0; j < 5; ++j) {
-    g.addEdge(
-        false_from + j, false_to + j,
-        core::between(squarePose(false_from + j), core::compose(offset, squarePose(false_to + j))),
-        loop, core::EdgeKind::kLoopCandidate);
-  }
+  core::PoseGraph g = squareWithFalseGroupOnLap4(165, core::Pose2(0.0, 4.0, 0.0));
   const core::Pose2 drift(0.0, 0.6, 0.0);  // where lap 4 truly is, against its odometry
   for (int k : {140, 141, 142, 143, 144, 150, 151, 152}) {  // two revisits of lap 1
     g.addEdge(k - 120, k, core::between(squarePose(k - 120), core::compose(drift, squarePose(k))),
-              loop, core::EdgeKind::kLoopCandidate);
+              kSquareLoopInformation, core::EdgeKind::kLoopCandidate);
   }
   auto run = [&](int wait) {
     RrrParams params;

@@ -120,8 +120,8 @@ struct RrrParams {
   /// their increase of D2_G stays below chi2(alpha, 3 x their links); at the end of its wait a
   /// cluster gets the joint test alone. A group of agreeing false loops onto the robot's newest
   /// nodes, which hang from the map by odometry, fits wherever it points: a second revisit is what
-  /// can contradict it. Default 0 (off, as the paper); 100 measured (doc/rrr_extensions.md).
-  int online_group_wait_nodes = 0;
+  /// can contradict it. Default 100; 0: off (paper).
+  int online_group_wait_nodes = 100;
   /// An online joint test that grows the good set is undone, and the clusters it added rejected,
   /// when the good set's chi2 (D2_G) rose by more than chi2(alpha, 3 x the links added): the
   /// joint test over every link absorbs the excess of one group that bends the map to fit
