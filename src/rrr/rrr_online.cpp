@@ -72,7 +72,7 @@ bool Rrr::mayWaitForTheMap(int cluster) const {
     if (std::abs(link.to - link.from) <= wait) return false;
     newest = std::max({newest, link.from, link.to});
   }
-  return graph_.numNodes() - newest <= wait;
+  return graph_.numNodes() - 1 - newest <= wait;  // the robot's newest node at most N past it
 }
 
 bool Rrr::acceptAgreeingRevisits(const std::vector<int>& waiting) {
@@ -85,7 +85,7 @@ bool Rrr::acceptAgreeingRevisits(const std::vector<int>& waiting) {
   if (revisits == revisits_tried_ && good == good_when_tried_) return false;
   DecisionState before = decisionState();
   const double good_chi2_before = goodSetChi2();
-  realize(revisits, base_, "revisits agree", true, true);
+  realize(revisits, base_, "revisits tested together", true, true);
   int agreeing = 0;
   int links = 0;
   for (int c : revisits) {
@@ -93,9 +93,15 @@ bool Rrr::acceptAgreeingRevisits(const std::vector<int>& waiting) {
     ++agreeing;
     links += static_cast<int>(kept_links_[static_cast<std::size_t>(c)].size());
   }
+  const bool good_kept = std::all_of(good.begin(), good.end(), [&](int c) {
+    return clusters_[static_cast<std::size_t>(c)].status == Status::kGood;
+  });
   // Two revisits that agree with each other and with the map say where the path lies; one alone
-  // (the others removed) says no more than it did waiting.
-  if (agreeing >= 2 && increaseFits(goodSetChi2() - good_chi2_before, links)) return true;
+  // (the others removed) says no more than it did waiting. They only add to the good set: were a
+  // good cluster reversed, its chi2 would leave the increase with it.
+  if (agreeing >= 2 && good_kept && increaseFits(goodSetChi2() - good_chi2_before, links)) {
+    return true;
+  }
   restoreDecisionState(std::move(before));
   holdGoodMap();
   revisits_tried_ = std::move(revisits);
@@ -202,7 +208,10 @@ void Rrr::decideAgainstMap() {
   // they may have pinned are looked at again.
   if (acceptAgreeingRevisits(waiting)) {
     unoptimized_accepts_ = 0;
-    for (int c : recoverHypotheses(true)) sort_out(c, "recover");
+    for (int c : recoverHypotheses(true)) {
+      // The pending clusters already bound for the joint test (placing groups among them) stay.
+      if (std::find(joint.begin(), joint.end(), c) == joint.end()) sort_out(c, "recover");
+    }
   }
   // Joint tests (realize / reverse) of the good set and the undecided clusters, which also fold
   // the clusters accepted since the last update into the map; while the good set grows, the

@@ -441,7 +441,8 @@ TEST(Rrr, OnlineARevisitWaitsForASecondOneThatAgrees) {
   const auto [on, revisit, verdicts] = run(30);
   ASSERT_FALSE(revisit.empty());
   EXPECT_EQ(revisit.back().verdict, Verdict::kAccepted);
-  EXPECT_EQ(revisit.back().reason.rfind("revisits agree:", 0), 0u) << revisit.back().reason;
+  EXPECT_EQ(revisit.back().reason.rfind("revisits tested together:", 0), 0u)
+      << revisit.back().reason;
   ASSERT_FALSE(on.empty());
   for (const ReplayEvent& e : on) EXPECT_NE(e.verdict, Verdict::kAccepted) << e.reason;
   EXPECT_EQ(on.back().verdict, Verdict::kRejected) << "rejected online: " << on.back().reason;

@@ -116,11 +116,12 @@ struct RrrParams {
   /// this many apart (a revisit, not a loop within the robot's recent path), both ends in one
   /// session, that the map would have to move to fit and whose relative pose it leaves open waits
   /// up to this many nodes after its newest link for a second such cluster. The waiting clusters
-  /// are tested jointly with the good set and accepted only when at least two of them pass and
-  /// their increase of D2_G stays below chi2(alpha, 3 x their links); at the end of its wait a
-  /// cluster gets the joint test alone. A group of agreeing false loops onto the robot's newest
-  /// nodes, which hang from the map by odometry, fits wherever it points: a second revisit is what
-  /// can contradict it. Default 100; 0: off (paper).
+  /// are tested jointly with the good set and accepted only when at least two of them pass, no
+  /// good cluster is reversed, and their increase of D2_G stays below chi2(alpha, 3 x their
+  /// links); after its wait a cluster goes to the joint test with the other undecided ones. A
+  /// group of agreeing false loops onto the robot's newest nodes, which hang from the map by
+  /// odometry, fits wherever it points: a second revisit is what can contradict it. Default 100;
+  /// 0: off (paper).
   int online_group_wait_nodes = 100;
   /// An online joint test that grows the good set is undone, and the clusters it added rejected,
   /// when the good set's chi2 (D2_G) rose by more than chi2(alpha, 3 x the links added): the
