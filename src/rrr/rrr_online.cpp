@@ -83,27 +83,49 @@ bool Rrr::acceptAgreeingRevisits(const std::vector<int>& waiting) {
   if (revisits.size() < 2) return false;
   std::vector<int> good = clustersWith(Status::kGood);
   if (revisits == revisits_tried_ && good == good_when_tried_) return false;
-  DecisionState before = decisionState();
+  const DecisionState before = decisionState();
   const double good_chi2_before = goodSetChi2();
-  realize(revisits, base_, "revisits tested together", true, true);
-  int agreeing = 0;
-  int links = 0;
-  for (int c : revisits) {
-    if (clusters_[static_cast<std::size_t>(c)].status != Status::kGood) continue;
-    ++agreeing;
-    links += static_cast<int>(kept_links_[static_cast<std::size_t>(c)].size());
+  // While the test fails with three or more passing, the one whose removal would take the most
+  // chi2 off the joint solution (leave-one-out index) leaves and the others are tested again: a
+  // false revisit can pass the joint test beside true ones by bending the path they hang from.
+  std::vector<int> tested = revisits;
+  while (tested.size() >= 2) {
+    realize(tested, base_, "revisits tested together", true, true);
+    std::vector<int> passed;
+    int links = 0;
+    for (int c : tested) {
+      if (clusters_[static_cast<std::size_t>(c)].status != Status::kGood) continue;
+      passed.push_back(c);
+      links += static_cast<int>(kept_links_[static_cast<std::size_t>(c)].size());
+    }
+    const bool good_kept = std::all_of(good.begin(), good.end(), [&](int c) {
+      return clusters_[static_cast<std::size_t>(c)].status == Status::kGood;
+    });
+    // Two revisits that agree with each other and with the map say where the path lies; one
+    // alone (the others removed) says no more than it did waiting. They only add to the good
+    // set: were a good cluster reversed, its chi2 would leave the increase with it.
+    if (passed.size() >= 2 && good_kept && increaseFits(goodSetChi2() - good_chi2_before, links)) {
+      return true;
+    }
+    std::size_t most = 0;
+    double most_index = -1.0;
+    if (passed.size() >= 3 && graph_.optimizer().covarianceAvailable()) {
+      for (std::size_t i = 0; i < passed.size(); ++i) {
+        const double index =
+            leaveOneOutIndex(graph_, kept_links_[static_cast<std::size_t>(passed[i])],
+                             graph_.optimizer().poses(), params_.alpha);
+        if (index > most_index) {
+          most = i;
+          most_index = index;
+        }
+      }
+    }
+    restoreDecisionState(before);
+    holdGoodMap();
+    if (most_index < 0.0) break;
+    passed.erase(passed.begin() + static_cast<std::ptrdiff_t>(most));
+    tested = std::move(passed);
   }
-  const bool good_kept = std::all_of(good.begin(), good.end(), [&](int c) {
-    return clusters_[static_cast<std::size_t>(c)].status == Status::kGood;
-  });
-  // Two revisits that agree with each other and with the map say where the path lies; one alone
-  // (the others removed) says no more than it did waiting. They only add to the good set: were a
-  // good cluster reversed, its chi2 would leave the increase with it.
-  if (agreeing >= 2 && good_kept && increaseFits(goodSetChi2() - good_chi2_before, links)) {
-    return true;
-  }
-  restoreDecisionState(std::move(before));
-  holdGoodMap();
   revisits_tried_ = std::move(revisits);
   good_when_tried_ = std::move(good);
   return false;

@@ -118,7 +118,9 @@ struct RrrParams {
   /// up to this many nodes after its newest link for a second such cluster. The waiting clusters
   /// are tested jointly with the good set and accepted only when at least two of them pass, no
   /// good cluster is reversed, and their increase of D2_G stays below chi2(alpha, 3 x their
-  /// links); after its wait a cluster goes to the joint test with the other undecided ones. A
+  /// links) (if not, and three or more passed, the one with the highest leave-one-out index
+  /// leaves and the rest are tested again); after its wait a cluster goes to the joint test with
+  /// the other undecided ones. A
   /// group of agreeing false loops onto the robot's newest nodes, which hang from the map by
   /// odometry, fits wherever it points: a second revisit is what can contradict it. Default 100;
   /// 0: off (paper).
