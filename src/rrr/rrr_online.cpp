@@ -107,23 +107,17 @@ bool Rrr::acceptAgreeingRevisits(const std::vector<int>& waiting) {
     if (passed.size() >= 2 && good_kept && increaseFits(goodSetChi2() - good_chi2_before, links)) {
       return true;
     }
-    std::size_t most = 0;
-    double most_index = -1.0;
-    if (passed.size() >= 3 && graph_.optimizer().covarianceAvailable()) {
-      for (std::size_t i = 0; i < passed.size(); ++i) {
-        const double index =
-            leaveOneOutIndex(graph_, kept_links_[static_cast<std::size_t>(passed[i])],
-                             graph_.optimizer().poses(), params_.alpha);
-        if (index > most_index) {
-          most = i;
-          most_index = index;
-        }
-      }
+    const bool retry = passed.size() >= 3 && graph_.optimizer().covarianceAvailable();
+    if (retry) {
+      std::vector<const std::vector<int>*> link_sets;
+      for (int c : passed) link_sets.push_back(&kept_links_[static_cast<std::size_t>(c)]);
+      const std::vector<double> index =
+          leaveOneOutIndices(graph_, link_sets, graph_.optimizer().poses(), params_.alpha);
+      passed.erase(passed.begin() + (std::max_element(index.begin(), index.end()) - index.begin()));
     }
     restoreDecisionState(before);
     holdGoodMap();
-    if (most_index < 0.0) break;
-    passed.erase(passed.begin() + static_cast<std::ptrdiff_t>(most));
+    if (!retry) break;
     tested = std::move(passed);
   }
   revisits_tried_ = std::move(revisits);

@@ -120,10 +120,9 @@ struct RrrParams {
   /// good cluster is reversed, and their increase of D2_G stays below chi2(alpha, 3 x their
   /// links) (if not, and three or more passed, the one with the highest leave-one-out index
   /// leaves and the rest are tested again); after its wait a cluster goes to the joint test with
-  /// the other undecided ones. A
-  /// group of agreeing false loops onto the robot's newest nodes, which hang from the map by
-  /// odometry, fits wherever it points: a second revisit is what can contradict it. Default 100;
-  /// 0: off (paper).
+  /// the other undecided ones. A group of agreeing false loops onto the robot's newest nodes,
+  /// which hang from the map by odometry, fits wherever it points: a second revisit is what can
+  /// contradict it. Default 100; 0: off (paper).
   int online_group_wait_nodes = 100;
   /// An online joint test that grows the good set is undone, and the clusters it added rejected,
   /// when the good set's chi2 (D2_G) rose by more than chi2(alpha, 3 x the links added): the
