@@ -1,6 +1,7 @@
 #include "rrr_graphslam/core/sparse_solver.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <numeric>
 #include <stdexcept>
@@ -154,7 +155,13 @@ void SparseSolver::analyze(const Matrix& upper, bool preordered, Kind kind) {
   }
   cholmod_->llt.analyzePattern(upper);
   ++analysis_count_;
+  rememberAnalysisFlops();
   updated_ = reanalyze_ = factor_usable_ = false;
+}
+
+void SparseSolver::rememberAnalysisFlops() {
+  const double flops = cholmod_->llt.cholmod().fl;
+  analysis_flops_ = std::isfinite(flops) && flops > 0.0 ? flops : 0.0;
 }
 
 bool SparseSolver::factorize(const Matrix& upper) {
@@ -163,6 +170,7 @@ bool SparseSolver::factorize(const Matrix& upper) {
     if (reanalyze_) {
       cholmod_->llt.analyzePattern(upper);
       ++analysis_count_;
+      rememberAnalysisFlops();
     } else {
       // Back to the symbolic simplicial factor (updates may have grown its pattern).
       cholmod_factor* L = cholmod_->llt.factor();
@@ -170,8 +178,12 @@ bool SparseSolver::factorize(const Matrix& upper) {
     }
     updated_ = reanalyze_ = false;
   }
+  const auto start = std::chrono::steady_clock::now();
   cholmod_->llt.factorize(upper);
   factor_usable_ = cholmod_->llt.info() == Eigen::Success;
+  ++work_.factorizations;
+  work_.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  work_.flops += analysis_flops_;
   return factor_usable_;
 }
 

@@ -34,6 +34,7 @@ void collectVerdicts(const Rrr& rrr, std::chrono::steady_clock::time_point start
     (verdicts[k] == Verdict::kAccepted ? summary.accepted : summary.rejected)++;
   }
   summary.optimizations = rrr.optimizations();
+  summary.steps = rrr.stepCosts();
   summary.time_sec =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }

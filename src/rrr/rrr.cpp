@@ -45,6 +45,7 @@ Rrr::Rrr(VerificationGraph& graph, const RrrParams& params)
 
 // Algorithm 1 (with split_mixed_clusters: a cluster failing as a whole is split first).
 int Rrr::addCluster(const std::vector<int>& members) {
+  const Step step(*this, "intra-cluster test");
   syncWithGraph();
   ++time_clusters_;
   if (!params_.split_mixed_clusters || members.size() < 2) {
@@ -93,6 +94,7 @@ void Rrr::addTestedCluster(const std::vector<int>& members, const LinkResiduals*
 
 // Algorithm 3. Hypotheses are the clusters neither good nor rejected (status kPending).
 void Rrr::decideFromScratch() {
+  const Step step(*this, "decision from scratch");
   syncWithGraph();
   // The previous map (a seeded one, or the last decision's solution), which its loops made
   // better than odometry, places sessions and, with several sessions, is one of the robust
@@ -218,6 +220,7 @@ void Rrr::startFromIntraResults() {
 }
 
 std::vector<int> Rrr::preselect(const std::vector<int>& hypotheses) {
+  const Step profiled(*this, "preselection");
   if (hypotheses.empty()) return {};
   std::vector<int> links;
   for (int c : hypotheses) {
@@ -247,6 +250,7 @@ std::vector<int> Rrr::preselect(const std::vector<int>& hypotheses) {
 
 bool Rrr::realize(const std::vector<int>& hypotheses, const std::vector<core::Pose2>& start,
                   const char* step, bool restart, bool factor_at_solution) {
+  const Step profiled(*this, step);
   previous_good_ = clustersWith(Status::kGood);
   std::vector<int> tested = previous_good_;
   tested.insert(tested.end(), hypotheses.begin(), hypotheses.end());

@@ -13,6 +13,7 @@
 namespace rrr_graphslam::rrr {
 
 void Rrr::decideIncrementally() {
+  const Step step(*this, "online decision");
   syncWithGraph();
   // Nodes added since the last joint test hang from the map by odometry; their covariance is
   // propagated along it at the map's poses (Optimizer::covariance).
@@ -31,6 +32,7 @@ void Rrr::decideIncrementally() {
 }
 
 Rrr::OnlineVerdict Rrr::checkAgainstMap(int cluster, double& statistic) const {
+  const Step step(*this, "online map check");
   if (!params_.online_map_check) return OnlineVerdict::kNeedsJointTest;
   statistic = indexAt(cluster, base_);
   if (statistic < 1.0) return OnlineVerdict::kFits;
@@ -76,6 +78,7 @@ bool Rrr::mayWaitForTheMap(int cluster) const {
 }
 
 bool Rrr::acceptAgreeingRevisits(const std::vector<int>& waiting) {
+  const Step step(*this, "revisits");
   std::vector<int> revisits;
   for (int c : waiting) {
     if (kept_links_[static_cast<std::size_t>(c)].size() >= 2) revisits.push_back(c);
@@ -136,6 +139,7 @@ double Rrr::goodSetChi2() const {
 }
 
 bool Rrr::undoIfIncreaseFails(DecisionState before, double good_chi2_before) {
+  const Step step(*this, "online increase test");
   std::vector<int> added;
   int links = 0;
   for (int c : clustersWith(Status::kGood)) {

@@ -21,6 +21,7 @@ std::vector<int> Rrr::orderByRobustMap(const std::vector<int>& hypotheses,
                                        std::vector<core::Pose2>& start,
                                        const std::vector<core::Pose2>* previous_map,
                                        bool& previous_won) {
+  const Step step(*this, "robust ordering");
   // Many clusters at once: test first those that agree with a map outliers cannot bend; the
   // others are tested in the recover step, against the good set's map.
   const std::vector<core::Pose2> initial = start;
@@ -88,8 +89,11 @@ std::vector<core::Pose2> Rrr::robustOrderingMap(const std::vector<int>& pending,
     return clusters_[static_cast<std::size_t>(clusterOf(k))].time_cluster;
   };
   for (int k : links) ++links_per_time_cluster[time_cluster(k)];
-  std::vector<core::Pose2> full_weight =
-      robustMap(graph_, links, initial, params_.dcs_phi, optimizations_);
+  std::vector<core::Pose2> full_weight;
+  {
+    const Step step(*this, "robust ordering: full-weight map");
+    full_weight = robustMap(graph_, links, initial, params_.dcs_phi, optimizations_);
+  }
   const bool one_link_each = links_per_time_cluster.size() == links.size();
   if (one_link_each && previous_map == nullptr) return full_weight;
   auto support = [&](const std::vector<core::Pose2>& map, const std::vector<int>& clusters) {
@@ -119,10 +123,12 @@ std::vector<core::Pose2> Rrr::robustOrderingMap(const std::vector<int>& pending,
     std::vector<double> one_vote;
     one_vote.reserve(links.size());
     for (int k : links) one_vote.push_back(1.0 / links_per_time_cluster[time_cluster(k)]);
+    const Step step(*this, "robust ordering: one-vote map");
     contend(robustMap(graph_, links, initial, params_.dcs_phi, optimizations_, one_vote));
   }
   if (previous_map != nullptr) {
     const std::size_t before = best_support;
+    const Step step(*this, "robust ordering: previous map");
     contend(robustMap(graph_, links, *previous_map, params_.dcs_phi, optimizations_, {},
                       /*graduated=*/false));
     previous_won = best_support > before;
@@ -135,6 +141,7 @@ std::vector<core::Pose2> Rrr::robustOrderingMap(const std::vector<int>& pending,
 std::vector<core::Pose2> Rrr::placeSessions(const std::vector<core::Pose2>& initial,
                                             std::vector<char>* placed_sessions,
                                             const std::vector<core::Pose2>* good_map) const {
+  const Step step(*this, "place sessions");
   // Sessions are what trusted constraints hold together (a trimmed session's chains, joined by
   // its marginal constraints, move as one).
   const std::vector<int> session = graph_.trustedComponents();
@@ -246,6 +253,7 @@ void Rrr::unplaceLooseSessions() {
 // --- settle_good_map
 
 void Rrr::settleGoodMap() {
+  const Step step(*this, "settle good map");
   core::Optimizer& opt = graph_.optimizer();
   holdGoodMap();
   const double current = opt.chi2();
@@ -262,6 +270,7 @@ void Rrr::settleGoodMap() {
 // --- far_retry_min_links
 
 bool Rrr::recoverFar(std::vector<char>& tried) {
+  const Step step(*this, "far retry");
   if (params_.far_retry_min_links <= 0) return false;
   std::vector<int> far;
   for (int c : clustersWith(Status::kRejected)) {
@@ -320,6 +329,7 @@ bool Rrr::recoverFar(std::vector<char>& tried) {
 // --- leave_one_out_check
 
 bool Rrr::leaveOneOutCheck() {
+  const Step step(*this, "leave-one-out check");
   factorGoodMap();
   std::vector<int> examined;
   std::vector<const std::vector<int>*> links;
@@ -349,6 +359,7 @@ bool Rrr::leaveOneOutCheck() {
 // --- joint_link_check
 
 bool Rrr::jointLinkCheck() {
+  const Step step(*this, "joint link check");
   const double threshold = core::chi2Quantile(params_.alpha, 3);
   bool dropped_any = false;
   for (int round = 0; round < params_.max_rounds; ++round) {
@@ -445,6 +456,7 @@ double Rrr::indexAt(int cluster, const std::vector<core::Pose2>& poses) const {
 }
 
 void Rrr::optimizeGoodMap() {
+  const Step step(*this, "good map");
   graph_.optimize(acceptedCandidates(), core::startFrom(base_));
   ++optimizations_;
   base_ = graph_.optimizer().poses();
@@ -456,6 +468,7 @@ void Rrr::holdGoodMap() {
 }
 
 void Rrr::factorGoodMap() {
+  const Step step(*this, "good map");
   holdGoodMap();
   // Otherwise one undamped factorization at the solution; where that optimization ends damped
   // (at its iteration limit: ringCity with aliased groups), a factorization where it stopped.

@@ -35,7 +35,7 @@ const std::string& usage() {
   static const std::string text =
       "usage: rrr_offline INPUT [--decisions DECISIONS.tsv] [--output OPTIMIZED.g2o]\n"
       "                   [--mode batch|incremental] [--verifier rrr|pcm|scgp|gnc]\n"
-      "                   [--preset paper|default] [--PARAMETER V ...] [--quiet]\n"
+      "                   [--preset paper|default] [--PARAMETER V ...] [--profile] [--quiet]\n"
       "  INPUT            g2o or TORO pose graph (.gz allowed); edges with |from-to| != 1 are\n"
       "                   loop candidates, the others trusted odometry\n"
       "  --decisions      TSV with header 'from to cluster verdict reason', one row per candidate\n"
@@ -44,6 +44,8 @@ const std::string& usage() {
       "  --decision-stream  with --mode incremental: TSV of every arrival and verdict change as\n"
       "                   the replay made them (rrr_slam_offline's format; scan = nodes arrived,\n"
       "                   stamp = seconds since the replay started)\n"
+      "  --profile        where the time went: per named RRR step its calls, own wall time,\n"
+      "                   optimizations and numeric factorizations (count, time, mean flops)\n"
       "  --quiet          no progress line\n" +
       tools::verifierUsage(false) +
       "RRR's parameters (the same names as the ROS parameters, with dashes):\n" +
@@ -62,6 +64,7 @@ struct Arguments {
   std::string decision_stream;
   bool incremental = false;
   bool quiet = false;
+  bool profile = false;
   tools::VerifierArguments verifier;
   rrr::RrrParams params;
 };
@@ -98,6 +101,8 @@ Arguments parseArguments(int argc, char** argv) {
       args.params.joint_link_check = false;
     } else if (a == "--quiet") {
       args.quiet = true;
+    } else if (a == "--profile") {
+      args.profile = true;
     } else {
       cli.positional(a, args.input);
     }
@@ -180,6 +185,14 @@ int main(int argc, char** argv) {
     std::printf("rejected       %d\n", summary.rejected);
     std::printf("optimizations  %d\n", summary.optimizations);
     std::printf("time           %.3f s\n", summary.time_sec);
+    if (args.profile) {
+      if (summary.steps.empty()) {
+        std::printf("profile        none: --verifier %s has no named steps\n",
+                    rrr::toString(args.verifier.choice.verifier).c_str());
+      } else {
+        std::printf("profile\n%s", rrr::formatStepProfile(summary.steps, summary.time_sec).c_str());
+      }
+    }
     if (!latencies.empty()) {
       std::sort(latencies.begin(), latencies.end());
       auto percentile = [&](double q) {

@@ -62,6 +62,31 @@ def test_offline_writes_decisions_and_the_accepted_graph(spoiled):
 
 
 @needs_binaries
+def test_offline_profile_names_the_steps_where_the_time_went(spoiled):
+    _, path = spoiled
+    result = run(OFFLINE, path, "--profile", "--quiet")
+    assert result.returncode == 0, result.stderr
+    lines = result.stdout.splitlines()
+    total = int(next(l.split()[1] for l in lines if l.startswith("optimizations ")))
+    table = lines[lines.index("profile") + 1:]
+    assert table[0].split()[:2] == ["step", "calls"]
+    rows = {}
+    for line in table[1:]:
+        if line.startswith("(outside the steps)"):
+            break
+        # The step's name may hold spaces; the seven numbers follow it.
+        fields = line.split()
+        rows[" ".join(fields[:-7])] = fields[-7:]
+    assert {"intra-cluster test", "decision from scratch", "realize"} <= rows.keys(), rows
+    # Every optimization of the decision is charged to one step.
+    assert sum(int(r[3]) for r in rows.values()) == total
+    # Another verifier has no named steps, and says so.
+    other = run(OFFLINE, path, "--profile", "--quiet", "--verifier", "pcm")
+    assert other.returncode == 0, other.stderr
+    assert "profile        none: --verifier pcm has no named steps" in other.stdout
+
+
+@needs_binaries
 def test_paper_preset_and_parameter_flags(spoiled):
     folder, path = spoiled
     decisions = folder / "paper.tsv"

@@ -228,6 +228,8 @@ class Optimizer {
 
   /// Symbolic analyses done so far (one per sparsity pattern).
   int symbolicAnalyses() const { return solver_.analysisCount(); }
+  /// The numeric factorizations of H done so far (optimizations and factorAtCurrentPoses).
+  const FactorizationWork& factorizationWork() const { return solver_.work(); }
 
  private:
   struct Constraint {

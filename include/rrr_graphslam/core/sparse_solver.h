@@ -40,6 +40,14 @@ struct BlockOrdering {
 BlockOrdering blockOrdering(int num_blocks, const std::vector<std::pair<int, int>>& pairs,
                             BlockOrdering::Method method = BlockOrdering::Method::kAuto);
 
+/// The numeric factorizations a solver made, summed: where a pose-graph method's time goes
+/// (rrr::StepProfile reads them per step).
+struct FactorizationWork {
+  int factorizations = 0;
+  double seconds = 0.0;
+  double flops = 0.0;  ///< CHOLMOD's count for each factorization's pattern, summed
+};
+
 class SparseSolver {
  public:
   /// Upper triangle of a symmetric matrix, column-major, compressed.
@@ -95,14 +103,21 @@ class SparseSolver {
 
   /// Number of symbolic analyses so far (tests check that the ordering is reused).
   int analysisCount() const { return analysis_count_; }
+  /// The numeric factorizations so far (factorize(); rank updates are not counted).
+  const FactorizationWork& work() const { return work_; }
 
  private:
+  // After an analysis: the flops CHOLMOD counts for a factorization of its pattern.
+  void rememberAnalysisFlops();
+
   struct Cholmod;
   std::unique_ptr<Cholmod> cholmod_;
   int analysis_count_ = 0;
   bool updated_ = false;        // the factor was modified by update()
   bool reanalyze_ = false;      // ... and was supernodal before: analyze again to restore it
   bool factor_usable_ = false;  // a successful factorization (or update) is in place
+  double analysis_flops_ = 0.0;
+  FactorizationWork work_;
 };
 
 }  // namespace rrr_graphslam::core

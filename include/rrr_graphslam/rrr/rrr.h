@@ -30,6 +30,7 @@
 #include "rrr_graphslam/rrr/consistency.h"
 #include "rrr_graphslam/rrr/rrr_params.h"
 #include "rrr_graphslam/rrr/session_placement.h"
+#include "rrr_graphslam/rrr/step_profile.h"
 #include "rrr_graphslam/rrr/verification_graph.h"
 
 namespace rrr_graphslam::rrr {
@@ -91,8 +92,27 @@ class Rrr {
   void seedPreviousMap(std::vector<core::Pose2> map);
 
   void setProgress(ProgressFunction progress) { progress_ = std::move(progress); }
+  /// Where the time of the decisions so far went, step by step (StepProfile).
+  const std::vector<StepCost>& stepCosts() const { return profile_.steps(); }
 
  private:
+  // One named step of the profile, for the scope it lives in.
+  class Step {
+   public:
+    Step(const Rrr& rrr, const char* name) : rrr_(rrr) {
+      rrr_.profile_.enter(name, rrr_.profileCounters());
+    }
+    ~Step() { rrr_.profile_.leave(rrr_.profileCounters()); }
+    Step(const Step&) = delete;
+    Step& operator=(const Step&) = delete;
+
+   private:
+    const Rrr& rrr_;
+  };
+  StepProfile::Counters profileCounters() const {
+    return {optimizations_, graph_.optimizer().factorizationWork()};
+  }
+
   // kUnplaced: joins a session not tied to the map, which no group of clusters places yet
   // (placement_min_spread_m); undecided, and in no joint test until then.
   enum class Status : std::uint8_t { kPending, kGood, kRejected, kInconsistent, kUnplaced };
@@ -300,6 +320,7 @@ class Rrr {
   std::vector<int> revisits_tried_, good_when_tried_;
   int optimizations_ = 0;
   ProgressFunction progress_;
+  mutable StepProfile profile_;  // instrumentation: const steps are profiled too
 };
 
 struct RrrSummary {
@@ -310,6 +331,7 @@ struct RrrSummary {
   int rejected = 0;
   int optimizations = 0;
   double time_sec = 0.0;
+  std::vector<StepCost> steps;  ///< where time_sec went (Rrr::stepCosts)
 };
 
 /// Ends of every candidate of `graph`, for clustering.
