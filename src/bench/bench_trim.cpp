@@ -39,6 +39,7 @@ struct Options {
 
 constexpr const char* kUsage =
     "usage: rrr_bench_trim [--sparsification clt|delete] [--trim-overlap R] "
+    "[--trim-rule overlap-ratio|fresh-area] [--trim-min-fresh-area M2] "
     "[--keep-recent-submaps N] [--keep-current-session true|false] "
     "[--clt-conservative true|false] [--clt-per-edge-scaling true|false] "
     "[--group-neighbours] [--no-kl] [--repeat N] MAP.rrrmap...\n";
@@ -76,6 +77,14 @@ int main(int argc, char** argv) {
       }
     } else if (a == "--trim-overlap") {
       options.trim.trim_overlap_ratio = cli.number(a, cli.value(i, a), 1e-6, 1.0);
+    } else if (a == "--trim-rule") {
+      try {
+        options.trim.trim_rule = frontend::parseTrimRule(cli.value(i, a));
+      } catch (const std::invalid_argument& e) {
+        cli.fail(a + ": " + e.what());
+      }
+    } else if (a == "--trim-min-fresh-area") {
+      options.trim.trim_min_fresh_area_m2 = cli.number(a, cli.value(i, a), 0.0, 1e12);
     } else if (a == "--keep-recent-submaps") {
       options.trim.keep_recent_submaps = static_cast<int>(cli.integer(a, cli.value(i, a), 1, 1e9));
     } else if (a == "--keep-current-session") {

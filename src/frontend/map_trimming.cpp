@@ -28,11 +28,21 @@ Sparsification parseSparsification(const std::string& text) {
   return core::parseChoiceOrThrow<Sparsification>(text, "sparsification");
 }
 
+std::string toString(TrimRule rule) { return core::choiceName(rule); }
+
+TrimRule parseTrimRule(const std::string& text) {
+  return core::parseChoiceOrThrow<TrimRule>(text, "trim_rule");
+}
+
 void validate(const TrimParams& params) {
   auto fail = [](const std::string& what) { throw std::invalid_argument(what); };
   if (!(params.trim_overlap_ratio > 0.0 && params.trim_overlap_ratio <= 1.0)) {
     fail("trim_overlap_ratio = " + std::to_string(params.trim_overlap_ratio) +
          " is out of range: must be in (0, 1]");
+  }
+  if (!(params.trim_min_fresh_area_m2 >= 0.0 && std::isfinite(params.trim_min_fresh_area_m2))) {
+    fail("trim_min_fresh_area_m2 = " + std::to_string(params.trim_min_fresh_area_m2) +
+         " is out of range: must be at least 0 m2");
   }
   if (params.keep_recent_submaps < 1) {
     fail("keep_recent_submaps = " + std::to_string(params.keep_recent_submaps) +
@@ -76,6 +86,16 @@ bool FreshAreaTrimming::trim(const SubmapCoverage& coverage) const {
 
 std::string FreshAreaTrimming::describe() const {
   return "fresh area < " + std::to_string(min_area_) + " m2";
+}
+
+std::unique_ptr<TrimmingStrategy> trimmingStrategy(const TrimParams& params) {
+  switch (params.trim_rule) {
+    case TrimRule::kFreshArea:
+      return std::make_unique<FreshAreaTrimming>(params.trim_min_fresh_area_m2);
+    case TrimRule::kOverlapRatio:
+      break;
+  }
+  return std::make_unique<OverlapRatioTrimming>(params.trim_overlap_ratio);
 }
 
 int TrimReport::removedNodes() const {
@@ -217,8 +237,7 @@ void measureKl(const std::vector<Trusted>& trusted, const std::vector<char>& ali
 
 TrimResult trimMap(const MapSnapshot& map, const TrimParams& params,
                    const SubmapParams& submap_params, NewestSession newest) {
-  return trimMap(map, params, OverlapRatioTrimming(params.trim_overlap_ratio), submap_params,
-                 newest);
+  return trimMap(map, params, *trimmingStrategy(params), submap_params, newest);
 }
 
 TrimResult trimMap(const MapSnapshot& map, const TrimParams& params,

@@ -57,8 +57,7 @@ std::unique_ptr<LaserSlam> OnlineTrimmer::afterScan(LaserSlam& slam, const Range
   record.checkpoint_ms = msSince(start);
   auto run = [params = params_.trim](const LaserSlam::Checkpoint& c) {
     const Clock::time_point watch = Clock::now();
-    LaserSlam::Trimmed trimmed =
-        LaserSlam::trimmed(c, params, OverlapRatioTrimming(params.trim_overlap_ratio));
+    LaserSlam::Trimmed trimmed = LaserSlam::trimmed(c, params, *trimmingStrategy(params));
     return Outcome{std::move(trimmed), msSince(watch)};
   };
   if (params_.in_line) {

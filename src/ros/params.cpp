@@ -162,6 +162,15 @@ NodeParams loadParams(const ros::NodeHandle& private_nh) {
   r.read<double>(
       "trim_overlap_ratio", p.trim.trim_overlap_ratio,
       [](const double& v) { return v > 0.0 && v <= 1.0; }, "in (0, 1]");
+  std::string trim_rule = frontend::toString(p.trim.trim_rule);
+  r.read<std::string>(
+      "trim_rule", trim_rule,
+      [](const std::string& s) { return s == "overlap-ratio" || s == "fresh-area"; },
+      "overlap-ratio or fresh-area");
+  p.trim.trim_rule = frontend::parseTrimRule(trim_rule);
+  r.read<double>(
+      "trim_min_fresh_area_m2", p.trim.trim_min_fresh_area_m2,
+      [](const double& v) { return v >= 0.0 && std::isfinite(v); }, "at least 0 (m^2)");
   r.read<int>(
       "keep_recent_submaps", p.trim.keep_recent_submaps, [](const int& v) { return v >= 1; },
       "at least 1");

@@ -3,7 +3,8 @@ each the whole log again with its odometry moved by a seeded random SE(2), each 
 `rrr_slam_offline --load-map` from the map the previous session saved. The same moved logs are
 run in several configurations: `untrimmed` (no --lifelong), `clt` (--lifelong, Chow-Liu tree),
 `delete` (--lifelong --sparsification delete) and `online` (--lifelong --trim-every-n-nodes 200:
-the earlier sessions also trimmed while each maps).
+the earlier sessions also trimmed while each maps); on request `fresh-area` (--lifelong
+--trim-rule fresh-area: Cartographer's coverage rule instead of the overlap ratio).
 
 Per session and configuration: the saved map's nodes, edges, marginal edges, submaps and file
 size (rrr_map_info); the trim's time and KL divergences (the tool's `trim_*` lines); the time of
@@ -62,7 +63,11 @@ CONFIGS = {
     "clt": ["--lifelong", "--trim-kl"],
     "delete": ["--lifelong", "--sparsification", "delete", "--trim-kl"],
     "online": ["--lifelong", "--trim-every-n-nodes", "200", "--trim-kl"],
+    # Cartographer's coverage rule (OverlappingSubmapsTrimmer2D) in place of the overlap ratio;
+    # not run unless asked (--configs ... fresh-area).
+    "fresh-area": ["--lifelong", "--trim-rule", "fresh-area", "--trim-kl"],
 }
+DEFAULT_CONFIGS = ["untrimmed", "clt", "delete", "online"]
 
 
 # ---------------------------------------------------------------------------------------------
@@ -492,7 +497,8 @@ def plot(results: Dict[str, List[SessionResult]], out_prefix: str, title: str) -
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    colors = {"untrimmed": "tab:gray", "clt": "tab:blue", "delete": "tab:orange", "online": "tab:green"}
+    colors = {"untrimmed": "tab:gray", "clt": "tab:blue", "delete": "tab:orange", "online": "tab:green",
+              "fresh-area": "tab:purple"}
     paths = []
 
     from matplotlib.ticker import MaxNLocator
@@ -805,7 +811,7 @@ def main(argv=None):
     parser.add_argument("--untrimmed-sessions", type=int, default=None,
                         help="sessions of the untrimmed run (default --sessions): its loop search grows "
                              "with every session, so the whole run grows with their square")
-    parser.add_argument("--configs", nargs="*", default=list(CONFIGS), choices=list(CONFIGS))
+    parser.add_argument("--configs", nargs="*", default=DEFAULT_CONFIGS, choices=list(CONFIGS))
     parser.add_argument("--plots", default=None, help="PNG prefix (default: CACHE/LOG/seedS/lifelong)")
     parser.add_argument("--repeats", type=int, default=7, help="rrr_optimize runs per graph (least time)")
     parser.add_argument("--false-m", type=float, default=0.5, help="a loop is false beyond this (m)")

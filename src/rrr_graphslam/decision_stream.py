@@ -119,10 +119,50 @@ def score_stream(rows: Sequence[StreamRow], truth: Sequence[Optional[bool]]) -> 
 
 def online_summary(s: OnlineScore) -> str:
     """One line of what a robot saw on the way (the columns of bench_rrr's online table)."""
-    nodes = s.first_verdict_nodes
+    nodes, seconds = s.first_verdict_nodes, s.first_verdict_seconds
     return (f"online: false links ever accepted {s.transient_false_accepts} (of {s.outliers}), "
             f"still accepted at the end {s.final_false_accepts}, longest accepted "
             f"{s.longest_false_accept()} nodes, accepted > 100 nodes {s.false_accepts_longer_than(100)}; "
             f"true links reversed {s.true_reversals}; first verdict p50 / p99 / max "
             f"{percentile(nodes, 50):.0f} / {percentile(nodes, 99):.0f} / {max(nodes, default=0)} "
-            f"nodes; undecided until the end {s.undecided_online}")
+            f"nodes, {percentile(seconds, 50):.2f} / {percentile(seconds, 99):.2f} / "
+            f"{max(seconds, default=0.0):.2f} s; undecided until the end {s.undecided_online}")
+
+
+@dataclass
+class VerdictChange:
+    verdict: str
+    nodes: int      # nodes arrived since the candidate's arrival
+    seconds: float  # time since its arrival (the stream's stamps)
+    final: bool     # the end of the run's decision
+
+
+def candidate_histories(rows: Sequence[StreamRow]) -> Dict[int, List[VerdictChange]]:
+    """Per candidate, the verdicts it went through and when, counted from its arrival: its
+    arrival verdict first (at 0 nodes, 0 s), then every change, the end of the run's included."""
+    histories: Dict[int, List[VerdictChange]] = {}
+    arrival: Dict[int, StreamRow] = {}
+    for r in rows:
+        a = arrival.setdefault(r.candidate, r)
+        if r is a:
+            histories[r.candidate] = [VerdictChange(r.verdict, 0, 0.0, r.final)]
+        elif r.previous != r.verdict:
+            histories[r.candidate].append(
+                VerdictChange(r.verdict, r.nodes - a.nodes, r.stamp - a.stamp, r.final))
+    return histories
+
+
+def write_histories(path: str, histories: Dict[int, List[VerdictChange]],
+                    truth: Optional[Sequence[Optional[bool]]] = None) -> None:
+    """TSV 'candidate truth history', one row per candidate in index order; history is
+    'VERDICT@NODES/SECONDSs' per change, space-separated ('final:' marks the run's end decision);
+    truth is true, false or - (unknown)."""
+    lines = ["candidate\ttruth\thistory"]
+    for candidate in sorted(histories):
+        t = None if truth is None or candidate >= len(truth) else truth[candidate]
+        label = "-" if t is None else ("true" if t else "false")
+        steps = " ".join(f"{'final:' if c.final else ''}{c.verdict}@{c.nodes}/{c.seconds:.3f}s"
+                         for c in histories[candidate])
+        lines.append(f"{candidate}\t{label}\t{steps}")
+    with open(path, "w") as f:
+        f.write("\n".join(lines) + "\n")

@@ -70,6 +70,8 @@ inline const std::string& usage() {
       "                        [--false-loops F [--false-loops-seed S]]\n"
       "                        [--initial-pose X,Y,THETA] [--localization-only]\n"
       "                        [--lifelong [--trim-overlap R] [--keep-recent-submaps N]\n"
+      "                                    [--trim-rule overlap-ratio|fresh-area]\n"
+      "                                    [--trim-min-fresh-area M2]\n"
       "                                    [--keep-current-session true|false]\n"
       "                                    [--sparsification clt|dense|delete]\n"
       "                                    [--clt-conservative true|false]\n"
@@ -122,6 +124,10 @@ inline const std::string& usage() {
       "                    (doc/lifelong.md)\n"
       "  --trim-overlap R  a submap is trimmed when newer kept submaps cover this fraction of its\n"
       "                    observed cells (default 0.9)\n"
+      "  --trim-rule       the coverage rule: overlap-ratio (Zhao et al., --trim-overlap; the\n"
+      "                    default) or fresh-area (Cartographer's overlapping submaps trimmer:\n"
+      "                    trimmed when the area only it observes is below --trim-min-fresh-area)\n"
+      "  --trim-min-fresh-area M2  with --trim-rule fresh-area (m^2, default 2)\n"
       "  --keep-recent-submaps N  the newest N submaps are never trimmed (default 4)\n"
       "  --keep-current-session true|false  the newest session's submaps (this run's, if it\n"
       "                    added nodes) are never trimmed (default true: the map keeps the\n"
@@ -270,6 +276,16 @@ inline Arguments parseArguments(int argc, char** argv) {
       args.lifelong = true;
     } else if (a == "--trim-overlap") {
       args.trim.trim_overlap_ratio = cli.number(a, cli.value(i, a), 1e-6, 1.0);
+      trim_flags.push_back(a);
+    } else if (a == "--trim-rule") {
+      try {
+        args.trim.trim_rule = frontend::parseTrimRule(cli.value(i, a));
+      } catch (const std::invalid_argument& e) {
+        cli.fail(std::string("--trim-rule: ") + e.what());
+      }
+      trim_flags.push_back(a);
+    } else if (a == "--trim-min-fresh-area") {
+      args.trim.trim_min_fresh_area_m2 = cli.number(a, cli.value(i, a), 0.0, 1e12);
       trim_flags.push_back(a);
     } else if (a == "--keep-recent-submaps") {
       args.trim.keep_recent_submaps = static_cast<int>(cli.integer(a, cli.value(i, a), 1, 1e9));

@@ -44,8 +44,7 @@ inline void printTrimReport(const frontend::TrimReport& report,
   std::printf(
       "lifelong       trimmed %d submaps (%s, %s): %d nodes marginalized into %d marginal "
       "edges in %.2f s; %d submaps wait for pending loops\n",
-      report.trimmed_submaps,
-      frontend::OverlapRatioTrimming(params.trim_overlap_ratio).describe().c_str(),
+      report.trimmed_submaps, frontend::trimmingStrategy(params)->describe().c_str(),
       frontend::toString(params.sparsification).c_str(), report.removedNodes(),
       report.marginalEdges(), report.seconds, report.waiting_submaps);
   std::printf(

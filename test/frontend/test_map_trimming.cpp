@@ -725,6 +725,20 @@ TEST(MapTrimming, DeletionAndTheFreshAreaRuleAreTheAlternatives) {
                                             all.report.waiting_submaps);
   const TrimResult none = trimMap(threeLaps(), trimParams(), FreshAreaTrimming(0.0), submap);
   EXPECT_EQ(none.report.trimmed_submaps, 0);
+  // The same rule chosen by the parameters (--trim-rule fresh-area, ROS trim_rule).
+  TrimParams fresh = trimParams();
+  fresh.trim_rule = TrimRule::kFreshArea;
+  fresh.trim_min_fresh_area_m2 = 1e6;
+  EXPECT_EQ(trimMap(threeLaps(), fresh, submap).report.trimmed_submaps, all.report.trimmed_submaps);
+  fresh.trim_min_fresh_area_m2 = 0.0;
+  EXPECT_EQ(trimMap(threeLaps(), fresh, submap).report.trimmed_submaps, 0);
+  EXPECT_NE(trimmingStrategy(fresh)->describe().find("fresh area"), std::string::npos);
+  EXPECT_NE(trimmingStrategy(trimParams())->describe().find("overlap ratio"), std::string::npos);
+  fresh.trim_min_fresh_area_m2 = -1.0;
+  EXPECT_THROW(trimMap(threeLaps(), fresh, submap), std::invalid_argument);
+  EXPECT_EQ(parseTrimRule("fresh-area"), TrimRule::kFreshArea);
+  EXPECT_EQ(toString(TrimRule::kOverlapRatio), "overlap-ratio");
+  EXPECT_THROW(parseTrimRule("fresh"), std::invalid_argument);
 
   params.sparsification = Sparsification::kDense;
   EXPECT_THROW(trimMap(threeLaps(), params, submap), std::invalid_argument);

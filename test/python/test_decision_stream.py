@@ -2,7 +2,8 @@
 reversed, time to a first verdict; a malformed stream is refused with its file and line."""
 import pytest
 
-from rrr_graphslam.decision_stream import online_summary, percentile, read_decision_stream, score_stream
+from rrr_graphslam.decision_stream import (candidate_histories, online_summary, percentile,
+                                           read_decision_stream, score_stream, write_histories)
 from rrr_graphslam.graph_io import GraphFileError
 
 HEADER = "when\tscan\tnodes\tstamp\tcandidate\tfrom\tto\tcluster\tprevious\tverdict\treason\n"
@@ -36,7 +37,20 @@ def test_a_false_link_accepted_for_a_while_counts_though_the_end_rejects_it(tmp_
     assert online_summary(s) == (
         "online: false links ever accepted 2 (of 2), still accepted at the end 1, longest accepted "
         "115 nodes, accepted > 100 nodes 1; true links reversed 1; first verdict p50 / p99 / max "
-        "2 / 4 / 4 nodes; undecided until the end 1")
+        "2 / 4 / 4 nodes, 0.20 / 0.30 / 0.30 s; undecided until the end 1")
+    # Each candidate's verdicts and when, from its arrival.
+    histories = candidate_histories(read_decision_stream(str(path)))
+    assert [(c.verdict, c.nodes, c.final) for c in histories[0]] == [
+        ("pending", 0, False), ("accepted", 2, False), ("rejected", 10, False), ("accepted", 130, False)]
+    assert [(c.verdict, c.nodes) for c in histories[1]] == [("pending", 0), ("accepted", 4), ("rejected", 119)]
+    assert histories[1][2].seconds == pytest.approx(4.4)
+    assert [(c.verdict, c.nodes, c.final) for c in histories[2]] == [("pending", 0, False), ("accepted", 134, True)]
+    out = tmp_path / "history.tsv"
+    write_histories(str(out), histories, [True, False, False])
+    lines = out.read_text().splitlines()
+    assert lines[0] == "candidate\ttruth\thistory"
+    assert lines[2] == "1\tfalse\tpending@0/0.000s accepted@4/0.300s rejected@119/4.400s"
+    assert lines[3] == "2\tfalse\tpending@0/0.000s final:accepted@134/5.000s"
 
 
 def test_a_malformed_stream_names_its_file_and_line(tmp_path):

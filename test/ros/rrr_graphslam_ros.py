@@ -17,11 +17,12 @@ from std_srvs.srv import Trigger
 from tf2_msgs.msg import TFMessage
 from visualization_msgs.msg import MarkerArray
 
+from rrr_graphslam.decision_stream import candidate_histories  # noqa: E402
 from rrr_graphslam.evaluation import read_decisions, score  # noqa: E402
 from rrr_graphslam.graph_io import read_graph  # noqa: E402
 from rrr_graphslam.msg import LoopCandidate, PoseGraphEdge  # noqa: E402
 from rrr_graphslam.outliers import add_outliers  # noqa: E402
-from rrr_graphslam.replay import decisions_in_file_order  # noqa: E402
+from rrr_graphslam.replay import decisions_in_file_order, file_index_by_arrival  # noqa: E402
 from rrr_graphslam.replay_ros import PoseGraphReplay  # noqa: E402
 from rrr_graphslam.srv import LoadGraph, SaveGraph  # noqa: E402
 from rostest_helpers import wait_for  # noqa: E402
@@ -71,6 +72,15 @@ class RrrGraphSlamRos(unittest.TestCase):
         self.assertGreaterEqual(s.recall, rospy.get_param("~min_recall", 0.95))
         self.assertEqual(self.status().pending, 0)
         self.assertEqual(self.status().nodes, len(self.graph.poses))
+        # The ~decisions stream, candidate by candidate (replay_posegraph --history): each starts
+        # at its arrival and ends in the verdict the node reports at the end.
+        by_arrival = file_index_by_arrival(self.plan, self.replay.final_by_pair())
+        histories = candidate_histories(self.replay.stream)
+        self.assertEqual(set(histories), set(by_arrival))
+        for arrival, history in histories.items():
+            self.assertEqual((history[0].nodes, history[0].seconds), (0, 0.0))
+            self.assertTrue(all(a.nodes <= b.nodes for a, b in zip(history, history[1:])))
+            self.assertEqual(history[-1].verdict, by_arrival[arrival][1][1], history)
 
     def test_2_publishes_map_to_odom(self):
         self.assertTrue(wait_for(lambda: any(t.header.frame_id == "map" and t.child_frame_id == "odom"

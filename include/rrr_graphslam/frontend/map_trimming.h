@@ -39,6 +39,7 @@
 // from the graph's covariance over the blanket.
 
 #include <cstddef>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -66,10 +67,29 @@ std::string toString(Sparsification sparsification);
 /// Parses "clt", "dense" or "delete"; std::invalid_argument otherwise.
 Sparsification parseSparsification(const std::string& text);
 
+/// The coverage rule that decides whether a submap is trimmed (a TrimmingStrategy).
+enum class TrimRule {
+  kOverlapRatio,  ///< Zhao et al.: the fraction of its cells newer kept submaps cover (default)
+  kFreshArea,     ///< Cartographer's OverlappingSubmapsTrimmer2D: the area only it observes
+};
+inline core::Choices<TrimRule> choices(TrimRule /*tag*/) {
+  return {{TrimRule::kOverlapRatio, "overlap-ratio"}, {TrimRule::kFreshArea, "fresh-area"}};
+}
+/// "overlap-ratio", "fresh-area".
+std::string toString(TrimRule rule);
+/// Parses "overlap-ratio" or "fresh-area"; std::invalid_argument otherwise.
+TrimRule parseTrimRule(const std::string& text);
+
 struct TrimParams {
+  /// Which coverage rule trims a submap: the overlap ratio below, or the fresh area.
+  TrimRule trim_rule = TrimRule::kOverlapRatio;
   /// A finished submap is trimmed when the newer kept submaps cover at least this fraction of its
   /// observed cells (Zhao et al.'s overlap ratio), in (0, 1].
   double trim_overlap_ratio = 0.9;
+  /// With kFreshArea: a finished submap is trimmed when the area it observes and no newer kept
+  /// submap does is below this (m^2, at least 0; Cartographer's min_covered_area, whose example
+  /// configuration has 2).
+  double trim_min_fresh_area_m2 = 2.0;
   /// The newest submaps are never trimmed; at least 1 (the submap being built).
   int keep_recent_submaps = 4;
   /// The submaps of the map's newest session with nodes (the one saving it, unless it added none)
@@ -155,6 +175,9 @@ class FreshAreaTrimming : public TrimmingStrategy {
   double min_area_;
 };
 
+/// The strategy `params` choose (trim_rule with its threshold).
+std::unique_ptr<TrimmingStrategy> trimmingStrategy(const TrimParams& params);
+
 /// One marginalization: a trimmed submap's leaving nodes (with group_neighbours: those of
 /// neighbouring trimmed submaps that trusted constraints join).
 struct TrimRecord {
@@ -228,7 +251,7 @@ enum class NewestSession {
 TrimResult trimMap(const MapSnapshot& map, const TrimParams& params,
                    const TrimmingStrategy& strategy, const SubmapParams& submap_params,
                    NewestSession newest = NewestSession::kFinished);
-/// The same with OverlapRatioTrimming(params.trim_overlap_ratio).
+/// The same with trimmingStrategy(params).
 TrimResult trimMap(const MapSnapshot& map, const TrimParams& params,
                    const SubmapParams& submap_params,
                    NewestSession newest = NewestSession::kFinished);
