@@ -482,6 +482,25 @@ def aliasing_summary(rows):
                                              lambda r: r.score.recall < 0.98),
               "  batch time at most 3x random: " + failing(rows, lambda r: f"{r.ratio:.1f}x",
                                                            lambda r: r.ratio > 3.0)]
+    # Growth: within each series (graph, group size, seed) the batch time of every count against
+    # that of the series' smallest, aliased and random alike.
+    smallest = {}
+    for r in rows:
+        key = (r.graph, r.group_size, r.seed)
+        if key not in smallest or r.count < smallest[key].count:
+            smallest[key] = r
+    larger = [(r, smallest[(r.graph, r.group_size, r.seed)]) for r in rows
+              if r.count > smallest[(r.graph, r.group_size, r.seed)].count]
+    for what, time_of in (("aliased", lambda r: r.run["time"]), ("random", lambda r: r.random_run["time"])):
+        if larger:
+            lines.append(
+                f"  {what} batch time at most linear in the outliers (each count against the "
+                f"smallest of its graph, group size and seed): " + tally(
+                    larger, lambda p: time_of(p[0]) > time_of(p[1]) * p[0].count / p[1].count,
+                    lambda p: f"{p[0].graph} g{p[0].group_size} s{p[0].seed} {p[0].count} "
+                              f"({time_of(p[0]):.2f} s = {time_of(p[0]) / time_of(p[1]):.1f}x the "
+                              f"{p[1].count}'s {time_of(p[1]):.2f} s for "
+                              f"{p[0].count / p[1].count:.1f}x the outliers)"))
     city = [r for r in rows if (r.graph, r.group_size, r.count) == ("city10000", 20, 2000)]
     if city:
         lines.append("  City10000 + 2000 aliased (groups of 20) under 10 s batch: " + ", ".join(

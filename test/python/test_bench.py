@@ -259,6 +259,20 @@ def test_aliasing_targets_take_the_worst_seed():
             "2000 s3 (p99 60.0 ms, max 1500 ms)") in lines
 
 
+def test_aliasing_time_growth_is_judged_against_the_smallest_count_of_each_series():
+    lines = aliasing_summary([
+        aliasing_row("city10000", 20, 500, 2, 1.0, 1.0, 15.0, 0.7),
+        aliasing_row("city10000", 20, 1000, 2, 1.0, 1.0, 21.0, 1.0),
+        aliasing_row("city10000", 20, 4000, 2, 1.0, 1.0, 130.0, 1.1),
+        aliasing_row("m3500", 20, 100, 2, 1.0, 1.0, 1.0, 0.1),
+    ])
+    assert ("  aliased batch time at most linear in the outliers (each count against the smallest "
+            "of its graph, group size and seed): 1 of 2; not: city10000 g20 s2 4000 (130.00 s = "
+            "8.7x the 500's 15.00 s for 8.0x the outliers)") in lines
+    assert any(line.startswith("  random batch time at most linear in the outliers") and
+               line.endswith(": 2 of 2") for line in lines)
+
+
 def test_ablation_switches_are_those_the_paper_preset_changes():
     source = open(os.path.join(os.path.dirname(__file__), "..", "..", "src", "rrr",
                                "rrr_params.cpp")).read()
