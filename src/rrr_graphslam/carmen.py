@@ -191,11 +191,14 @@ def write_moved_log(source: str, target: str, frame: Pose, later: float = 0.0) -
         f.write("".join(out))
 
 
-def write_there_and_back_log(source: str, target: str) -> None:
+def write_there_and_back_log(source: str, target: str, part: str = "both") -> None:
     """Writes the CARMEN log `source` (plain or .gz) to `target` followed by its FLASER,
     ROBOTLASER1 and ODOM lines again in reverse order, timestamps mirrored after the last: the
     robot drives its path back, one session that comes back over all it saw. Other lines are
-    copied once, first. For tests of a session that revisits its own path."""
+    copied once, first. For tests of a session that revisits its own path. `part` "back" writes
+    the way back alone (the rest of a drive whose first part is `source`)."""
+    if part not in ("both", "back"):
+        raise ValueError(f"part must be both or back, not {part!r}")
     header, motion = [], []
     for _, line in text_lines(source):
         fields = line.split()
@@ -215,4 +218,5 @@ def write_there_and_back_log(source: str, target: str) -> None:
         back.append(mirrored)
     with open(target, "w") as f:
         f.write("".join(line + "\n" for line in header))
-        f.write("".join(" ".join(fields) + "\n" for fields in [m[0] for m in motion] + back))
+        there = [m[0] for m in motion] if part == "both" else []
+        f.write("".join(" ".join(fields) + "\n" for fields in there + back))

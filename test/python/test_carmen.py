@@ -95,3 +95,19 @@ def test_a_moved_log_is_the_same_run_seen_from_another_frame(tmp_path):
         # The laser's pose on the robot is unchanged.
         assert between(m.odom_pose, m.laser_pose) == pytest.approx(between(r.odom_pose, r.laser_pose), abs=1e-9)
     assert b.odometry[0].timestamp == pytest.approx(a.odometry[0].timestamp + 100.0)
+
+
+def test_the_way_back_alone_is_the_rest_of_a_there_and_back_drive(tmp_path):
+    from rrr_graphslam.carmen import write_there_and_back_log
+    source = os.path.join(DATA, "carmen", "aces_head.clf.gz")
+    both, back = tmp_path / "both.clf", tmp_path / "back.clf"
+    write_there_and_back_log(source, str(both))
+    write_there_and_back_log(source, str(back), part="back")
+    a, b, r = read_carmen(source), read_carmen(str(both)), read_carmen(str(back))
+    assert len(b.lasers) == 2 * len(a.lasers) and len(r.lasers) == len(a.lasers)
+    # The way back: the scans of the way there in reverse order, after its last stamp.
+    assert [s.ranges for s in r.lasers] == [s.ranges for s in reversed(a.lasers)]
+    assert [s.timestamp for s in r.lasers] == [s.timestamp for s in b.lasers[len(a.lasers):]]
+    assert r.lasers[0].timestamp > a.lasers[-1].timestamp
+    with pytest.raises(ValueError, match="part"):
+        write_there_and_back_log(source, str(back), part="there")

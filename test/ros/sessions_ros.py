@@ -253,6 +253,41 @@ class Sessions(unittest.TestCase):
             output, _ = node.communicate(timeout=30)
         self.assertIn("lifelong: trimmed", output)
 
+    def test_g_a_new_node_continues_the_saved_map_with_the_rest_of_the_drive(self):
+        # The first part of a drive was mapped and saved (test_a: the minute there); a new node
+        # starts with map_file, and the rest of the drive (the way back) is replayed with its
+        # odometry moved by an arbitrary SE(2) and 700 s later: the node ties the new session to
+        # the map, and its ~status and ~decisions show it.
+        name = "continuer"
+        node, status = self.start_node(name, {
+            "input_mode": "scan", "map_file": self.map_path, "publish_tf": False,
+            "scans_per_submap": 10, "min_node_separation": 15,
+            "relocalization_confirm_distance": 2.0})
+        decisions = []
+        rospy.Subscriber(f"/{name}/decisions", LoopClosureDecision, decisions.append, queue_size=1000)
+        try:
+            self.assertTrue(wait_for(lambda: "last" in status, 30.0), "the node did not start")
+            loaded = status["last"].nodes
+            self.assertGreater(loaded, 30)
+            self.assertEqual(status["last"].session, 1)
+            self.assertFalse(status["last"].tied_to_map)
+            back = os.path.join(self.folder, "back.clf")
+            write_there_and_back_log(self.log, back, part="back")
+            rest = os.path.join(self.folder, "rest_moved.clf")
+            write_moved_log(back, rest, (-40.0, -60.0, -2.0), later=700.0)
+            self.play(rest, "replay_rest")
+            self.assertTrue(wait_for(lambda: status["last"].tied_to_map and status["last"].backlog == 0, 30.0),
+                            str(status["last"]))
+            self.assertGreater(status["last"].nodes, loaded + 30)
+            self.assertGreaterEqual(status["last"].tied_after_sec, 0.0)
+            final = {d.candidate: d for d in decisions}
+            crossing = [d for d in final.values() if (d.from_id < loaded) != (d.to_id < loaded)
+                        and d.verdict == LoopClosureDecision.ACCEPTED]
+            self.assertTrue(crossing, "no accepted loop between the new session and the map")
+        finally:
+            node.terminate()
+            node.wait(timeout=30)
+
 
 if __name__ == "__main__":
     rostest.rosrun("rrr_graphslam", "sessions", Sessions)
