@@ -219,7 +219,8 @@ void LaserSlam::searchLoops(int node, const PointCloud& scan_points) {
       }
     }
     search_state_[static_cast<std::size_t>(s.submap->index())].last_matched = node;
-    addCandidate(s.loop->from, s.loop->to, s.loop->measurement, s.loop->information);
+    addCandidate(s.loop->from, s.loop->to, s.loop->measurement, s.loop->information,
+                 s.whole ? LoopSource::kWholeMapSearch : LoopSource::kLocalSearch);
     relocalized = relocalized || to_earlier_session;
   }
   // A cluster is decided once the robot is cluster_gap nodes past its newest link: after a few
@@ -271,7 +272,7 @@ MapAgreement LaserSlam::sessionAgreement(const LoopMatch& loop,
 }
 
 bool LaserSlam::addCandidate(int from, int to, const core::Pose2& measurement,
-                             const Eigen::Matrix3d& information) {
+                             const Eigen::Matrix3d& information, LoopSource source) {
   const auto rrr_start = std::chrono::steady_clock::now();
   const int first = sessions_.back().first_node;
   const int index = rrr_->numCandidates();
@@ -287,6 +288,10 @@ bool LaserSlam::addCandidate(int from, int to, const core::Pose2& measurement,
     // One RRR cannot take (information not positive definite, a duplicate): no candidate.
     ++stats_.refused_candidates;
     return false;
+  }
+  if (rrr_->numCandidates() > index) {
+    candidate_source_.resize(static_cast<std::size_t>(index), LoopSource::kUnknown);
+    candidate_source_.push_back(source);
   }
   if (rrr_->numCandidates() > index && std::min(from, to) < first && std::max(from, to) >= first) {
     crossing_.push_back({index, std::max(from, to)});

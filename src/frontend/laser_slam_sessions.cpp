@@ -1,7 +1,9 @@
 // LaserSlam across runs: the snapshot a map file holds, and a new session continuing one.
 
 #include <algorithm>
+#include <deque>
 #include <exception>
+#include <map>
 #include <stdexcept>
 #include <string>
 
@@ -98,6 +100,9 @@ MapSnapshot LaserSlam::snapshot() const {
       out.verdict = row.verdict;
       out.cluster = row.cluster;
       out.reason = row.reason;
+      const std::size_t index = candidate - 1;
+      out.source =
+          index < candidate_source_.size() ? candidate_source_[index] : LoopSource::kUnknown;
     }
     map.edges.push_back(std::move(out));
   }
@@ -222,6 +227,20 @@ void LaserSlam::load(const MapSnapshot& map, std::size_t finished_submaps, bool 
     }
   }
   if (!continuing) rrr_->takeChanges();  // the loaded decisions are the starting point, not news
+  // Each candidate's source, as RRR numbers them (by arrival: the newest end's node, then file
+  // order): matched to the map's loop edges by their ends, in file order.
+  std::map<std::pair<int, int>, std::deque<LoopSource>> sources;
+  for (const MapSnapshot::Edge& e : map.edges) {
+    if (e.kind == MapSnapshot::EdgeKind::kLoopCandidate)
+      sources[{e.from, e.to}].push_back(e.source);
+  }
+  candidate_source_.clear();
+  for (int k = 0; rrr_ && k < rrr_->numCandidates(); ++k) {
+    const rrr::LoopCandidate& c = rrr_->candidate(k);
+    std::deque<LoopSource>& queue = sources[{c.from, c.to}];
+    candidate_source_.push_back(queue.empty() ? LoopSource::kUnknown : queue.front());
+    if (!queue.empty()) queue.pop_front();
+  }
 
   for (const MapSnapshot::Node& node : map.nodes) {
     const bool session_start = node_local_poses_.empty() ||

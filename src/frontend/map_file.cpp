@@ -198,6 +198,7 @@ std::string encodePayload(const MapSnapshot& map) {
     out.put(static_cast<std::uint8_t>(e.verdict));
     out.put<std::int64_t>(e.cluster);
     out.put(e.reason);
+    if (map.format_version >= 4) out.put(static_cast<std::uint8_t>(e.source));
   }
   out.put<std::uint64_t>(map.submaps.size());
   for (const auto& s : map.submaps) {
@@ -278,6 +279,13 @@ MapSnapshot decodePayload(const std::vector<std::uint8_t>& bytes, std::uint32_t 
     e.verdict = static_cast<rrr::Verdict>(verdict);
     e.cluster = toInt(in.get<std::int64_t>(), "edge cluster");
     e.reason = in.text();
+    if (version >= 4) {
+      const auto source = in.get<std::uint8_t>();
+      if (source > 4) {
+        throw std::invalid_argument("loop source " + std::to_string(source) + " is unknown");
+      }
+      e.source = static_cast<LoopSource>(source);
+    }
   }
   const std::size_t submaps = in.count(16, "submap");
   for (std::size_t k = 0; k < submaps; ++k) {
@@ -430,6 +438,13 @@ void MapSnapshot::check() const {
     if (e.kind == EdgeKind::kMarginal && format_version < 2) {
       fail("edge " + std::to_string(k) + " is marginal, which format version 1 cannot hold");
     }
+    if (e.source != LoopSource::kUnknown && e.kind != EdgeKind::kLoopCandidate) {
+      fail("edge " + std::to_string(k) + " has a loop source but is no loop candidate");
+    }
+    if (e.source != LoopSource::kUnknown && format_version < 4) {
+      fail("edge " + std::to_string(k) + " has a loop source, which format version " +
+           std::to_string(format_version) + " cannot hold");
+    }
     if (!e.measurement.allFinite() || !e.information.allFinite()) {
       fail("edge " + std::to_string(k) + " has a measurement or information that is not finite");
     }
@@ -444,6 +459,8 @@ void MapSnapshot::check() const {
     }
   }
 }
+
+std::string toString(LoopSource source) { return core::choiceName(source); }
 
 void writeMapFile(const MapSnapshot& map, const std::string& path) {
   map.check();

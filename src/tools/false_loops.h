@@ -45,7 +45,9 @@ class FalseLoopInjector {
       std::uniform_int_distribution<int> node(0, oldest_allowed);
       const int from = node(rng_);
       const core::Pose2 z(metres(rng_), metres(rng_), core::normalizeAngle(radians(rng_)));
-      if (slam.addCandidate(from, newest, z, information)) ++injected_;
+      if (slam.addCandidate(from, newest, z, information, frontend::LoopSource::kInjected)) {
+        ++injected_;
+      }
     }
     searched_ = searched;
   }

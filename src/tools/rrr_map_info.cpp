@@ -4,11 +4,13 @@
 
 #include <sys/stat.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
 #include <iostream>
 #include <string>
+#include <vector>
 
 #include "command_line.h"
 #include "params_cli.h"
@@ -97,6 +99,9 @@ int main(int argc, char** argv) {
   try {
     const frontend::MapSnapshot map = frontend::readMapFile(path);
     std::size_t odometry = 0, loops = 0, accepted = 0, rejected = 0, pending = 0, marginal = 0;
+    // Per loop source (choices(LoopSource) order): candidates, and those accepted.
+    const auto sources = choices(frontend::LoopSource{});
+    std::vector<std::size_t> by_source(sources.size(), 0), accepted_by_source(sources.size(), 0);
     for (const auto& e : map.edges) {
       if (e.kind == frontend::MapSnapshot::EdgeKind::kOdometry) {
         ++odometry;
@@ -105,6 +110,9 @@ int main(int argc, char** argv) {
         accepted += e.verdict == rrr::Verdict::kAccepted;
         rejected += e.verdict == rrr::Verdict::kRejected;
         pending += e.verdict == rrr::Verdict::kPending;
+        const auto source = static_cast<std::size_t>(e.source);
+        ++by_source.at(source);
+        accepted_by_source.at(source) += e.verdict == rrr::Verdict::kAccepted;
       } else {
         ++marginal;
       }
@@ -120,6 +128,13 @@ int main(int argc, char** argv) {
     std::printf("loop_edges_accepted %zu\n", accepted);
     std::printf("loop_edges_rejected %zu\n", rejected);
     std::printf("loop_edges_pending %zu\n", pending);
+    for (std::size_t k = 0; k < sources.size(); ++k) {
+      std::string name = sources[k].second;  // local-search -> loop_edges_local_search
+      std::replace(name.begin(), name.end(), '-', '_');
+      if (name == "unknown") name = "unknown_source";
+      std::printf("loop_edges_%s %zu\n", name.c_str(), by_source[k]);
+      std::printf("loop_edges_%s_accepted %zu\n", name.c_str(), accepted_by_source[k]);
+    }
     std::printf("marginal_edges %zu\n", marginal);
     std::printf("submaps %zu\n", map.submaps.size());
     std::printf("scans %zu\n", map.nodes.size());  // one scan per node

@@ -14,6 +14,7 @@
 #include <cstdio>
 #include <fstream>
 #include <iterator>
+#include <map>
 #include <random>
 #include <string>
 #include <thread>
@@ -93,7 +94,12 @@ TEST(MapFile, RoundTripKeepsEverythingAContinuationNeeds) {
     EXPECT_EQ(read.edges[k].information, saved.edges[k].information);
     EXPECT_EQ(read.edges[k].verdict, saved.edges[k].verdict);
     EXPECT_EQ(read.edges[k].reason, saved.edges[k].reason);
+    EXPECT_EQ(read.edges[k].source, saved.edges[k].source);
     loops += read.edges[k].kind == MapSnapshot::EdgeKind::kLoopCandidate;
+    // One session: every loop came from the search around the estimate.
+    EXPECT_EQ(read.edges[k].source, read.edges[k].kind == MapSnapshot::EdgeKind::kLoopCandidate
+                                        ? LoopSource::kLocalSearch
+                                        : LoopSource::kUnknown);
   }
   EXPECT_GT(loops, 0) << "the lap closed no loop";
   ASSERT_EQ(read.submaps.size(), saved.submaps.size());
@@ -133,15 +139,21 @@ TEST(MapFile, DamagedFilesAreRefusedNamingFileAndFault) {
   refused("flipped.rrrmap", flipped, "checksum mismatch");
   std::string newer = good;
   newer[8] = 99;  // the version's low byte
-  refused("newer.rrrmap", newer, "format version 99 is newer than this build reads (3)");
+  refused("newer.rrrmap", newer, "format version 99 is newer than this build reads (4)");
   refused("text.rrrmap", "VERTEX_SE2 0 0 0 0\n", "not an rrr_graphslam map file");
   refused("empty.rrrmap", "", "not an rrr_graphslam map file");
   EXPECT_THROW(readMapFile(tempPath("does_not_exist.rrrmap")), core::InputError);
 }
 
+// What a map written before version 4 holds of its loops: no source.
+void clearLoopSources(MapSnapshot& map) {
+  for (MapSnapshot::Edge& e : map.edges) e.source = LoopSource::kUnknown;
+}
+
 TEST(MapFile, AVersionOneMapIsReadAsItIsAndContinuedAsTheNewest) {
   MapSnapshot old = readMapFile(savedMap());
   old.format_version = 1;
+  clearLoopSources(old);
   const std::string path = tempPath("version1.rrrmap");
   writeMapFile(old, path);
   const std::string bytes = readBytes(path);
@@ -220,6 +232,7 @@ TEST(MapFile, VersionThreeKeepsSessionNumbersAndTheMemory) {
   // numbers are refused unless they are the indices, and so is a memory.
   MapSnapshot two = readMapFile(savedMap());
   two.format_version = 2;
+  clearLoopSources(two);
   writeMapFile(two, tempPath("version2.rrrmap"));
   const MapSnapshot read2 = readMapFile(tempPath("version2.rrrmap"));
   EXPECT_EQ(read2.format_version, 2u);
@@ -231,6 +244,23 @@ TEST(MapFile, VersionThreeKeepsSessionNumbersAndTheMemory) {
   MapSnapshot remembering = two;
   remembering.memory = {patchAt(2, 0)};
   expectRefused(remembering, "format version 2 cannot hold the memory of trimmed submaps");
+
+  // Version 3 holds no loop sources: read as unknown, refused when written.
+  MapSnapshot three = readMapFile(savedMap());
+  three.format_version = 3;
+  expectRefused(three, "has a loop source, which format version 3 cannot hold");
+  clearLoopSources(three);
+  writeMapFile(three, tempPath("version3_sources.rrrmap"));
+  const MapSnapshot read3 = readMapFile(tempPath("version3_sources.rrrmap"));
+  EXPECT_EQ(read3.format_version, 3u);
+  EXPECT_EQ(read3.edges.size(), three.edges.size());
+  auto continued3 = LaserSlam::fromMap(read3, smallMaps(), "after three");
+  for (const MapSnapshot::Edge& e : continued3->snapshot().edges) {
+    EXPECT_EQ(e.source, LoopSource::kUnknown);
+  }
+  MapSnapshot odd = readMapFile(savedMap());
+  odd.edges.front().source = LoopSource::kInjected;  // an odometry edge
+  expectRefused(odd, "has a loop source but is no loop candidate");
 
   // Broken memory and numbers in a version-3 map.
   MapSnapshot bad = map;
@@ -409,6 +439,31 @@ TEST(MapFile, ANewSessionInAnotherOdometryFrameIsTiedToTheMap) {
   const MapSnapshot both = slam->snapshot();
   EXPECT_EQ(both.sessions.size(), 2u);
   EXPECT_EQ(both.nodes.back().session, 1);
+  // The map's own loops keep their source; the session was tied by the whole-map search, then
+  // searched around its estimate; a loop from outside the search is recorded as such.
+  std::map<LoopSource, int> to_map, loaded;
+  for (const MapSnapshot::Edge& e : map.edges) {
+    if (e.kind == MapSnapshot::EdgeKind::kLoopCandidate) ++loaded[e.source];
+  }
+  std::map<LoopSource, int> old_loops;
+  const int first = static_cast<int>(map.nodes.size());
+  for (const MapSnapshot::Edge& e : both.edges) {
+    if (e.kind != MapSnapshot::EdgeKind::kLoopCandidate) continue;
+    if (std::max(e.from, e.to) < first) {
+      ++old_loops[e.source];
+    } else if (std::min(e.from, e.to) < first) {
+      ++to_map[e.source];
+    }
+  }
+  EXPECT_EQ(old_loops, loaded);
+  EXPECT_GT(to_map[LoopSource::kWholeMapSearch], 0);
+  EXPECT_GT(to_map[LoopSource::kLocalSearch], 0);
+  EXPECT_EQ(to_map[LoopSource::kUnknown], 0);
+  const int newest = static_cast<int>(both.nodes.size()) - 1;
+  ASSERT_TRUE(slam->addCandidate(newest - 60, newest, core::Pose2(0.5, 0.0, 0.0),
+                                 Eigen::Matrix3d::Identity()));
+  const MapSnapshot more = slam->snapshot();
+  EXPECT_EQ(toString(more.edges.back().source), "external");
 }
 
 TEST(MapFile, LoopsAtOnePlaceWaitUntilLoopsFarEnoughApartTieTheSession) {

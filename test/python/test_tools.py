@@ -456,7 +456,11 @@ def test_a_saved_map_is_continued_as_a_new_session_from_another_odometry_frame(t
     for key in ("format_version", "sessions", "nodes", "edges", "loop_edges_accepted",
                 "loop_edges_rejected", "submaps", "scans", "bytes"):
         assert key in keys, key
-    assert keys["format_version"] == "3" and keys["sessions"] == "1"
+    assert keys["format_version"] == "4" and keys["sessions"] == "1"
+    # One session: every loop the search around the estimate's.
+    assert keys["loop_edges_local_search"] == keys["loop_edges"] != "0"
+    assert keys["loop_edges_local_search_accepted"] == keys["loop_edges_accepted"]
+    assert keys["loop_edges_whole_map_search"] == keys["loop_edges_unknown_source"] == "0"
     assert keys["remembered_patches"] == "0" and keys["remembered_cells"] == "0"
     assert int(keys["bytes"]) == first_map.stat().st_size
     assert len(read_graph(str(tmp_path / "g.g2o")).poses) == int(keys["nodes"])
@@ -491,6 +495,8 @@ def test_a_saved_map_is_continued_as_a_new_session_from_another_odometry_frame(t
     info = run(MAP_INFO, first_map)
     keys = dict(line.split(" ", 1) for line in info.stdout.splitlines())
     assert keys["sessions"] == "2"
+    # The new session was tied by relocalization's whole-map search.
+    assert int(keys["loop_edges_whole_map_search_accepted"]) > 0
     # From the moment it was tied on, the replayed log's scans lie where the first run put them
     # (same timestamps).
     tied_after = float(re.search(r"relocalized +at node \d+ \(the session's node \d+, ([0-9.]+) s after",

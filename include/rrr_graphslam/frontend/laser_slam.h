@@ -145,9 +145,9 @@ class LaserSlam {
   /// RRR decides it like the search's own, and once accepted a loop between the current session
   /// and an earlier one counts toward the tie. Returns false when RRR refuses it (an unknown
   /// node, information not positive definite, a duplicate): counted in
-  /// stats().refused_candidates.
+  /// stats().refused_candidates. `source` is what the map file records of it.
   bool addCandidate(int from, int to, const core::Pose2& measurement,
-                    const Eigen::Matrix3d& information);
+                    const Eigen::Matrix3d& information, LoopSource source = LoopSource::kExternal);
 
   const rrr::OnlineRrr& rrr() const { return *rrr_; }
   rrr::OnlineRrr& rrr() { return *rrr_; }
@@ -267,7 +267,8 @@ class LaserSlam {
     int session_node;  // its end in this session
   };
   std::vector<Crossing> crossing_;
-  std::vector<double> node_travel_;  // path length from the node's session start (m)
+  std::vector<LoopSource> candidate_source_;  // per RRR candidate, in RRR's order
+  std::vector<double> node_travel_;           // path length from the node's session start (m)
   struct KeptPoints {
     int node;
     PointCloud points;  // thinned, in the node's frame

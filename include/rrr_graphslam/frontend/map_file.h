@@ -21,6 +21,7 @@
 #include <mrpt/obs/CObservation2DRangeScan.h>
 #include <Eigen/Core>
 
+#include "rrr_graphslam/core/param_info.h"
 #include "rrr_graphslam/core/pose_graph.h"
 #include "rrr_graphslam/core/se2.h"
 #include "rrr_graphslam/frontend/map_memory.h"
@@ -31,8 +32,27 @@ namespace rrr_graphslam::frontend {
 /// The format version this build writes; it reads versions 1 to this one. Version 2 added
 /// marginal edges and the lifelong counters (a version-1 map holds neither; it is read as is and
 /// continued as the newest version); version 3 the sessions' numbers and the map's memory of
-/// trimmed submaps (map_memory.h; an older map has none, and its sessions are numbered in order).
-constexpr std::uint32_t kMapFormatVersion = 3;
+/// trimmed submaps (map_memory.h; an older map has none, and its sessions are numbered in order);
+/// version 4 each loop candidate's source (older maps: unknown).
+constexpr std::uint32_t kMapFormatVersion = 4;
+
+/// Which search proposed a loop candidate.
+enum class LoopSource : std::uint8_t {
+  kUnknown = 0,         ///< a map written before version 4
+  kLocalSearch = 1,     ///< a window around the node's estimated pose in the submap
+  kWholeMapSearch = 2,  ///< relocalization: the whole submap, every rotation (an untied session)
+  kInjected = 3,        ///< a false loop a test or benchmark added (rrr_slam_offline --false-loops)
+  kExternal = 4,        ///< given from outside the loop search (LaserSlam::addCandidate)
+};
+inline core::Choices<LoopSource> choices(LoopSource /*tag*/) {
+  return {{LoopSource::kUnknown, "unknown"},
+          {LoopSource::kLocalSearch, "local-search"},
+          {LoopSource::kWholeMapSearch, "whole-map-search"},
+          {LoopSource::kInjected, "injected"},
+          {LoopSource::kExternal, "external"}};
+}
+/// "unknown", "local-search", "whole-map-search", "injected", "external".
+std::string toString(LoopSource source);
 
 /// What a map file holds. Node k has id k; sessions' nodes are consecutive.
 struct MapSnapshot {
@@ -63,6 +83,7 @@ struct MapSnapshot {
     rrr::Verdict verdict = rrr::Verdict::kPending;  ///< loop candidates
     int cluster = -1;
     std::string reason;
+    LoopSource source = LoopSource::kUnknown;  ///< loop candidates (version 4 on)
   };
   /// A submap: the nodes first_node..last_node inserted in order at their local poses.
   struct Submap {
