@@ -229,8 +229,8 @@ def test_seeds_run_every_synthetic_input_on_each_and_summarize_the_worst(tmp_pat
         "|---|---|---|---|---|---|---|---|---|---|",
         "| csail | random | 4 | batch | 1.0000 | 1.0000 | 0.25 | 18 | HARMED 12.1 cm > 1.0 | 2 |",
         "| csail | random | 4 | batch | 0.5000 | 1.0000 | 0.25 | 18 | HARMED 12.1 cm > 1.0 | 3 |"]
-    assert ("| csail | random | 4 | 2,3 | 0.5000 / 0.7500 | 1.0000 / 1.0000 | 0.25 / 0.25 |"
-            in lines)
+    assert ("| csail | random | 4 | 2,3 | 0.5000 / 0.7500 | 1.0000 / 1.0000 | 0.25 / 0.25 | "
+            "2 of 2 (+12.1 cm) |" in lines)
     assert "  synthetic precision 1.000: 1 of 2; not: csail random 4 (0.5000)" in lines
     assert ("  synthetic map harm within max(1 cm, 2%): 0 of 2; not: csail random 4 s2 (HARMED "
             "12.1 cm > 1.0), csail random 4 s3 (HARMED 12.1 cm > 1.0)") in lines
