@@ -53,6 +53,7 @@ std::optional<int> LaserSlam::addScan(const RangeScan& scan, const core::Pose2& 
     }
     map_sensor_.reset();
   }
+  adoptCandidatesFromOutside();
   auto start = std::chrono::steady_clock::now();
   LocalSlamResult result;
   try {
@@ -271,8 +272,20 @@ MapAgreement LaserSlam::sessionAgreement(const LoopMatch& loop,
   return mapAgreement(map, points, params_.loops.agreement);
 }
 
+void LaserSlam::adoptCandidatesFromOutside() {
+  const int first = sessions_.back().first_node;
+  for (int k = static_cast<int>(candidate_source_.size()); k < rrr_->numCandidates(); ++k) {
+    candidate_source_.push_back(LoopSource::kExternal);
+    const rrr::LoopCandidate& c = rrr_->candidate(k);
+    if (std::min(c.from, c.to) < first && std::max(c.from, c.to) >= first) {
+      crossing_.push_back({k, std::max(c.from, c.to)});
+    }
+  }
+}
+
 bool LaserSlam::addCandidate(int from, int to, const core::Pose2& measurement,
                              const Eigen::Matrix3d& information, LoopSource source) {
+  adoptCandidatesFromOutside();
   const auto rrr_start = std::chrono::steady_clock::now();
   const int first = sessions_.back().first_node;
   const int index = rrr_->numCandidates();
@@ -289,10 +302,7 @@ bool LaserSlam::addCandidate(int from, int to, const core::Pose2& measurement,
     ++stats_.refused_candidates;
     return false;
   }
-  if (rrr_->numCandidates() > index) {
-    candidate_source_.resize(static_cast<std::size_t>(index), LoopSource::kUnknown);
-    candidate_source_.push_back(source);
-  }
+  if (rrr_->numCandidates() > index) candidate_source_.push_back(source);
   if (rrr_->numCandidates() > index && std::min(from, to) < first && std::max(from, to) >= first) {
     crossing_.push_back({index, std::max(from, to)});
   }
@@ -329,6 +339,7 @@ bool LaserSlam::tied() const {
 bool LaserSlam::placed() const { return acceptedCrossingSpread() >= 0.0; }
 
 void LaserSlam::finish() {
+  adoptCandidatesFromOutside();
   const auto start = std::chrono::steady_clock::now();
   rrr_->finish();
   stats_.rrr_seconds += secondsSince(start);

@@ -101,8 +101,9 @@ MapSnapshot LaserSlam::snapshot() const {
       out.cluster = row.cluster;
       out.reason = row.reason;
       const std::size_t index = candidate - 1;
+      // Candidates RRR took from outside since the last scan are not adopted yet.
       out.source =
-          index < candidate_source_.size() ? candidate_source_[index] : LoopSource::kUnknown;
+          index < candidate_source_.size() ? candidate_source_[index] : LoopSource::kExternal;
     }
     map.edges.push_back(std::move(out));
   }

@@ -468,7 +468,7 @@ void Rrr::holdGoodMap() {
 }
 
 void Rrr::factorGoodMap() {
-  const Step step(*this, "good map");
+  const Step step(*this, "good map factorization");
   holdGoodMap();
   // Otherwise one undamped factorization at the solution; where that optimization ends damped
   // (at its iteration limit: ringCity with aliased groups), a factorization where it stopped.

@@ -503,7 +503,8 @@ def aliasing_summary(rows):
                 f"smallest of its graph, group size and seed): " + tally(
                     larger, lambda p: time_of(p[0]) > time_of(p[1]) * p[0].count / p[1].count,
                     lambda p: f"{p[0].graph} g{p[0].group_size} s{p[0].seed} {p[0].count} "
-                              f"({time_of(p[0]):.2f} s = {time_of(p[0]) / time_of(p[1]):.1f}x the "
+                              f"({time_of(p[0]):.2f} s = "
+                              f"{time_of(p[0]) / max(time_of(p[1]), 1e-3):.1f}x the "
                               f"{p[1].count}'s {time_of(p[1]):.2f} s for "
                               f"{p[0].count / p[1].count:.1f}x the outliers)"))
     city = [r for r in rows if (r.graph, r.group_size, r.count) == ("city10000", 20, 2000)]

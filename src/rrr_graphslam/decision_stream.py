@@ -139,14 +139,23 @@ class VerdictChange:
 
 def candidate_histories(rows: Sequence[StreamRow]) -> Dict[int, List[VerdictChange]]:
     """Per candidate, the verdicts it went through and when, counted from its arrival: its
-    arrival verdict first (at 0 nodes, 0 s), then every change, the end of the run's included."""
+    arrival verdict first (at 0 nodes, 0 s), then every change, the end of the run's included.
+    ValueError for a stream that changes a candidate's verdict before it arrived (a row whose
+    previous verdict differs from its verdict) or from another verdict than it last had."""
     histories: Dict[int, List[VerdictChange]] = {}
     arrival: Dict[int, StreamRow] = {}
     for r in rows:
-        a = arrival.setdefault(r.candidate, r)
-        if r is a:
+        a = arrival.get(r.candidate)
+        if a is None:
+            if r.previous != r.verdict:
+                raise ValueError(f"candidate {r.candidate} changes {r.previous} -> {r.verdict} "
+                                 f"before its arrival")
+            arrival[r.candidate] = r
             histories[r.candidate] = [VerdictChange(r.verdict, 0, 0.0, r.final)]
         elif r.previous != r.verdict:
+            if r.previous != histories[r.candidate][-1].verdict:
+                raise ValueError(f"candidate {r.candidate} changes from {r.previous}, but its "
+                                 f"verdict was {histories[r.candidate][-1].verdict}")
             histories[r.candidate].append(
                 VerdictChange(r.verdict, r.nodes - a.nodes, r.stamp - a.stamp, r.final))
     return histories

@@ -2,6 +2,7 @@
 // rrr_slam_offline's command line: its flags (the front end's parameter table under the ROS
 // names, RRR's, the older flags still accepted), the usage text, and the checks between flags.
 
+#include <algorithm>
 #include <cmath>
 #include <optional>
 #include <stdexcept>
@@ -370,6 +371,17 @@ inline Arguments parseArguments(int argc, char** argv) {
     cli.fail(
         "--trim-every-n-nodes needs --sparsification clt: deletion would drop the running "
         "session's loops to the map with the trimmed nodes");
+  }
+  // A rule's threshold without its rule would be ignored: refused instead.
+  auto given = [&](const char* flag) {
+    return std::find(trim_flags.begin(), trim_flags.end(), flag) != trim_flags.end();
+  };
+  const bool fresh_area = args.trim.trim_rule == frontend::TrimRule::kFreshArea;
+  if (given("--trim-min-fresh-area") && !fresh_area) {
+    cli.fail("--trim-min-fresh-area is the fresh-area rule's: it needs --trim-rule fresh-area");
+  }
+  if (given("--trim-overlap") && fresh_area) {
+    cli.fail("--trim-overlap is the overlap-ratio rule's: not with --trim-rule fresh-area");
   }
   if (args.trim_every_n_nodes > 0 && !args.decision_stream.empty()) {
     cli.fail(

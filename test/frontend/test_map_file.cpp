@@ -16,8 +16,10 @@
 #include <iterator>
 #include <map>
 #include <random>
+#include <set>
 #include <string>
 #include <thread>
+#include <tuple>
 #include <vector>
 
 #include "rrr_graphslam/core/input_error.h"
@@ -464,6 +466,32 @@ TEST(MapFile, ANewSessionInAnotherOdometryFrameIsTiedToTheMap) {
                                  Eigen::Matrix3d::Identity()));
   const MapSnapshot more = slam->snapshot();
   EXPECT_EQ(toString(more.edges.back().source), "external");
+
+  // RRR numbers candidates by their newest end once a map is loaded again, not by arrival: one
+  // given late between two early nodes moves ahead of the session's loops. Another taken by RRR
+  // directly (as the ROS node's loop_candidates topic does in scan mode) is external too.
+  ASSERT_TRUE(slam->addCandidate(10, 40, core::Pose2(3.0, 0.0, 0.0), Eigen::Matrix3d::Identity(),
+                                 LoopSource::kInjected));
+  slam->rrr().addCandidate(5, static_cast<rrr::OnlineRrr::NodeId>(newest),
+                           core::Pose2(1.0, 0.0, 0.0), Eigen::Matrix3d::Identity());
+  slam->finish();
+  const MapSnapshot mixed = slam->snapshot();
+  EXPECT_EQ(mixed.edges.back().source, LoopSource::kExternal);
+  const std::string path = tempPath("mixed_sources.rrrmap");
+  writeMapFile(mixed, path);
+  const MapSnapshot again = LaserSlam::fromMap(readMapFile(path), smallMaps(), "third")->snapshot();
+  using Loop = std::tuple<int, int, LoopSource>;
+  auto loops = [](const MapSnapshot& m) {
+    std::vector<Loop> out;
+    for (const MapSnapshot::Edge& e : m.edges) {
+      if (e.kind == MapSnapshot::EdgeKind::kLoopCandidate) out.emplace_back(e.from, e.to, e.source);
+    }
+    return out;
+  };
+  const std::vector<Loop> before = loops(mixed), after = loops(again);
+  EXPECT_NE(before, after) << "the late candidate was expected to move ahead";
+  EXPECT_EQ(std::multiset<Loop>(before.begin(), before.end()),
+            std::multiset<Loop>(after.begin(), after.end()));
 }
 
 TEST(MapFile, LoopsAtOnePlaceWaitUntilLoopsFarEnoughApartTieTheSession) {

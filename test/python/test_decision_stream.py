@@ -51,6 +51,14 @@ def test_a_false_link_accepted_for_a_while_counts_though_the_end_rejects_it(tmp_
     assert lines[0] == "candidate\ttruth\thistory"
     assert lines[2] == "1\tfalse\tpending@0/0.000s accepted@4/0.300s rejected@119/4.400s"
     assert lines[3] == "2\tfalse\tpending@0/0.000s final:accepted@134/5.000s"
+    # A change before the arrival, or from a verdict the candidate did not have, is no history.
+    with pytest.raises(ValueError, match="before its arrival"):
+        candidate_histories(read_decision_stream(str(path))[1:])
+    broken = tmp_path / "broken.tsv"
+    broken.write_text(HEADER + row("online", 10, 0.5, 0, "pending", "pending")
+                      + row("online", 12, 0.7, 0, "accepted", "rejected"))
+    with pytest.raises(ValueError, match="its verdict was pending"):
+        candidate_histories(read_decision_stream(str(broken)))
 
 
 def test_a_malformed_stream_names_its_file_and_line(tmp_path):

@@ -78,8 +78,10 @@ class RrrGraphSlamRos(unittest.TestCase):
         histories = candidate_histories(self.replay.stream)
         self.assertEqual(set(histories), set(by_arrival))
         for arrival, history in histories.items():
-            self.assertEqual((history[0].nodes, history[0].seconds), (0, 0.0))
-            self.assertTrue(all(a.nodes <= b.nodes for a, b in zip(history, history[1:])))
+            # Each arrives pending, changes in time order, and only to another verdict.
+            self.assertEqual(history[0].verdict, "pending", history)
+            self.assertTrue(all(a.nodes <= b.nodes and a.verdict != b.verdict
+                                for a, b in zip(history, history[1:])), history)
             self.assertEqual(history[-1].verdict, by_arrival[arrival][1][1], history)
 
     def test_2_publishes_map_to_odom(self):

@@ -219,6 +219,8 @@ class LaserSlam {
   void load(const MapSnapshot& map, std::size_t finished_submaps, bool continuing = false);
   static bool trimsWhileMapping(bool tied, std::size_t sessions, const TrimParams& params);
   void searchLoops(int node, const PointCloud& points);
+  // Records the candidates RRR took without addCandidate (candidate_source_).
+  void adoptCandidatesFromOutside();
   /// Keeps a thinned copy of the node's scan while its session is not tied, over the last
   /// relocalization_check_travel_m of the path.
   void keepSessionPoints(int node, const PointCloud& points);
@@ -267,8 +269,11 @@ class LaserSlam {
     int session_node;  // its end in this session
   };
   std::vector<Crossing> crossing_;
-  std::vector<LoopSource> candidate_source_;  // per RRR candidate, in RRR's order
-  std::vector<double> node_travel_;           // path length from the node's session start (m)
+  // Per RRR candidate, in RRR's order. Candidates RRR took directly (rrr().addCandidate: the ROS
+  // node's loop_candidates topic in scan mode) are adopted as kExternal before each scan, each
+  // addCandidate and finish, and count toward the tie like the search's.
+  std::vector<LoopSource> candidate_source_;
+  std::vector<double> node_travel_;  // path length from the node's session start (m)
   struct KeptPoints {
     int node;
     PointCloud points;  // thinned, in the node's frame

@@ -39,7 +39,7 @@ constexpr std::uint32_t kMapFormatVersion = 4;
 /// Which search proposed a loop candidate.
 enum class LoopSource : std::uint8_t {
   kUnknown = 0,         ///< a map written before version 4
-  kLocalSearch = 1,     ///< a window around the node's estimated pose in the submap
+  kLocalSearch = 1,     ///< a window around the node's estimated (or hinted) pose in the submap
   kWholeMapSearch = 2,  ///< relocalization: the whole submap, every rotation (an untied session)
   kInjected = 3,        ///< a false loop a test or benchmark added (rrr_slam_offline --false-loops)
   kExternal = 4,        ///< given from outside the loop search (LaserSlam::addCandidate)
