@@ -677,7 +677,13 @@ def test_lifelong_flags_are_checked(tmp_path):
             (("--lifelong", "--save-map", out, "--trim-every-n-nodes", 10, "--sparsification", "delete"),
              "--trim-every-n-nodes needs --sparsification clt"),
             (("--lifelong", "--save-map", out, "--trim-every-n-nodes", 10, "--decision-stream",
-              tmp_path / "s.tsv"), "cannot be combined with --decision-stream")):
+              tmp_path / "s.tsv"), "cannot be combined with --decision-stream"),
+            (("--lifelong", "--save-map", out, "--trim-rule", "fresh"), "--trim-rule"),
+            (("--lifelong", "--save-map", out, "--trim-min-fresh-area", 10),
+             "--trim-min-fresh-area is the fresh-area rule's: it needs --trim-rule fresh-area"),
+            (("--lifelong", "--save-map", out, "--trim-rule", "fresh-area", "--trim-overlap", 0.5),
+             "--trim-overlap is the overlap-ratio rule's: not with --trim-rule fresh-area"),
+            (("--trim-rule", "fresh-area", "--save-map", out), "--trim-rule needs --lifelong")):
         result = run(SLAM_OFFLINE, ACES_HEAD, *args)
         assert result.returncode != 0 and message in result.stderr, (args, result.stderr)
 
