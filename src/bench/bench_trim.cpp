@@ -67,6 +67,7 @@ int main(int argc, char** argv) {
   const rrr_graphslam::tools::CommandLine cli(argc, argv, "rrr_bench_trim", kUsage);
   Options options;
   options.trim.report_kl = true;
+  bool overlap_given = false, fresh_area_given = false;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--sparsification") {
@@ -77,6 +78,7 @@ int main(int argc, char** argv) {
       }
     } else if (a == "--trim-overlap") {
       options.trim.trim_overlap_ratio = cli.number(a, cli.value(i, a), 1e-6, 1.0);
+      overlap_given = true;
     } else if (a == "--trim-rule") {
       try {
         options.trim.trim_rule = frontend::parseTrimRule(cli.value(i, a));
@@ -85,6 +87,7 @@ int main(int argc, char** argv) {
       }
     } else if (a == "--trim-min-fresh-area") {
       options.trim.trim_min_fresh_area_m2 = cli.number(a, cli.value(i, a), 0.0, 1e12);
+      fresh_area_given = true;
     } else if (a == "--keep-recent-submaps") {
       options.trim.keep_recent_submaps = static_cast<int>(cli.integer(a, cli.value(i, a), 1, 1e9));
     } else if (a == "--keep-current-session") {
@@ -106,6 +109,11 @@ int main(int argc, char** argv) {
     }
   }
   if (options.maps.empty()) cli.fail("no map given");
+  // A rule's threshold without its rule would be ignored: refused, as rrr_slam_offline does.
+  const bool fresh_area = options.trim.trim_rule == frontend::TrimRule::kFreshArea;
+  if (fresh_area_given && !fresh_area)
+    cli.fail("--trim-min-fresh-area needs --trim-rule fresh-area");
+  if (overlap_given && fresh_area) cli.fail("--trim-overlap is not with --trim-rule fresh-area");
   try {
     frontend::validate(options.trim);
     const frontend::SubmapParams submap = frontend::LaserSlamParams{}.local.submap;

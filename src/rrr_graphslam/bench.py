@@ -19,7 +19,8 @@ import sys
 import time
 from typing import NamedTuple, Optional
 
-from .decision_stream import OnlineScore, percentile, read_decision_stream, score_stream
+from .decision_stream import (OnlineScore, candidate_histories, percentile, read_decision_stream,
+                              score_stream, write_histories)
 from .evaluation import (MapHarm, Score, map_harm, read_decisions, read_ground_truth_poses,
                          read_truth, score)
 from .graph_io import read_graph, write_graph, write_text_atomically
@@ -227,7 +228,11 @@ def main(argv=None):
         online = None
         if streaming:
             d = read_decisions(decisions)
-            online = score_stream(read_decision_stream(stream), read_truth(truth, d))
+            stream_rows, labels = read_decision_stream(stream), read_truth(truth, d)
+            online = score_stream(stream_rows, labels)
+            # Each candidate's verdicts and when, beside the stream (STREAM.history.tsv).
+            write_histories(stream[:-len(".tsv")] + ".history.tsv",
+                            candidate_histories(stream_rows), labels)
         worst["precision"] = min(worst["precision"], s.precision)
         worst["recall"] = min(worst["recall"], s.recall)
         harm = synthetic_map_harm(args.data, args.cache, optimizer, harm_of,

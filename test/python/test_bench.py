@@ -182,13 +182,16 @@ def test_verifiers_table_runs_every_verifier_on_the_same_input(tmp_path):
 
 
 def test_incremental_runs_are_scored_as_their_decisions_were_made(tmp_path):
-    lines, calls, _ = fake_bench(tmp_path, "g:random:4", "--baseline")
+    lines, calls, cache = fake_bench(tmp_path, "g:random:4", "--baseline")
     assert "--decision-stream" in calls[0] and "--mode incremental" in calls[0]
     assert "| g random 4 | 1 (2) | 0 | 190 | 1 | 0 | 3 / 5 / 5 | 0.100 | 0 |" in lines
     assert "  no false link accepted for longer than 100 nodes: 0 of 1; not: g random 4 (1, " \
            "longest 190)" in lines
     assert "  transient false accepts at most 1% of the outliers: 0 of 1; not: g random 4 (1 of 2)" \
            in lines
+    # Beside the stream, each candidate's verdicts and when (nodes, seconds after its arrival).
+    history = (cache / "g_random4_s1_gated.g2o.incremental.stream.history.tsv").read_text().splitlines()
+    assert history[3] == "2\tfalse\tpending@0/0.000s accepted@3/0.100s rejected@193/0.200s"
 
 
 def test_aliasing_pairs_each_aliased_input_with_random_outliers_of_its_count_and_seed(tmp_path):
