@@ -347,12 +347,36 @@ bool Rrr::leaveOneOutCheck() {
       conflicting_index.push_back(index[i]);
     }
   }
-  if (conflicting.empty()) return false;
+  if (conflicting.empty())
+    return params_.loo_joint_min_index > 0.0 && jointLeaveOut(examined, index);
   for (std::size_t i = 0; i < conflicting.size(); ++i) {
     setStatus(conflicting[i], Status::kRejected,
               "leave-one-out: " + indexTest("index", conflicting_index[i]));
   }
   optimizeGoodMap();
+  return true;
+}
+
+bool Rrr::jointLeaveOut(const std::vector<int>& examined, const std::vector<double>& index) {
+  std::vector<int> suspects, together;
+  std::size_t worst = 0;
+  for (std::size_t i = 0; i < examined.size(); ++i) {
+    if (index[i] < params_.loo_joint_min_index) continue;
+    if (suspects.empty() || index[i] > index[worst]) worst = i;
+    suspects.push_back(examined[i]);
+    const auto& kept = kept_links_[static_cast<std::size_t>(examined[i])];
+    together.insert(together.end(), kept.begin(), kept.end());
+  }
+  if (suspects.size() < 2) return false;
+  const double joint = leaveOneOutIndices(graph_, {&together}, base_, params_.alpha).front();
+  if (joint < 1.0) return false;
+  setStatus(examined[worst], Status::kRejected,
+            "joint leave-out: " + indexTest("index", joint) + " with " +
+                std::to_string(suspects.size()) + " clusters left out together, " +
+                indexTest("its own", index[worst]));
+  optimizeGoodMap();
+  // The others are examined again against the map without it.
+  leaveOneOutCheck();
   return true;
 }
 

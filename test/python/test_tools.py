@@ -87,6 +87,28 @@ def test_offline_profile_names_the_steps_where_the_time_went(spoiled):
 
 
 @needs_binaries
+def test_joint_leave_out_rejects_two_false_groups_that_mask_each_other(tmp_path):
+    # M3500 + 100 aliased (groups of 10), seed 3, gated as the bench makes it: two false groups
+    # each hold the other's bend, so the leave-one-out check keeps both; left out together they
+    # fail (doc/rrr_extensions.md#joint-leave-out).
+    from rrr_graphslam.bench import synthetic_input
+    graph, truth = synthetic_input(DATA, str(tmp_path), OPTIMIZE, "manhattanOlson3500_olson", "aliased",
+                                   100, seed=3)
+    false_accepted = {}
+    for label, extra in (("off", ()), ("on", ("--loo-joint-min-index", 0.2))):
+        decisions = tmp_path / f"{label}.tsv"
+        result = run(OFFLINE, graph, "--decisions", decisions, "--quiet", *extra)
+        assert result.returncode == 0, result.stderr
+        rows = read_decisions(str(decisions))
+        labels = read_truth(truth, rows)
+        false_accepted[label] = [d for d, t in zip(rows, labels) if d.verdict == "accepted" and t is False]
+        if label == "on":
+            assert any(d.reason.startswith("joint leave-out: ") for d in rows)
+    assert false_accepted["off"], "the default now rejects them: the case no longer shows masking"
+    assert false_accepted["on"] == []
+
+
+@needs_binaries
 def test_paper_preset_and_parameter_flags(spoiled):
     folder, path = spoiled
     decisions = folder / "paper.tsv"

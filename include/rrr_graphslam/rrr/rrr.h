@@ -222,6 +222,10 @@ class Rrr {
   /// are examined, and the large ones (far_retry_min_links): a large cluster pulls the map onto
   /// itself, so its own residual says little. Returns true if a cluster was rejected.
   bool leaveOneOutCheck();
+  /// loo_joint_min_index: the examined clusters whose leave-one-out `index` is at least it, left
+  /// out together (their links as one set); if that fails, the one of the highest own index is
+  /// rejected and leaveOneOutCheck() runs again. Returns true if a cluster was rejected.
+  bool jointLeaveOut(const std::vector<int>& examined, const std::vector<double>& index);
   /// joint_link_check: the intra test's link rule (D^2_l >= chi2(alpha, 3) is dropped) applied
   /// again at the good set's joint solution: a false link inside a true cluster can pass the
   /// cluster's own test, where the odometry between its ends bends to meet it, yet not the map

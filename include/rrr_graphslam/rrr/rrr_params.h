@@ -77,6 +77,12 @@ struct RrrParams {
   /// The leave-one-out check examines good clusters whose own consistency index is at least this,
   /// and those of far_retry_min_links links or more; default 0.1 (0 examines all).
   double loo_min_index = 0.1;
+  /// Joint leave-out: after the leave-one-out check rejects nothing, the examined clusters whose
+  /// leave-one-out index is at least this are left out together; if their joint index reaches 1,
+  /// the one of the highest own leave-one-out index is rejected and the check runs again (two
+  /// false groups can each hold the other's bend, so that neither fails alone). 0 (default,
+  /// paper): off.
+  double loo_joint_min_index = 0.0;
   /// After a batch decision, links of good clusters that fail the per-link chi-square test at
   /// the good set's joint solution are dropped; default true.
   bool joint_link_check = true;
@@ -202,6 +208,9 @@ void forEachParam(Params& p, F&& f) {
   f(ParamInfo{"loo_min_index", 0, kInf,
               "the leave-one-out check examines clusters from this index"},
     p.loo_min_index);
+  f(ParamInfo{"loo_joint_min_index", 0, 1,
+              "clusters of this leave-one-out index and more are also left out together (0: off)"},
+    p.loo_joint_min_index);
   f(ParamInfo{"joint_link_check", 0, 1, "drop links failing their test at the joint solution"},
     p.joint_link_check);
   f(ParamInfo{"place_sessions", 0, 1,
