@@ -272,14 +272,18 @@ MapAgreement LaserSlam::sessionAgreement(const LoopMatch& loop,
   return mapAgreement(map, points, params_.loops.agreement);
 }
 
-void LaserSlam::adoptCandidatesFromOutside() {
+void LaserSlam::noteCrossing(int candidate) {
   const int first = sessions_.back().first_node;
+  const rrr::LoopCandidate& c = rrr_->candidate(candidate);  // dense node indices
+  if (std::min(c.from, c.to) < first && std::max(c.from, c.to) >= first) {
+    crossing_.push_back({candidate, std::max(c.from, c.to)});
+  }
+}
+
+void LaserSlam::adoptCandidatesFromOutside() {
   for (int k = static_cast<int>(candidate_source_.size()); k < rrr_->numCandidates(); ++k) {
     candidate_source_.push_back(LoopSource::kExternal);
-    const rrr::LoopCandidate& c = rrr_->candidate(k);
-    if (std::min(c.from, c.to) < first && std::max(c.from, c.to) >= first) {
-      crossing_.push_back({k, std::max(c.from, c.to)});
-    }
+    noteCrossing(k);
   }
 }
 
@@ -287,7 +291,6 @@ bool LaserSlam::addCandidate(int from, int to, const core::Pose2& measurement,
                              const Eigen::Matrix3d& information, LoopSource source) {
   adoptCandidatesFromOutside();
   const auto rrr_start = std::chrono::steady_clock::now();
-  const int first = sessions_.back().first_node;
   const int index = rrr_->numCandidates();
   const int nodes = rrr_->numNodes();
   if (from < 0 || to < 0 || from >= nodes || to >= nodes) {  // RRR would wait for them
@@ -302,9 +305,9 @@ bool LaserSlam::addCandidate(int from, int to, const core::Pose2& measurement,
     ++stats_.refused_candidates;
     return false;
   }
-  if (rrr_->numCandidates() > index) candidate_source_.push_back(source);
-  if (rrr_->numCandidates() > index && std::min(from, to) < first && std::max(from, to) >= first) {
-    crossing_.push_back({index, std::max(from, to)});
+  if (rrr_->numCandidates() > index) {
+    candidate_source_.push_back(source);
+    noteCrossing(index);
   }
   stats_.rrr_seconds += secondsSince(rrr_start);
   ++stats_.candidates;

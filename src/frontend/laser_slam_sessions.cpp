@@ -441,13 +441,7 @@ LaserSlam::Trimmed LaserSlam::trimmed(const Checkpoint& c, const TrimParams& par
   // The loops between the current session and the earlier ones, in arrival order: those of open
   // clusters all kept (they hold their submaps back); accepted ones of closed clusters may now be
   // part of marginal constraints, which tie the session for good.
-  for (int i = 0; i < slam->rrr_->numCandidates(); ++i) {
-    const rrr::LoopCandidate& loop = slam->rrr_->candidate(i);
-    const int a = loop.from;  // dense indices: node k is the k-th node
-    const int b = loop.to;
-    if (std::min(a, b) < first && std::max(a, b) >= first)
-      slam->crossing_.push_back({i, std::max(a, b)});
-  }
+  for (int i = 0; i < slam->rrr_->numCandidates(); ++i) slam->noteCrossing(i);
   // Accepted loops between the session and the map leave only folded into marginal constraints.
   auto acceptedCrossing = [](const MapSnapshot& m) {
     const int session_first = m.sessions.back().first_node;

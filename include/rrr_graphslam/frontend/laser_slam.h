@@ -221,6 +221,8 @@ class LaserSlam {
   void searchLoops(int node, const PointCloud& points);
   // Records the candidates RRR took without addCandidate (candidate_source_).
   void adoptCandidatesFromOutside();
+  // Adds RRR's candidate to crossing_ if it joins the current session to an earlier one.
+  void noteCrossing(int candidate);
   /// Keeps a thinned copy of the node's scan while its session is not tied, over the last
   /// relocalization_check_travel_m of the path.
   void keepSessionPoints(int node, const PointCloud& points);
