@@ -40,25 +40,6 @@ void checkMarginal(const Marginal& marginal) {
   }
 }
 
-// Connected pieces of the blanket: nodes coupled by a nonzero block of the marginal. Each
-// piece's members in blanket order; the first is its root.
-std::vector<std::vector<std::size_t>> blanketPieces(const Marginal& marginal) {
-  const std::size_t n = marginal.blanket.size();
-  UnionFind pieces(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    for (std::size_t j = i + 1; j < n; ++j) {
-      const auto a = static_cast<Eigen::Index>(3 * i), b = static_cast<Eigen::Index>(3 * j);
-      if (!marginal.information.block<3, 3>(a, b).isZero(0.0)) pieces.unite(i, j);
-    }
-  }
-  std::vector<std::vector<std::size_t>> members(n);
-  for (std::size_t i = 0; i < n; ++i) members[pieces.find(i)].push_back(i);
-  members.erase(std::remove_if(members.begin(), members.end(),
-                               [](const std::vector<std::size_t>& m) { return m.empty(); }),
-                members.end());
-  return members;
-}
-
 // Gauge: each piece anchored at its root, the others' joint covariance the inverse of their
 // information (the roots keep zero rows and columns).
 Eigen::MatrixXd anchoredCovariance(const Marginal& marginal,

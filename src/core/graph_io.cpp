@@ -20,6 +20,8 @@ namespace {
 
 using NodeId = PoseGraph::NodeId;
 
+constexpr const char* kDenseTag = "RRR_DENSE_SE2";
+
 struct ParsedEdge {
   NodeId from;
   NodeId to;
@@ -116,6 +118,50 @@ std::string describeRange(const std::vector<NodeId>& ids) {
   return text + "} (" + std::to_string(ids.size()) + (ids.size() == 1 ? " node)" : " nodes)");
 }
 
+// One dense factor's line (graph_io.h): tag, node count, nodes, measurements, mean, the
+// information's upper triangle row by row, the offset.
+void writeDenseFactor(const DenseFactor& f, std::ostream& out) {
+  out << kDenseTag << ' ' << f.nodes.size();
+  for (NodeId id : f.nodes) out << ' ' << id;
+  for (const Pose2& y : f.measurements) {
+    out << ' ' << formatNumber(y.x()) << ' ' << formatNumber(y.y()) << ' ' << formatNumber(y.z());
+  }
+  for (Eigen::Index r = 0; r < f.mean.size(); ++r) out << ' ' << formatNumber(f.mean(r));
+  for (Eigen::Index r = 0; r < f.information.rows(); ++r) {
+    for (Eigen::Index c = r; c < f.information.cols(); ++c) {
+      out << ' ' << formatNumber(f.information(r, c));
+    }
+  }
+  out << ' ' << formatNumber(f.chi2_offset) << '\n';
+}
+
+DenseFactor readDenseFactor(const LineParser& parse) {
+  parse.expectAtLeast(1, "a node count");
+  const std::uint64_t n = parse.unsignedInteger(1, "the node count (an integer of at least 2)");
+  if (n < 2 || n > parse.size()) {
+    parse.fail("node count " + std::to_string(n) + " is not one of a dense factor (2 or more)");
+  }
+  const std::size_t k = static_cast<std::size_t>(n) - 1, rows = 3 * k;
+  parse.expectCount(1 + n + 3 * k + rows + rows * (rows + 1) / 2 + 1);
+  DenseFactor f;
+  std::size_t at = 2;
+  for (std::size_t i = 0; i < n; ++i) f.nodes.push_back(nodeId(parse, at++));
+  for (std::size_t a = 0; a < k; ++a, at += 3) f.measurements.push_back(parse.pose(at));
+  f.mean.resize(static_cast<Eigen::Index>(rows));
+  for (std::size_t r = 0; r < rows; ++r) f.mean(static_cast<Eigen::Index>(r)) = parse.number(at++);
+  f.information.resize(static_cast<Eigen::Index>(rows), static_cast<Eigen::Index>(rows));
+  for (std::size_t r = 0; r < rows; ++r) {
+    for (std::size_t c = r; c < rows; ++c) {
+      const auto i = static_cast<Eigen::Index>(r), j = static_cast<Eigen::Index>(c);
+      f.information(i, j) = f.information(j, i) = parse.number(at++);
+    }
+  }
+  f.chi2_offset = parse.number(at);
+  const std::string problem = denseFactorProblem(f);
+  if (!problem.empty()) parse.fail("dense factor: " + problem);
+  return f;
+}
+
 }  // namespace
 
 GraphFormat formatFromPath(const std::string& path) {
@@ -143,6 +189,7 @@ PoseGraph readPoseGraph(const std::string& path, const GraphReadOptions& options
   PoseGraph graph;
   std::unordered_map<NodeId, std::size_t> vertex_line;
   std::vector<ParsedEdge> edges;
+  std::vector<std::pair<DenseFactor, std::size_t>> dense;  // with its line
   std::string line;
   while (reader.next(line)) {
     const auto fields = splitFields(line);
@@ -171,9 +218,11 @@ PoseGraph readPoseGraph(const std::string& path, const GraphReadOptions& options
       e.information = information(parse, tag, 6, tag == "EDGE_SE2" ? kG2oOrder : kToroOrder);
       e.line = reader.lineNumber();
       edges.push_back(e);
+    } else if (tag == kDenseTag) {
+      dense.emplace_back(readDenseFactor(parse), reader.lineNumber());
     } else {
       parse.fail("unknown tag '" + std::string(tag) +
-                 "' (expected VERTEX_SE2, EDGE_SE2, VERTEX2 or EDGE2)");
+                 "' (expected VERTEX_SE2, EDGE_SE2, VERTEX2, EDGE2 or " + kDenseTag + ")");
     }
   }
 
@@ -188,6 +237,14 @@ PoseGraph readPoseGraph(const std::string& path, const GraphReadOptions& options
     }
     graph.addEdge(e.from, e.to, e.measurement, e.information, PoseGraph::defaultKind(e.from, e.to));
   }
+  for (auto& [factor, at] : dense) {
+    for (NodeId id : factor.nodes) {
+      if (!graph.hasNode(id)) {
+        throw InputError(path, at, "dense factor refers to unknown node " + std::to_string(id));
+      }
+    }
+    graph.addDenseFactor(std::move(factor));
+  }
   if (graph.numNodes() == 0) throw InputError(path, 0, "no vertices or edges in the file");
   if (!options.allow_disconnected && graph.connectedComponents().size() > 1) {
     throw InputError(path, 0, "graph is disconnected: " + describeComponents(graph));
@@ -197,6 +254,13 @@ PoseGraph readPoseGraph(const std::string& path, const GraphReadOptions& options
 
 void writePoseGraph(const PoseGraph& graph, std::ostream& out, GraphFormat format) {
   const bool g2o = format == GraphFormat::kG2o;
+  if (!g2o && !graph.denseFactors().empty()) {
+    throw std::invalid_argument(
+        "the graph holds " + std::to_string(graph.denseFactors().size()) +
+        " dense factors (lifelong trimming with sparsification dense), which TORO files cannot "
+        "hold (g2o files can, as " +
+        std::string(kDenseTag) + " lines): nothing was written");
+  }
   for (NodeId id : graph.nodeIds()) {
     const Pose2 p = graph.pose(id);
     out << (g2o ? "VERTEX_SE2 " : "VERTEX2 ") << id << ' ' << formatNumber(p.x()) << ' '
@@ -212,6 +276,7 @@ void writePoseGraph(const PoseGraph& graph, std::ostream& out, GraphFormat forma
     for (const auto& rc : order) out << ' ' << formatNumber(info(rc[0], rc[1]));
     out << '\n';
   }
+  for (const DenseFactor& f : graph.denseFactors()) writeDenseFactor(f, out);
 }
 
 void writePoseGraph(const PoseGraph& graph, const std::string& path, GraphFormat format) {

@@ -9,6 +9,13 @@ namespace rrr_graphslam::core {
 QuadraticModel linearizeConstraints(const std::vector<PoseConstraint>& constraints,
                                     const std::vector<NodeId>& nodes,
                                     const std::vector<Pose2>& poses) {
+  return linearizeConstraints(constraints, {}, nodes, poses);
+}
+
+QuadraticModel linearizeConstraints(const std::vector<PoseConstraint>& constraints,
+                                    const std::vector<DenseFactor>& factors,
+                                    const std::vector<NodeId>& nodes,
+                                    const std::vector<Pose2>& poses) {
   if (poses.size() != nodes.size()) {
     throw std::invalid_argument("linearizeConstraints: " + std::to_string(nodes.size()) +
                                 " nodes but " + std::to_string(poses.size()) + " poses");
@@ -42,6 +49,31 @@ QuadraticModel linearizeConstraints(const std::vector<PoseConstraint>& constrain
     model.gradient.segment<3>(3 * a) += lin.J_from.transpose() * omega * lin.error;
     model.gradient.segment<3>(3 * b) += lin.J_to.transpose() * omega * lin.error;
     model.chi2_at_linearization += lin.error.dot(omega * lin.error);
+  }
+  for (std::size_t f = 0; f < factors.size(); ++f) {
+    const DenseFactor& factor = factors[f];
+    std::vector<Eigen::Index> at;
+    std::vector<Pose2> factor_poses;
+    for (NodeId id : factor.nodes) {
+      const auto it = index.find(id);
+      if (it == index.end()) {
+        throw std::invalid_argument("linearizeConstraints: dense factor " + std::to_string(f) +
+                                    " holds node " + std::to_string(id) +
+                                    ", which is not among the nodes given");
+      }
+      at.push_back(it->second);
+      factor_poses.push_back(poses[static_cast<std::size_t>(it->second)]);
+    }
+    const DenseFactorLinearization lin = linearize(factor, factor_poses);
+    for (std::size_t i = 0; i < at.size(); ++i) {
+      const auto fi = static_cast<Eigen::Index>(3 * i);
+      model.gradient.segment<3>(3 * at[i]) += lin.gradient.segment<3>(fi);
+      for (std::size_t j = 0; j < at.size(); ++j) {
+        model.information.block<3, 3>(3 * at[i], 3 * at[j]) +=
+            lin.information.block<3, 3>(fi, static_cast<Eigen::Index>(3 * j));
+      }
+    }
+    model.chi2_at_linearization += lin.chi2;
   }
   return model;
 }

@@ -25,6 +25,8 @@ struct LocalProblem {
   std::vector<Pose2> blanket_poses;
   std::vector<std::size_t> constraint_indices;  // into the caller's constraints
   std::vector<PoseConstraint> constraints;      // the constraints touching M
+  std::vector<std::size_t> factor_indices;      // into the caller's dense factors
+  std::vector<DenseFactor> factors;             // the dense factors holding a node of M
 };
 
 std::string invalid(const std::string& what) { return "marginalizeNodes: " + what; }
@@ -36,6 +38,7 @@ std::string describe(std::size_t k, const PoseConstraint& c) {
 
 // Markov blanket: checks the input and collects M, B and the constraints touching M.
 LocalProblem markovBlanket(const std::vector<PoseConstraint>& constraints,
+                           const std::vector<DenseFactor>& factors,
                            const std::map<NodeId, Pose2>& poses,
                            const std::vector<NodeId>& removed) {
   LocalProblem p;
@@ -91,6 +94,23 @@ LocalProblem markovBlanket(const std::vector<PoseConstraint>& constraints,
     p.constraint_indices.push_back(k);
     p.constraints.push_back(c);
   }
+  for (std::size_t f = 0; f < factors.size(); ++f) {
+    const DenseFactor& factor = factors[f];
+    if (std::none_of(factor.nodes.begin(), factor.nodes.end(), isRemoved)) continue;
+    const std::string problem = denseFactorProblem(factor);
+    if (!problem.empty()) {
+      throw std::invalid_argument(invalid("dense factor " + std::to_string(f) + ": " + problem));
+    }
+    for (NodeId id : factor.nodes) {
+      if (poses.count(id) == 0) {
+        throw std::invalid_argument(invalid("dense factor " + std::to_string(f) + " holds node " +
+                                            std::to_string(id) + ", which has no pose"));
+      }
+      if (!isRemoved(id)) p.blanket.push_back(id);
+    }
+    p.factor_indices.push_back(f);
+    p.factors.push_back(factor);
+  }
   std::sort(p.blanket.begin(), p.blanket.end());
   p.blanket.erase(std::unique(p.blanket.begin(), p.blanket.end()), p.blanket.end());
   for (NodeId id : p.blanket) p.blanket_poses.push_back(poseOf(id));
@@ -106,6 +126,9 @@ LocalProblem markovBlanket(const std::vector<PoseConstraint>& constraints,
   };
   UnionFind pieces(m + p.blanket.size());
   for (const PoseConstraint& c : p.constraints) pieces.unite(local(c.from), local(c.to));
+  for (const DenseFactor& f : p.factors) {
+    for (NodeId id : f.nodes) pieces.unite(local(f.nodes.front()), local(id));
+  }
   std::vector<char> reaches_blanket(m + p.blanket.size(), 0);
   for (std::size_t j = 0; j < p.blanket.size(); ++j) reaches_blanket[pieces.find(m + j)] = 1;
   for (std::size_t i = 0; i < m; ++i) {
@@ -129,6 +152,7 @@ Marginal makeMarginal(LocalProblem&& p, const Eigen::MatrixXd& information,
   out.chi2_at_linearization = chi2;
   out.removed_nodes = std::move(p.removed);
   out.removed_constraints = std::move(p.constraint_indices);
+  out.removed_factors = std::move(p.factor_indices);
   out.blanket = std::move(p.blanket);
   out.linearization_point = std::move(p.blanket_poses);
   return out;
@@ -143,7 +167,14 @@ const char* const kNotPositiveDefinite =
 Marginal marginalizeNodes(const std::vector<PoseConstraint>& constraints,
                           const std::map<NodeId, Pose2>& poses,
                           const std::vector<NodeId>& removed) {
-  LocalProblem p = markovBlanket(constraints, poses, removed);
+  return marginalizeNodes(constraints, {}, poses, removed);
+}
+
+Marginal marginalizeNodes(const std::vector<PoseConstraint>& constraints,
+                          const std::vector<DenseFactor>& factors,
+                          const std::map<NodeId, Pose2>& poses,
+                          const std::vector<NodeId>& removed) {
+  LocalProblem p = markovBlanket(constraints, factors, poses, removed);
   const auto m = static_cast<Eigen::Index>(p.removed.size());
   const auto b = static_cast<Eigen::Index>(p.blanket.size());
 
@@ -164,6 +195,26 @@ Marginal marginalizeNodes(const std::vector<PoseConstraint>& constraints,
     return End{false, std::lower_bound(p.blanket.begin(), p.blanket.end(), id) - p.blanket.begin(),
                &J};
   };
+  // Block (row, col) of Lambda into its part: MM (upper triangle), MB, BB (BM is MB^T).
+  auto addBlock = [&](const End& row, const End& col, const Eigen::Matrix3d& block) {
+    if (row.removed && col.removed) {
+      for (int r = 0; r < 3; ++r) {
+        for (int q = 0; q < 3; ++q) {
+          const Eigen::Index i = 3 * row.index + r, j = 3 * col.index + q;
+          if (i <= j) mm.emplace_back(static_cast<int>(i), static_cast<int>(j), block(r, q));
+        }
+      }
+    } else if (row.removed) {
+      for (int r = 0; r < 3; ++r) {
+        for (int q = 0; q < 3; ++q) {
+          mb.emplace_back(static_cast<int>(3 * row.index + r), static_cast<int>(3 * col.index + q),
+                          block(r, q));
+        }
+      }
+    } else if (!col.removed) {
+      lambda_bb.block<3, 3>(3 * row.index, 3 * col.index) += block;
+    }  // (blanket, removed) is Lambda_BM = Lambda_MB^T: not stored
+  };
   for (const PoseConstraint& c : p.constraints) {
     const EdgeLinearization lin = linearizeEdge(poses.at(c.from), poses.at(c.to), c.measurement);
     const std::array<End, 2> ends{endOf(c.from, lin.J_from), endOf(c.to, lin.J_to)};
@@ -173,25 +224,23 @@ Marginal marginalizeNodes(const std::vector<PoseConstraint>& constraints,
     }
     chi2 += lin.error.dot(c.information * lin.error);
     for (const End& row : ends) {
-      for (const End& col : ends) {
-        const Eigen::Matrix3d block = row.J->transpose() * c.information * *col.J;
-        if (row.removed && col.removed) {
-          for (int r = 0; r < 3; ++r) {
-            for (int q = 0; q < 3; ++q) {
-              const Eigen::Index i = 3 * row.index + r, j = 3 * col.index + q;
-              if (i <= j) mm.emplace_back(static_cast<int>(i), static_cast<int>(j), block(r, q));
-            }
-          }
-        } else if (row.removed) {
-          for (int r = 0; r < 3; ++r) {
-            for (int q = 0; q < 3; ++q) {
-              mb.emplace_back(static_cast<int>(3 * row.index + r),
-                              static_cast<int>(3 * col.index + q), block(r, q));
-            }
-          }
-        } else if (!col.removed) {
-          lambda_bb.block<3, 3>(3 * row.index, 3 * col.index) += block;
-        }  // (blanket, removed) is Lambda_BM = Lambda_MB^T: not stored
+      for (const End& col : ends) addBlock(row, col, row.J->transpose() * c.information * *col.J);
+    }
+  }
+  const Eigen::Matrix3d identity = Eigen::Matrix3d::Identity();
+  for (const DenseFactor& f : p.factors) {
+    std::vector<Pose2> at;
+    for (NodeId id : f.nodes) at.push_back(poses.at(id));
+    const DenseFactorLinearization lin = linearize(f, at);
+    chi2 += lin.chi2;
+    std::vector<End> ends;
+    for (NodeId id : f.nodes) ends.push_back(endOf(id, identity));
+    for (std::size_t i = 0; i < ends.size(); ++i) {
+      const auto fi = static_cast<Eigen::Index>(3 * i);
+      (ends[i].removed ? g_m : g_b).segment<3>(3 * ends[i].index) += lin.gradient.segment<3>(fi);
+      for (std::size_t j = 0; j < ends.size(); ++j) {
+        addBlock(ends[i], ends[j],
+                 lin.information.block<3, 3>(fi, static_cast<Eigen::Index>(3 * j)));
       }
     }
   }
@@ -216,18 +265,25 @@ Marginal marginalizeNodes(const std::vector<PoseConstraint>& constraints,
 Marginal marginalizeNodes(const PoseGraph& graph, const std::vector<NodeId>& removed) {
   std::map<NodeId, Pose2> poses;
   for (NodeId id : graph.nodeIds()) poses.emplace(id, graph.pose(id));
-  return marginalizeNodes(constraintsOf(graph), poses, removed);
+  return marginalizeNodes(constraintsOf(graph), graph.denseFactors(), poses, removed);
 }
 
 Marginal marginalizeNodesDense(const std::vector<PoseConstraint>& constraints,
                                const std::map<NodeId, Pose2>& poses,
                                const std::vector<NodeId>& removed) {
-  LocalProblem p = markovBlanket(constraints, poses, removed);
+  return marginalizeNodesDense(constraints, {}, poses, removed);
+}
+
+Marginal marginalizeNodesDense(const std::vector<PoseConstraint>& constraints,
+                               const std::vector<DenseFactor>& factors,
+                               const std::map<NodeId, Pose2>& poses,
+                               const std::vector<NodeId>& removed) {
+  LocalProblem p = markovBlanket(constraints, factors, poses, removed);
   std::vector<NodeId> nodes = p.removed;
   nodes.insert(nodes.end(), p.blanket.begin(), p.blanket.end());
   std::vector<Pose2> at = p.removed_poses;
   at.insert(at.end(), p.blanket_poses.begin(), p.blanket_poses.end());
-  const QuadraticModel model = linearizeConstraints(p.constraints, nodes, at);
+  const QuadraticModel model = linearizeConstraints(p.constraints, p.factors, nodes, at);
 
   const auto m = static_cast<Eigen::Index>(3 * p.removed.size());
   const auto b = static_cast<Eigen::Index>(3 * p.blanket.size());
@@ -243,6 +299,23 @@ Marginal marginalizeNodesDense(const std::vector<PoseConstraint>& constraints,
   Eigen::VectorXd gradient = model.gradient.tail(b) - lambda_mb.transpose() * y;
   return makeMarginal(std::move(p), information, std::move(gradient),
                       model.chi2_at_linearization - g_m.dot(y));
+}
+
+std::vector<std::vector<std::size_t>> blanketPieces(const Marginal& marginal) {
+  const std::size_t n = marginal.blanket.size();
+  UnionFind pieces(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    for (std::size_t j = i + 1; j < n; ++j) {
+      const auto a = static_cast<Eigen::Index>(3 * i), b = static_cast<Eigen::Index>(3 * j);
+      if (!marginal.information.block<3, 3>(a, b).isZero(0.0)) pieces.unite(i, j);
+    }
+  }
+  std::vector<std::vector<std::size_t>> members(n);
+  for (std::size_t i = 0; i < n; ++i) members[pieces.find(i)].push_back(i);
+  members.erase(std::remove_if(members.begin(), members.end(),
+                               [](const std::vector<std::size_t>& m) { return m.empty(); }),
+                members.end());
+  return members;
 }
 
 double marginalChi2(const Marginal& marginal, const std::vector<Pose2>& blanket_poses) {

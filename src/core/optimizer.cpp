@@ -64,6 +64,35 @@ int Optimizer::addConstraint(int from, int to, const Pose2& measurement,
   return numConstraints() - 1;
 }
 
+int Optimizer::addDenseFactor(const std::vector<int>& nodes, const DenseFactor& factor) {
+  const std::string problem = denseFactorProblem(factor);
+  if (!problem.empty()) throw std::invalid_argument("Optimizer::addDenseFactor: " + problem);
+  if (nodes.size() != factor.nodes.size()) {
+    throw std::invalid_argument("Optimizer::addDenseFactor: " + std::to_string(nodes.size()) +
+                                " nodes for a factor over " + std::to_string(factor.nodes.size()));
+  }
+  std::vector<int> sorted = nodes;
+  std::sort(sorted.begin(), sorted.end());
+  if (sorted.front() < 0 || sorted.back() >= numNodes() ||
+      std::adjacent_find(sorted.begin(), sorted.end()) != sorted.end()) {
+    throw std::invalid_argument("Optimizer::addDenseFactor: bad node index");
+  }
+  dense_.push_back(Dense{factor, nodes, {}, {}});
+  // A new term of H: a new pattern, and no factor or covariance stands for the graph any more.
+  pattern_valid_ = false;
+  factor_valid_ = false;
+  covariance_valid_ = false;
+  return numDenseFactors() - 1;
+}
+
+double Optimizer::denseFactorChi2(int factor) const {
+  const Dense& d = dense_.at(static_cast<std::size_t>(factor));
+  std::vector<Pose2> at;
+  at.reserve(d.nodes.size());
+  for (int n : d.nodes) at.push_back(poses_[static_cast<std::size_t>(n)]);
+  return core::denseFactorChi2(d.factor, at);
+}
+
 void Optimizer::setFixed(int node, bool fixed) {
   if (static_cast<bool>(fixed_[static_cast<std::size_t>(node)]) == fixed) return;
   covariance_valid_ = false;
@@ -89,6 +118,7 @@ double Optimizer::chi2() const {
   for (int k = 0; k < numConstraints(); ++k) {
     if (active_[static_cast<std::size_t>(k)]) sum += constraintChi2(k);
   }
+  for (int f = 0; f < numDenseFactors(); ++f) sum += denseFactorChi2(f);
   return sum;
 }
 
@@ -98,6 +128,7 @@ double Optimizer::weightedChi2() const {
     if (active_[static_cast<std::size_t>(k)])
       sum += weight_[static_cast<std::size_t>(k)] * constraintChi2(k);
   }
+  for (int f = 0; f < numDenseFactors(); ++f) sum += denseFactorChi2(f);
   return sum;
 }
 
@@ -146,6 +177,16 @@ void Optimizer::rebuildPattern() {
     const int b = variable_of_node_[static_cast<std::size_t>(constraints_[k].to)];
     if (a >= 0 && b >= 0) pairs.emplace_back(a, b);
   }
+  for (const Dense& d : dense_) {  // a dense factor couples every pair of its nodes
+    for (std::size_t i = 0; i < d.nodes.size(); ++i) {
+      const int a = variable_of_node_[static_cast<std::size_t>(d.nodes[i])];
+      if (a < 0) continue;
+      for (std::size_t j = i + 1; j < d.nodes.size(); ++j) {
+        const int b = variable_of_node_[static_cast<std::size_t>(d.nodes[j])];
+        if (b >= 0) pairs.emplace_back(a, b);
+      }
+    }
+  }
   // Variables are numbered in a fill-reducing order of the nodes, so that H is assembled
   // already permuted and CHOLMOD factors it as it is. Nodes that took reserved slots are ordered
   // with the rest; a fresh reserve follows them.
@@ -172,6 +213,19 @@ void Optimizer::rebuildPattern() {
           hessian_.offDiagonalSlots(std::min(s.from_var, s.to_var), std::max(s.from_var, s.to_var));
     }
   }
+  for (Dense& d : dense_) {
+    d.vars.clear();
+    for (int n : d.nodes) d.vars.push_back(variable_of_node_[static_cast<std::size_t>(n)]);
+    d.pair_slots.clear();
+    for (std::size_t i = 0; i < d.vars.size(); ++i) {
+      for (std::size_t j = i + 1; j < d.vars.size(); ++j) {
+        const int a = d.vars[i], b = d.vars[j];
+        if (a >= 0 && b >= 0) {
+          d.pair_slots.push_back(hessian_.offDiagonalSlots(std::min(a, b), std::max(a, b)));
+        }
+      }
+    }
+  }
   // A factor that takes rank updates stays simplicial: each update would convert a supernodal
   // one, and the next factorization analyze the pattern again. Its fresh factorizations cost
   // 1.8x the supernodal ones on City10000, yet with reserved slots (most new nodes join by
@@ -194,6 +248,11 @@ void Optimizer::chooseAnchors() {
     if (active_[k])
       sets.unite(static_cast<std::size_t>(constraints_[k].from),
                  static_cast<std::size_t>(constraints_[k].to));
+  }
+  for (const Dense& d : dense_) {
+    for (int n : d.nodes) {
+      sets.unite(static_cast<std::size_t>(d.nodes.front()), static_cast<std::size_t>(n));
+    }
   }
   std::vector<char> held(poses_.size(), 0);
   for (std::size_t n = 0; n < poses_.size(); ++n) {
@@ -251,6 +310,7 @@ double Optimizer::assemble(bool with_hessian) {
       }
     }
   }
+  chi2_sum += assembleDense(with_hessian);
   const double anchor = params_.anchor_information;
   for (std::size_t a = 0; a < anchors_.size(); ++a) {
     const int n = anchors_[a];
@@ -263,6 +323,34 @@ double Optimizer::assemble(bool with_hessian) {
   if (with_hessian) {
     for (int v = used_variables_; v < num_variables_; ++v)
       hessian_.addDiagonal(v, Eigen::Matrix3d::Identity());  // free slots: step 0
+  }
+  return chi2_sum;
+}
+
+double Optimizer::assembleDense(bool with_hessian) {
+  double chi2_sum = 0.0;
+  std::vector<Pose2> at;
+  for (const Dense& d : dense_) {
+    at.clear();
+    for (int n : d.nodes) at.push_back(poses_[static_cast<std::size_t>(n)]);
+    const DenseFactorLinearization lin = linearize(d.factor, at);
+    chi2_sum += lin.chi2;
+    std::size_t pair = 0;
+    for (std::size_t i = 0; i < d.nodes.size(); ++i) {
+      const int a = d.vars[i];
+      const auto row = static_cast<Eigen::Index>(3 * i);
+      if (a >= 0) gradient_.segment<3>(3 * a) += lin.gradient.segment<3>(row);
+      if (!with_hessian) continue;
+      if (a >= 0) hessian_.addDiagonal(a, lin.information.block<3, 3>(row, row));
+      for (std::size_t j = i + 1; j < d.nodes.size(); ++j) {
+        const int b = d.vars[j];
+        if (a < 0 || b < 0) continue;
+        const Eigen::Matrix3d block =
+            lin.information.block<3, 3>(row, static_cast<Eigen::Index>(3 * j));
+        hessian_.addOffDiagonal(d.pair_slots[pair++],
+                                a < b ? block : Eigen::Matrix3d(block.transpose()));
+      }
+    }
   }
   return chi2_sum;
 }
@@ -336,6 +424,11 @@ Optimizer makeOptimizer(const PoseGraph& graph, const OptimizerParams& params) {
     const auto& e = graph.edge(k);
     optimizer.addConstraint(index_of.at(e.from), index_of.at(e.to), graph.measurement(k),
                             graph.information(k));
+  }
+  for (const DenseFactor& f : graph.denseFactors()) {
+    std::vector<int> nodes;
+    for (PoseGraph::NodeId id : f.nodes) nodes.push_back(index_of.at(id));
+    optimizer.addDenseFactor(nodes, f);
   }
   return optimizer;
 }

@@ -218,6 +218,23 @@ Eigen::SparseMatrix<double> Optimizer::informationMatrix() const {
       }
     }
   }
+  std::vector<Pose2> at;
+  for (const Dense& d : dense_) {
+    at.clear();
+    for (int n : d.nodes) at.push_back(poses_[static_cast<std::size_t>(n)]);
+    const Eigen::MatrixXd info = linearize(d.factor, at).information;
+    for (std::size_t i = 0; i < d.nodes.size(); ++i) {
+      for (std::size_t j = 0; j < d.nodes.size(); ++j) {
+        for (int r = 0; r < 3; ++r) {
+          for (int q = 0; q < 3; ++q) {
+            entries.emplace_back(
+                3 * d.nodes[i] + r, 3 * d.nodes[j] + q,
+                info(static_cast<Eigen::Index>(3 * i + r), static_cast<Eigen::Index>(3 * j + q)));
+          }
+        }
+      }
+    }
+  }
   Eigen::SparseMatrix<double> H(3 * numNodes(), 3 * numNodes());
   H.setFromTriplets(entries.begin(), entries.end());  // duplicates are summed
   return H;

@@ -4,6 +4,7 @@
 #include <stdexcept>
 #include <string>
 #include <unordered_map>
+#include <utility>
 
 #include "rrr_graphslam/core/union_find.h"
 
@@ -29,6 +30,7 @@ void PoseGraph::copyFrom(const PoseGraph& other) {
   }
   edges_ = other.edges_;
   for (Edge& e : edges_) e.storage = copy_of.at(&*e.storage);
+  dense_factors_ = other.dense_factors_;
 }
 
 EdgeKind PoseGraph::defaultKind(NodeId from, NodeId to) {
@@ -71,6 +73,17 @@ std::size_t PoseGraph::addEdge(NodeId from, NodeId to, const Pose2& measurement,
   return edges_.size() - 1;
 }
 
+std::size_t PoseGraph::addDenseFactor(DenseFactor factor) {
+  const std::string problem = denseFactorProblem(factor);
+  if (!problem.empty()) throw std::invalid_argument("dense factor: " + problem);
+  for (NodeId id : factor.nodes) {
+    if (!hasNode(id))
+      throw std::invalid_argument("dense factor on unknown node " + std::to_string(id));
+  }
+  dense_factors_.push_back(std::move(factor));
+  return dense_factors_.size() - 1;
+}
+
 Pose2 PoseGraph::measurement(std::size_t index) const {
   const auto& mean = edges_.at(index).storage->second.mean;
   return {mean.x(), mean.y(), mean.phi()};
@@ -100,6 +113,9 @@ std::vector<std::vector<PoseGraph::NodeId>> PoseGraph::connectedComponents() con
 
   UnionFind sets(ids.size());
   for (const Edge& e : edges_) sets.unite(index_of.at(e.from), index_of.at(e.to));
+  for (const DenseFactor& f : dense_factors_) {
+    for (NodeId id : f.nodes) sets.unite(index_of.at(f.nodes.front()), index_of.at(id));
+  }
 
   std::unordered_map<std::size_t, std::size_t> component_of_root;
   std::vector<std::vector<NodeId>> components;

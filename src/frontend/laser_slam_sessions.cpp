@@ -107,6 +107,7 @@ MapSnapshot LaserSlam::snapshot() const {
     }
     map.edges.push_back(std::move(out));
   }
+  map.dense_factors = graph.denseFactors();
   map.submaps = finished_spans_;
   for (const auto& active : local_.submaps().active()) {
     map.submaps.push_back({active->anchorNode(), active->lastNode()});
@@ -120,12 +121,12 @@ namespace {
 
 // Where RRR starts from for a loaded map's nodes: each session in its own odometry frame, as it
 // was mapped. Nodes that marginal constraints (lifelong trimming) hold together with others
-// start where the map has them instead, as one rigid piece placed in the odometry frame of its
-// first node: the pieces of a trimmed session, and sessions whose loops trimming folded into
-// marginal constraints, are bound by trusted constraints that their own odometry frames would
-// violate. In a trimmed map all of it moves rigidly so that the first node, which holds the
-// gauge, starts at its map pose: the map frame stays where it was when trimming removed the
-// nodes that defined it (an untrimmed map starts exactly as it was mapped).
+// (or dense factors) start where the map has them instead, as one rigid piece placed in the
+// odometry frame of its first node: the pieces of a trimmed session, and sessions whose loops
+// trimming folded into marginal constraints, are bound by trusted constraints that their own
+// odometry frames would violate. In a trimmed map all of it moves rigidly so that the first node,
+// which holds the gauge, starts at its map pose: the map frame stays where it was when trimming
+// removed the nodes that defined it (an untrimmed map starts exactly as it was mapped).
 std::vector<core::Pose2> startingPoses(const MapSnapshot& map) {
   const std::size_t n = map.nodes.size();
   core::UnionFind trusted(n);
@@ -134,10 +135,16 @@ std::vector<core::Pose2> startingPoses(const MapSnapshot& map) {
     if (e.kind == MapSnapshot::EdgeKind::kLoopCandidate) continue;
     trusted.unite(static_cast<std::size_t>(e.from), static_cast<std::size_t>(e.to));
   }
+  for (const core::DenseFactor& f : map.dense_factors) {
+    for (auto id : f.nodes) trusted.unite(static_cast<std::size_t>(f.nodes.front()), id);
+  }
   for (const MapSnapshot::Edge& e : map.edges) {
     if (e.kind == MapSnapshot::EdgeKind::kMarginal) {
       has_marginal[trusted.find(static_cast<std::size_t>(e.from))] = 1;
     }
+  }
+  for (const core::DenseFactor& f : map.dense_factors) {
+    has_marginal[trusted.find(static_cast<std::size_t>(f.nodes.front()))] = 1;
   }
   std::vector<core::Pose2> poses(n);
   std::vector<int> first(n, -1);  // per component root: its first node
@@ -172,6 +179,7 @@ core::PoseGraph graphToContinue(const MapSnapshot& map) {
                   static_cast<core::PoseGraph::NodeId>(e.to), e.measurement, e.information,
                   toCoreKind(e.kind));
   }
+  for (const core::DenseFactor& f : map.dense_factors) graph.addDenseFactor(f);
   return graph;
 }
 

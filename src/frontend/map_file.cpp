@@ -102,14 +102,15 @@ class Reader {
       throw std::invalid_argument(std::to_string(bytes_.size() - pos_) + " bytes after the map");
     }
   }
-
- private:
+  /// Throws unless `n` bytes are left.
   void need(std::size_t n, const char* what) const {
     if (bytes_.size() - pos_ < n) {
       throw std::invalid_argument(std::string("ends inside ") + what + " at byte " +
                                   std::to_string(pos_));
     }
   }
+
+ private:
   const std::vector<std::uint8_t>& bytes_;
   std::size_t pos_ = 0;
 };
@@ -222,6 +223,19 @@ std::string encodePayload(const MapSnapshot& map) {
       for (std::uint8_t v : *patch.cells) out.put(v);
     }
   }
+  if (map.format_version >= 5) {
+    out.put<std::uint64_t>(map.dense_factors.size());
+    for (const core::DenseFactor& f : map.dense_factors) {
+      out.put<std::uint64_t>(f.nodes.size());
+      for (auto id : f.nodes) out.put<std::int64_t>(static_cast<std::int64_t>(id));
+      for (const core::Pose2& y : f.measurements) out.put(y);
+      for (Eigen::Index r = 0; r < f.mean.size(); ++r) out.put(f.mean(r));
+      for (Eigen::Index r = 0; r < f.information.rows(); ++r) {  // upper triangle, row by row
+        for (Eigen::Index c = r; c < f.information.cols(); ++c) out.put(f.information(r, c));
+      }
+      out.put(f.chi2_offset);
+    }
+  }
   return out.bytes();
 }
 
@@ -310,6 +324,35 @@ MapSnapshot decodePayload(const std::vector<std::uint8_t>& bytes, std::uint32_t 
       const std::size_t cells = in.count(1, "remembered patch cell");
       patch.cells = std::make_shared<const std::vector<std::uint8_t>>(
           in.raw(cells, "remembered patch cells"));
+    }
+  }
+  if (version >= 5) {
+    // The smallest factor: two nodes, one measurement, 3 means, 6 information entries, offset.
+    const std::size_t factors = in.count(8 + 2 * 8 + 3 * 8 + 3 * 8 + 6 * 8 + 8, "dense factor");
+    for (std::size_t k = 0; k < factors; ++k) {
+      core::DenseFactor& f = map.dense_factors.emplace_back();
+      // Per node at least its id, a measurement and 3 means (the root has neither, but the
+      // information's entries more than make up for it).
+      const std::size_t n = in.count(8 + 3 * 8 + 3 * 8, "dense factor node");
+      if (n < 2) throw std::invalid_argument("a dense factor has fewer than two nodes");
+      for (std::size_t i = 0; i < n; ++i) {
+        f.nodes.push_back(
+            static_cast<mrpt::graphs::TNodeID>(toInt(in.get<std::int64_t>(), "dense factor node")));
+      }
+      for (std::size_t i = 0; i + 1 < n; ++i) f.measurements.push_back(in.pose());
+      const auto rows = static_cast<Eigen::Index>(3 * (n - 1));
+      f.mean.resize(rows);
+      for (Eigen::Index r = 0; r < rows; ++r) f.mean(r) = in.get<double>();
+      const std::size_t entries =
+          static_cast<std::size_t>(rows) * (static_cast<std::size_t>(rows) + 1) / 2;
+      in.need(entries * sizeof(double), "a dense factor's information");  // before allocating
+      f.information.resize(rows, rows);
+      for (Eigen::Index r = 0; r < rows; ++r) {
+        for (Eigen::Index c = r; c < rows; ++c) {
+          f.information(r, c) = f.information(c, r) = in.get<double>();
+        }
+      }
+      f.chi2_offset = in.get<double>();
     }
   }
   in.expectEnd();
@@ -449,6 +492,20 @@ void MapSnapshot::check() const {
       fail("edge " + std::to_string(k) + " has a measurement or information that is not finite");
     }
   }
+  if (format_version < 5 && !dense_factors.empty()) {
+    fail("format version " + std::to_string(format_version) + " cannot hold dense factors");
+  }
+  for (std::size_t k = 0; k < dense_factors.size(); ++k) {
+    const core::DenseFactor& f = dense_factors[k];
+    const std::string problem = core::denseFactorProblem(f);
+    if (!problem.empty()) fail("dense factor " + std::to_string(k) + ": " + problem);
+    for (auto id : f.nodes) {
+      if (id >= static_cast<std::size_t>(n)) {
+        fail("dense factor " + std::to_string(k) + " holds node " + std::to_string(id) +
+             ", not one of the " + std::to_string(n) + " nodes");
+      }
+    }
+  }
   for (std::size_t k = 0; k < submaps.size(); ++k) {
     const Submap& s = submaps[k];
     if (s.first_node < 0 || s.first_node > s.last_node || s.last_node >= n ||
@@ -581,6 +638,7 @@ core::PoseGraph poseGraphOf(const MapSnapshot& map, bool trusted_only) {
                   static_cast<core::PoseGraph::NodeId>(e.to), e.measurement, e.information,
                   toCoreKind(e.kind));
   }
+  for (const core::DenseFactor& f : map.dense_factors) graph.addDenseFactor(f);
   return graph;
 }
 

@@ -62,11 +62,6 @@ void validate(const TrimParams& params) {
     fail("revisit_gap_nodes = " + std::to_string(params.revisit_gap_nodes) +
          " is out of range: must be at least 0");
   }
-  if (params.sparsification == Sparsification::kDense) {
-    fail(
-        "sparsification 'dense' keeps one factor over the whole Markov blanket, which the map "
-        "file and RRR cannot hold (they hold pairwise constraints): use clt or delete");
-  }
 }
 
 bool OverlapRatioTrimming::trim(const SubmapCoverage& coverage) const {
@@ -180,6 +175,7 @@ bool touches(const core::PoseConstraint& c, const std::vector<char>& removed) {
 // The trusted graph over the nodes still alive, at `poses`, in an optimizer (not yet optimized
 // or factored), and the dense index of each node id (-1 for removed ones).
 core::Optimizer trustedOptimizer(const std::vector<Trusted>& trusted,
+                                 const std::vector<core::DenseFactor>& dense,
                                  const std::vector<char>& alive,
                                  const std::vector<core::Pose2>& poses,
                                  std::vector<int>& index_of) {
@@ -195,14 +191,16 @@ core::Optimizer trustedOptimizer(const std::vector<Trusted>& trusted,
     graph.addEdge(t.constraint.from, t.constraint.to, t.constraint.measurement,
                   t.constraint.information, core::EdgeKind::kOdometry);
   }
+  for (const core::DenseFactor& f : dense) graph.addDenseFactor(f);
   return core::makeOptimizer(graph);
 }
 
 // The trusted graph at its minimum: `poses` of the nodes still alive move there.
-void optimizeTrusted(const std::vector<Trusted>& trusted, const std::vector<char>& alive,
+void optimizeTrusted(const std::vector<Trusted>& trusted,
+                     const std::vector<core::DenseFactor>& dense, const std::vector<char>& alive,
                      std::vector<core::Pose2>& poses) {
   std::vector<int> index_of;
-  core::Optimizer optimizer = trustedOptimizer(trusted, alive, poses, index_of);
+  core::Optimizer optimizer = trustedOptimizer(trusted, dense, alive, poses, index_of);
   optimizer.optimize();
   for (std::size_t k = 0; k < alive.size(); ++k) {
     if (index_of[k] >= 0) poses[k] = optimizer.poses()[static_cast<std::size_t>(index_of[k])];
@@ -212,12 +210,12 @@ void optimizeTrusted(const std::vector<Trusted>& trusted, const std::vector<char
 // The measurement behind TrimRecord's KL figures: the trusted graph's covariance over the
 // blanket (one factorization of the whole graph at the current poses), against which the tree
 // and deletion are compared with the exact marginal.
-void measureKl(const std::vector<Trusted>& trusted, const std::vector<char>& alive,
-               const std::vector<core::Pose2>& poses, const core::Marginal& marginal,
-               const TrimParams& params, TrimRecord& record) {
+void measureKl(const std::vector<Trusted>& trusted, const std::vector<core::DenseFactor>& dense,
+               const std::vector<char>& alive, const std::vector<core::Pose2>& poses,
+               const core::Marginal& marginal, const TrimParams& params, TrimRecord& record) {
   const core::Clock::time_point watch = core::Clock::now();
   std::vector<int> index_of;
-  core::Optimizer optimizer = trustedOptimizer(trusted, alive, poses, index_of);
+  core::Optimizer optimizer = trustedOptimizer(trusted, dense, alive, poses, index_of);
   if (optimizer.factorAtCurrentPoses() && optimizer.covarianceAvailable()) {
     std::vector<int> blanket;
     for (NodeId b : marginal.blanket) blanket.push_back(index_of[b]);
@@ -227,8 +225,18 @@ void measureKl(const std::vector<Trusted>& trusted, const std::vector<char>& ali
         core::replacementModel(marginal, core::MarginalReplacement::kChowLiuTree, params.chow_liu));
     record.kl_delete_nats = exact.replacementKl(
         marginal, core::replacementModel(marginal, core::MarginalReplacement::kDelete));
-    record.kl_nats =
-        params.sparsification == Sparsification::kClt ? record.kl_clt_nats : record.kl_delete_nats;
+    switch (params.sparsification) {
+      case Sparsification::kClt:
+        record.kl_nats = record.kl_clt_nats;
+        break;
+      case Sparsification::kDense:  // zero up to rounding: measured, not assumed
+        record.kl_nats = exact.replacementKl(
+            marginal, core::replacementModel(marginal, core::MarginalReplacement::kDense));
+        break;
+      case Sparsification::kDelete:
+        record.kl_nats = record.kl_delete_nats;
+        break;
+    }
   }
   record.kl_seconds = core::secondsSince(watch);
 }
@@ -335,6 +343,8 @@ TrimResult trimMap(const MapSnapshot& map, const TrimParams& params,
                        static_cast<int>(e),
                        -1});
   }
+  // The map's dense factors (node ids are node indices), trusted too.
+  std::vector<core::DenseFactor> dense = map.dense_factors;
   std::vector<core::Pose2> poses(n);
   for (std::size_t k = 0; k < n; ++k) poses[k] = map.nodes[k].map_pose;
   std::vector<char> alive(n, 1);
@@ -350,6 +360,13 @@ TrimResult trimMap(const MapSnapshot& map, const TrimParams& params,
       const auto a = static_cast<std::size_t>(t.constraint.from);
       const auto b = static_cast<std::size_t>(t.constraint.to);
       if (leaves[a] && leaves[b]) joined.unite(a, b);
+    }
+    for (const core::DenseFactor& f : dense) {
+      for (auto a : f.nodes) {
+        for (auto b : f.nodes) {
+          if (leaves[a] && leaves[b]) joined.unite(a, b);
+        }
+      }
     }
   } else {
     std::vector<std::size_t> first_of_owner(map.submaps.size(), n);
@@ -377,7 +394,7 @@ TrimResult trimMap(const MapSnapshot& map, const TrimParams& params,
   // tree keeps the marginal's gradient, so later trims find the graph still there; deletion
   // moves it, and with report_kl the graph is optimized again after each deletion).
   const core::Clock::time_point optimize_watch = core::Clock::now();
-  if (!groups.empty()) optimizeTrusted(trusted, alive, poses);
+  if (!groups.empty()) optimizeTrusted(trusted, dense, alive, poses);
   report.optimize_seconds = core::secondsSince(optimize_watch);
 
   // 5. Memory, at the same estimate (trim_memory.h).
@@ -414,31 +431,64 @@ TrimResult trimMap(const MapSnapshot& map, const TrimParams& params,
       const auto b = static_cast<std::size_t>(c.to);
       if (in_group[a] && in_group[b]) pieces.unite(a, b);
     }
+    std::vector<core::DenseFactor> local_dense;
+    for (const core::DenseFactor& f : dense) {
+      if (std::any_of(f.nodes.begin(), f.nodes.end(), [&](auto id) { return in_group[id]; })) {
+        local_dense.push_back(f);
+      }
+    }
+    for (const core::DenseFactor& f : local_dense) {  // its group nodes join one another
+      std::size_t first_in = n;
+      for (auto id : f.nodes) {
+        if (!in_group[id]) continue;
+        if (first_in == n) first_in = id;
+        pieces.unite(first_in, id);
+      }
+    }
     for (const core::PoseConstraint& c : local) {
       const auto a = static_cast<std::size_t>(c.from);
       const auto b = static_cast<std::size_t>(c.to);
       if (in_group[a] != in_group[b]) reaches_out[pieces.find(in_group[a] ? a : b)] = 1;
+    }
+    for (const core::DenseFactor& f : local_dense) {
+      const bool out =
+          std::any_of(f.nodes.begin(), f.nodes.end(), [&](auto id) { return !in_group[id]; });
+      for (auto id : f.nodes) {
+        if (out && in_group[id]) reaches_out[pieces.find(id)] = 1;
+      }
     }
     std::vector<NodeId> marginalized;
     for (NodeId k : group) {
       if (reaches_out[pieces.find(k)]) marginalized.push_back(k);
     }
     std::vector<Trusted> replacement;
+    std::vector<core::DenseFactor> dense_replacement;
     if (!marginalized.empty()) {
       std::map<NodeId, core::Pose2> pose_of;
       for (const core::PoseConstraint& c : local) {
         pose_of.emplace(c.from, poses[c.from]);
         pose_of.emplace(c.to, poses[c.to]);
       }
-      const core::Marginal marginal = core::marginalizeNodes(local, pose_of, marginalized);
+      for (const core::DenseFactor& f : local_dense) {
+        for (auto id : f.nodes) pose_of.emplace(id, poses[id]);
+      }
+      const core::Marginal marginal =
+          core::marginalizeNodes(local, local_dense, pose_of, marginalized);
       record.blanket_nodes = static_cast<int>(marginal.blanket.size());
-      if (params.sparsification == Sparsification::kClt) {
-        for (const core::ChowLiuEdge& e : core::chowLiuTree(marginal, params.chow_liu)) {
-          replacement.push_back({e.constraint, -1, s});
-        }
+      switch (params.sparsification) {
+        case Sparsification::kClt:
+          for (const core::ChowLiuEdge& e : core::chowLiuTree(marginal, params.chow_liu)) {
+            replacement.push_back({e.constraint, -1, s});
+          }
+          break;
+        case Sparsification::kDense:
+          dense_replacement = core::denseFactors(marginal);
+          break;
+        case Sparsification::kDelete:
+          break;
       }
       if (params.report_kl) {
-        measureKl(trusted, alive, poses, marginal, params, record);
+        measureKl(trusted, dense, alive, poses, marginal, params, record);
       }
     }
     for (NodeId k : group) {
@@ -458,6 +508,18 @@ TrimResult trimMap(const MapSnapshot& map, const TrimParams& params,
     record.marginal_edges = static_cast<int>(replacement.size());
     still.insert(still.end(), replacement.begin(), replacement.end());
     trusted.swap(still);
+    // Dense factors holding a removed node were folded into the marginal (their nodes reach out).
+    std::vector<core::DenseFactor> dense_still;
+    for (core::DenseFactor& f : dense) {
+      if (std::any_of(f.nodes.begin(), f.nodes.end(), [&](auto id) { return removed[id] != 0; })) {
+        ++record.removed_constraints;
+      } else {
+        dense_still.push_back(std::move(f));
+      }
+    }
+    record.dense_factors = static_cast<int>(dense_replacement.size());
+    for (core::DenseFactor& f : dense_replacement) dense_still.push_back(std::move(f));
+    dense.swap(dense_still);
     record.seconds = core::secondsSince(watch) - record.kl_seconds;
     report.trims.push_back(record);
     if (params.report_kl && params.sparsification == Sparsification::kDelete &&
@@ -465,13 +527,13 @@ TrimResult trimMap(const MapSnapshot& map, const TrimParams& params,
       // Deletion drops the removed constraints' pull on the blanket: the minimum moves, and the
       // next trim's KL is measured at the new one (the trims themselves need no linearization).
       const core::Clock::time_point again = core::Clock::now();
-      optimizeTrusted(trusted, alive, poses);
+      optimizeTrusted(trusted, dense, alive, poses);
       report.optimize_seconds += core::secondsSince(again);
     }
   }
   if (!groups.empty()) {
     const core::Clock::time_point watch = core::Clock::now();
-    optimizeTrusted(trusted, alive, poses);  // the trimmed map at its own minimum
+    optimizeTrusted(trusted, dense, alive, poses);  // the trimmed map at its own minimum
     report.optimize_seconds += core::secondsSince(watch);
   }
 
@@ -530,6 +592,11 @@ TrimResult trimMap(const MapSnapshot& map, const TrimParams& params,
     edge.reason = "Chow-Liu tree of trimmed submap " + std::to_string(t.submap);
     out.edges.push_back(std::move(edge));
   }
+  for (core::DenseFactor f : dense) {
+    for (auto& id : f.nodes) id = static_cast<mrpt::graphs::TNodeID>(new_index[id]);
+    out.dense_factors.push_back(std::move(f));
+  }
+  report.dense_factors_kept = static_cast<int>(out.dense_factors.size());
   result.submap_index.assign(map.submaps.size(), -1);
   for (int s = 0; s < submaps; ++s) {
     if (trimmed[static_cast<std::size_t>(s)]) continue;

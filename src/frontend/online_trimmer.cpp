@@ -17,10 +17,10 @@ double msSince(Clock::time_point start) { return 1e3 * core::secondsSince(start)
 OnlineTrimmer::OnlineTrimmer(const OnlineTrimParams& params) : params_(params) {
   validate(params_.trim);
   if (params_.every_n_nodes < 0) throw std::invalid_argument("every_n_nodes must be >= 0");
-  if (params_.every_n_nodes > 0 && params_.trim.sparsification != Sparsification::kClt) {
+  if (params_.every_n_nodes > 0 && params_.trim.sparsification == Sparsification::kDelete) {
     throw std::invalid_argument(
-        "online trimming needs sparsification clt: deletion would drop the running session's "
-        "loops to the map with the trimmed nodes and could cut the session loose");
+        "online trimming needs sparsification clt or dense: deletion would drop the running "
+        "session's loops to the map with the trimmed nodes and could cut the session loose");
   }
   params_.trim.report_kl = false;  // an instrument of the benchmarks, not part of a trim
 }

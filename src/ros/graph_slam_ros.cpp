@@ -492,6 +492,7 @@ void GraphSlamRos::publishStatus() {
   msg.last_update_sec = last_update_sec_;
   msg.tied_after_sec = -1.0;
   msg.marginal_edges = static_cast<std::uint32_t>(s.marginal_edges);
+  msg.dense_factors = static_cast<std::uint32_t>(s.dense_factors);
   msg.lifelong = params_.lifelong;
   if (slam_) {
     msg.trimmed_submaps = static_cast<std::uint32_t>(slam_->lifelong().trimmed_submaps);

@@ -184,8 +184,8 @@ NodeParams loadParams(const ros::NodeHandle& private_nh) {
   std::string sparsification = frontend::toString(p.trim.sparsification);
   r.read<std::string>(
       "sparsification", sparsification,
-      [](const std::string& s) { return s == "clt" || s == "delete"; },
-      "clt or delete (dense keeps one factor over a whole blanket, which the map cannot hold)");
+      [](const std::string& s) { return s == "clt" || s == "dense" || s == "delete"; },
+      "clt, dense or delete");
   p.trim.sparsification = frontend::parseSparsification(sparsification);
   r.read<bool>(
       "clt_conservative", p.trim.chow_liu.conservative, [](const bool&) { return true; },
@@ -196,11 +196,11 @@ NodeParams loadParams(const ros::NodeHandle& private_nh) {
   r.read<int>(
       "trim_every_n_nodes", p.trim_every_n_nodes, [](const int& v) { return v >= 0; },
       "at least 0 (0: trim only when ~save_map writes the map)");
-  if (p.trim_every_n_nodes > 0 && p.trim.sparsification != frontend::Sparsification::kClt) {
+  if (p.trim_every_n_nodes > 0 && p.trim.sparsification == frontend::Sparsification::kDelete) {
     throw std::invalid_argument("parameter " + private_nh.resolveName("trim_every_n_nodes") +
                                 " is " + std::to_string(p.trim_every_n_nodes) +
-                                ": online trimming needs sparsification clt (deletion would drop "
-                                "the running session's loops to the map)");
+                                ": online trimming needs sparsification clt or dense (deletion "
+                                "would drop the running session's loops to the map)");
   }
   if (p.trim_every_n_nodes > 0 && !p.lifelong) {
     throw std::invalid_argument("parameter " + private_nh.resolveName("trim_every_n_nodes") +

@@ -59,6 +59,7 @@ visualization_msgs::MarkerArray buildMarkers(const rrr::OnlineRrr& graph,
   visualization_msgs::Marker pending =
       lineList("loops_pending", frame, stamp, 1.0f, 0.85f, 0.0f, 0.06);
   visualization_msgs::Marker marginal = lineList("marginal", frame, stamp, 0.6f, 0.2f, 0.8f, 0.05);
+  visualization_msgs::Marker dense = lineList("dense", frame, stamp, 0.9f, 0.5f, 0.1f, 0.03);
   visualization_msgs::Marker nodes = lineList("nodes", frame, stamp, 0.2f, 0.4f, 1.0f, 0.12);
   nodes.type = visualization_msgs::Marker::POINTS;
   nodes.scale.y = nodes.scale.x;
@@ -88,8 +89,15 @@ visualization_msgs::MarkerArray buildMarkers(const rrr::OnlineRrr& graph,
     marginal.points.push_back(point(map_poses[static_cast<std::size_t>(m.from)]));
     marginal.points.push_back(point(map_poses[static_cast<std::size_t>(m.to)]));
   }
+  for (int f = 0; f < graph.numDenseFactors(); ++f) {  // a star from each factor's root
+    const std::vector<int>& members = graph.denseFactorNodes(f);
+    for (std::size_t i = 1; i < members.size(); ++i) {
+      dense.points.push_back(point(map_poses[static_cast<std::size_t>(members.front())]));
+      dense.points.push_back(point(map_poses[static_cast<std::size_t>(members[i])]));
+    }
+  }
   visualization_msgs::MarkerArray array;
-  array.markers = {odometry, accepted, rejected, pending, marginal, nodes};
+  array.markers = {odometry, accepted, rejected, pending, marginal, dense, nodes};
   // rviz reports an empty line list as an error; an empty namespace is deleted instead.
   for (auto& m : array.markers) {
     if (m.points.empty()) m.action = visualization_msgs::Marker::DELETE;

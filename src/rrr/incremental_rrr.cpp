@@ -73,8 +73,8 @@ RrrSummary runIncrementalRrr(VerificationGraph& graph, const RrrParams& params,
   // Offline the gap can be derived from every candidate; a robot sets cluster_gap instead.
   summary.cluster_gap = clusterGapFor(params, ends);
 
-  // What arrives with each node: its odometry, its marginal constraints, then the candidates
-  // whose newest end it is.
+  // What arrives with each node: its odometry, its marginal constraints and dense factors, then the
+  // candidates whose newest end it is.
   const auto nodes = static_cast<std::size_t>(graph.numNodes());
   const core::Optimizer& full = graph.optimizer();
   std::vector<int> candidate_of(static_cast<std::size_t>(full.numConstraints()), -1);
@@ -89,7 +89,9 @@ RrrSummary runIncrementalRrr(VerificationGraph& graph, const RrrParams& params,
   std::vector<ReplayEdge> edges;
   for (int c = 0; c < full.numConstraints(); ++c)
     edges.push_back({full.from(c), full.to(c), kind[static_cast<std::size_t>(c)]});
-  const std::vector<NodeArrivals> arrivals = arrivalsByNode(graph.numNodes(), edges);
+  std::vector<std::vector<int>> dense;
+  for (int f = 0; f < full.numDenseFactors(); ++f) dense.push_back(full.denseFactorNodes(f));
+  const std::vector<NodeArrivals> arrivals = arrivalsByNode(graph.numNodes(), edges, dense);
 
   // The robot's view: the graph holds the nodes that have arrived, not the whole run, so each
   // decision costs what it would cost on the robot at that point.
@@ -122,6 +124,8 @@ RrrSummary runIncrementalRrr(VerificationGraph& graph, const RrrParams& params,
     for (int c : arrivals[n].marginal) {
       robot.addMarginal(full.from(c), full.to(c), full.measurement(c), full.information(c));
     }
+    for (int f : arrivals[n].dense)
+      robot.addDenseFactor(full.denseFactorNodes(f), full.denseFactor(f));
     // As on the robot (OnlineRrr): the node's arrival closes the clusters it has left behind and
     // decides them, whether or not a candidate comes with it.
     const auto node_start = core::Clock::now();

@@ -114,6 +114,18 @@ void OnlineRrr::addMarginal(NodeId from, NodeId to, const core::Pose2& measureme
   graph_.addMarginal(a, b, measurement, information);
 }
 
+void OnlineRrr::addDenseFactor(const core::DenseFactor& factor) {
+  const std::string problem = core::denseFactorProblem(factor);
+  if (!problem.empty()) throw std::invalid_argument("dense factor: " + problem);
+  std::vector<int> nodes;
+  for (NodeId n : factor.nodes) {
+    const int a = indexOf(n);
+    if (a < 0) throw std::invalid_argument("dense factor: " + id("node", n) + " is not a node");
+    nodes.push_back(a);
+  }
+  graph_.addDenseFactor(nodes, factor);
+}
+
 OnlineRrr::CandidateStatus OnlineRrr::addCandidate(NodeId from, NodeId to,
                                                    const core::Pose2& measurement,
                                                    const Eigen::Matrix3d& information) {
@@ -231,6 +243,7 @@ OnlineRrrStatus OnlineRrr::status() const {
   s.sessions = graph_.chain().numSessions();
   s.candidates = numCandidates();
   s.marginal_edges = static_cast<int>(graph_.marginalLinks().size());
+  s.dense_factors = numDenseFactors();
   s.waiting_candidates = static_cast<int>(waiting_.size());
   s.clusters = decider_->numClusters();
   s.open_clusters = decider_->numOpenClusters();
@@ -263,6 +276,7 @@ core::PoseGraph OnlineRrr::poseGraph(const std::vector<core::Pose2>& poses,
               opt.measurement(m.constraint), opt.information(m.constraint),
               core::EdgeKind::kMarginal);
   }
+  for (int f = 0; f < opt.numDenseFactors(); ++f) g.addDenseFactor(opt.denseFactor(f));
   for (int k = 0; k < numCandidates(); ++k) {
     if (accepted_only && verdict(k) != Verdict::kAccepted) continue;
     const LoopCandidate& c = candidate(k);
@@ -303,7 +317,8 @@ std::unique_ptr<OnlineRrr> OnlineRrr::fromPoseGraph(const core::PoseGraph& graph
                                   " does not join consecutive nodes");
     }
   }
-  const std::vector<NodeArrivals> arrivals = arrivalsByNode(static_cast<int>(ids.size()), edges);
+  const std::vector<NodeArrivals> arrivals =
+      arrivalsByNode(static_cast<int>(ids.size()), edges, replayDenseFactors(graph));
   online->decider_->deferDecisions(true);  // finish() decides the whole graph once
   for (std::size_t k = 0; k < ids.size(); ++k) {
     const int n = online->appendNode(ids[k], graph.pose(ids[k]));
@@ -318,6 +333,8 @@ std::unique_ptr<OnlineRrr> OnlineRrr::fromPoseGraph(const core::PoseGraph& graph
       const ReplayEdge& edge = edges[e];
       online->graph_.addMarginal(edge.from, edge.to, graph.measurement(e), graph.information(e));
     }
+    for (int f : arrivals[k].dense)
+      online->addDenseFactor(graph.denseFactors()[static_cast<std::size_t>(f)]);
     online->decider_->advanceTo(n);
     for (int i : arrivals[k].candidates) {
       const auto e = static_cast<std::size_t>(i);

@@ -4,6 +4,7 @@
 #include <stdexcept>
 #include <string>
 #include <unordered_map>
+#include <utility>
 
 #include "rrr_graphslam/core/union_find.h"
 
@@ -82,6 +83,11 @@ int VerificationGraph::addMarginal(int from, int to, const core::Pose2& measurem
   return static_cast<int>(marginal_.size()) - 1;
 }
 
+int VerificationGraph::addDenseFactor(const std::vector<int>& nodes,
+                                      const core::DenseFactor& factor) {
+  return optimizer_.addDenseFactor(nodes, factor);  // checks the nodes and the factor
+}
+
 int VerificationGraph::numComponents(const std::vector<int>& component) {
   return component.empty() ? 0 : *std::max_element(component.begin(), component.end()) + 1;
 }
@@ -91,6 +97,13 @@ std::vector<int> VerificationGraph::trustedComponents() const {
   for (const MarginalLink& m : marginal_) {
     joined.unite(static_cast<std::size_t>(chain_.session(m.from)),
                  static_cast<std::size_t>(chain_.session(m.to)));
+  }
+  for (int f = 0; f < optimizer_.numDenseFactors(); ++f) {
+    const std::vector<int>& nodes = optimizer_.denseFactorNodes(f);
+    for (int n : nodes) {
+      joined.unite(static_cast<std::size_t>(chain_.session(nodes.front())),
+                   static_cast<std::size_t>(chain_.session(n)));
+    }
   }
   std::vector<int> number(static_cast<std::size_t>(chain_.numSessions()), -1);
   std::vector<int> component(static_cast<std::size_t>(numNodes()));
@@ -121,20 +134,30 @@ double VerificationGraph::trustedChi2At(const std::vector<core::Pose2>& poses) c
         poses.at(static_cast<std::size_t>(optimizer_.to(c))), optimizer_.measurement(c));
     sum += e.dot(optimizer_.information(c) * e);
   }
+  std::vector<core::Pose2> at;
+  for (int f = 0; f < optimizer_.numDenseFactors(); ++f) {
+    at.clear();
+    for (int n : optimizer_.denseFactorNodes(f))
+      at.push_back(poses.at(static_cast<std::size_t>(n)));
+    sum += core::denseFactorChi2(optimizer_.denseFactor(f), at);
+  }
   return sum;
 }
 
 double VerificationGraph::trustedChi2() const {
-  if (marginal_.empty()) return 0.0;  // odometry alone is a forest: it holds exactly
-  if (trusted_chi2_marginals_ == marginal_.size()) return trusted_chi2_;
+  if (numMarginalTerms() == 0) return 0.0;  // odometry alone is a forest: it holds exactly
+  if (trusted_chi2_marginals_ == numMarginalTerms()) return trusted_chi2_;
   core::Optimizer trusted(optimizer_.params());
   for (const core::Pose2& p : initial_poses_) trusted.addNode(p);
   for (int c : trustedConstraints()) {
     trusted.addConstraint(optimizer_.from(c), optimizer_.to(c), optimizer_.measurement(c),
                           optimizer_.information(c));
   }
+  for (int f = 0; f < optimizer_.numDenseFactors(); ++f) {
+    trusted.addDenseFactor(optimizer_.denseFactorNodes(f), optimizer_.denseFactor(f));
+  }
   trusted_chi2_ = trusted.optimize().final_chi2;
-  trusted_chi2_marginals_ = marginal_.size();
+  trusted_chi2_marginals_ = numMarginalTerms();
   return trusted_chi2_;
 }
 
@@ -165,6 +188,14 @@ core::PoseGraph VerificationGraph::poseGraphWith(const std::vector<int>& candida
   for (int c : trustedConstraints()) {
     add(c, marginal[static_cast<std::size_t>(c)] ? core::EdgeKind::kMarginal
                                                  : core::EdgeKind::kOdometry);
+  }
+  for (int f = 0; f < optimizer_.numDenseFactors(); ++f) {
+    core::DenseFactor factor = optimizer_.denseFactor(f);
+    const std::vector<int>& nodes = optimizer_.denseFactorNodes(f);
+    for (std::size_t i = 0; i < nodes.size(); ++i) {
+      factor.nodes[i] = node_ids_[static_cast<std::size_t>(nodes[i])];
+    }
+    graph.addDenseFactor(std::move(factor));
   }
   for (int k : candidates) add(candidate(k).constraint, core::EdgeKind::kLoopCandidate);
   return graph;

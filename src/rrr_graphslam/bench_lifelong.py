@@ -4,7 +4,8 @@ each the whole log again with its odometry moved by a seeded random SE(2), each 
 run in several configurations: `untrimmed` (no --lifelong), `clt` (--lifelong, Chow-Liu tree),
 `delete` (--lifelong --sparsification delete) and `online` (--lifelong --trim-every-n-nodes 200:
 the earlier sessions also trimmed while each maps); on request `fresh-area` (--lifelong
---trim-rule fresh-area: Cartographer's coverage rule instead of the overlap ratio).
+--trim-rule fresh-area: Cartographer's coverage rule instead of the overlap ratio) and `dense`
+(--lifelong --sparsification dense: the exact marginals kept as dense factors).
 
 Per session and configuration: the saved map's nodes, edges, marginal edges, submaps and file
 size (rrr_map_info); the trim's time and KL divergences (the tool's `trim_*` lines); the time of
@@ -66,6 +67,9 @@ CONFIGS = {
     # Cartographer's coverage rule (OverlappingSubmapsTrimmer2D) in place of the overlap ratio;
     # not run unless asked (--configs ... fresh-area).
     "fresh-area": ["--lifelong", "--trim-rule", "fresh-area", "--trim-kl"],
+    # The exact marginal kept as dense factors (the comparison the tree approximates); not run
+    # unless asked (--configs ... dense).
+    "dense": ["--lifelong", "--sparsification", "dense", "--trim-kl"],
 }
 DEFAULT_CONFIGS = ["untrimmed", "clt", "delete", "online"]
 
@@ -77,8 +81,9 @@ DEFAULT_CONFIGS = ["untrimmed", "clt", "delete", "online"]
 @dataclass
 class TrimRecord:
     """One marginalization: `trim_record submap S submaps K nodes N blanket B constraints C
-    edges E kl X kl_clt Y kl_delete Z ms T [kl_ms U]`: T the trim's own work, U the KL figures'
-    measurement (runs of older builds printed no kl_ms, and their T held both)."""
+    edges E kl X kl_clt Y kl_delete Z ms T [kl_ms U [dense_factors D]]`: T the trim's own work, U
+    the KL figures' measurement (runs of older builds printed no kl_ms, and their T held both), D
+    the dense factors that replaced the constraints (sparsification dense)."""
     submap: int
     submaps: int
     nodes: int
@@ -90,6 +95,7 @@ class TrimRecord:
     kl_delete: float
     ms: float
     kl_ms: float = 0.0
+    dense_factors: int = 0
 
 
 @dataclass
@@ -102,7 +108,7 @@ class Trim:
 
 
 RECORD = re.compile(r"^trim_record submap (\d+) submaps (\d+) nodes (\d+) blanket (\d+) constraints (\d+) "
-                    r"edges (\d+) kl (\S+) kl_clt (\S+) kl_delete (\S+) ms (\S+)(?: kl_ms (\S+))?\s*$")
+                    r"edges (\d+) kl (\S+) kl_clt (\S+) kl_delete (\S+) ms (\S+)(?: kl_ms (\S+)(?: dense_factors (\d+))?)?\s*$")
 
 
 # `online_trim scan S nodes B -> A ...` (--trim-every-n-nodes): B, the graph before the trim.
@@ -121,7 +127,8 @@ def parse_trim(text: str) -> Optional[Trim]:
                 raise ValueError(f"unreadable line: {line!r}")
             g = m.groups()
             trim.records.append(TrimRecord(*(int(v) for v in g[:6]),
-                                           *(float(v) for v in g[6:] if v is not None)))
+                                           *(float(v) for v in g[6:11] if v is not None),
+                                           *(int(v) for v in g[11:] if v is not None)))
         elif line.startswith("trim_"):
             f = line.split()
             if len(f) == 2:
@@ -445,7 +452,10 @@ def fmt_row(r: SessionResult) -> str:
     precision, recall = r.precision_recall()
     own = "–" if r.own_candidates is None else (f"{_f(precision, '{:.3f}')} / {_f(recall, '{:.3f}')} "
                                                 f"({r.own_candidates.checked}, {r.own_candidates.false})")
-    return (f"| {r.config} | {r.session + 1} | {r.info.nodes} | {r.peak_nodes or '–'} | {r.value('edges')} | {r.value('marginal_edges')} | "
+    marginal = str(r.value("marginal_edges"))
+    if r.value("dense_factors"):
+        marginal += f" + {r.value('dense_factors')} dense factors over {r.value('dense_factor_nodes')} nodes"
+    return (f"| {r.config} | {r.session + 1} | {r.info.nodes} | {r.peak_nodes or '–'} | {r.value('edges')} | {marginal} | "
             f"{r.value('submaps')} | {r.info.bytes / 1e6:.2f} | {trim_ms} | {kl} | "
             f"{_f(r.reopt_lago_s * 1e3, '{:.1f}')} / {_f(r.reopt_file_s * 1e3, '{:.1f}')} | {rel} | {loops} | "
             f"{own} | {_f(r.wall_s, '{:.1f}')} |")
@@ -498,7 +508,7 @@ def plot(results: Dict[str, List[SessionResult]], out_prefix: str, title: str) -
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     colors = {"untrimmed": "tab:gray", "clt": "tab:blue", "delete": "tab:orange", "online": "tab:green",
-              "fresh-area": "tab:purple"}
+              "fresh-area": "tab:purple", "dense": "tab:red"}
     paths = []
 
     from matplotlib.ticker import MaxNLocator

@@ -34,7 +34,8 @@ const char* const kUsage =
     "                    [--remembered-cells true|false]\n"
     "  MAP             a map saved by rrr_slam_offline --save-map (or the node's ~save_map)\n"
     "  --graph         writes the graph: nodes at their map poses, odometry and every loop\n"
-    "                  candidate (g2o, or TORO for .graph/.toro)\n"
+    "                  candidate, and dense factors as RRR_DENSE_SE2 lines (g2o, or TORO for\n"
+    "                  .graph/.toro, which cannot hold dense factors)\n"
     "  --trajectory    writes every node's map pose with its scan's timestamp (TUM format, as\n"
     "                  rrr_slam_offline --trajectory)\n"
     "  --map           writes OUT.pgm + OUT.yaml (map_server) from every node's scan and\n"
@@ -49,6 +50,7 @@ const char* const kUsage =
     "                  0.49, which leave cells seen by one pass unknown)\n"
     "Prints 'key value' lines: format_version, sessions, nodes, edges, odometry_edges,\n"
     "loop_edges, loop_edges_accepted, loop_edges_rejected, loop_edges_pending, marginal_edges,\n"
+    "dense_factors, dense_factor_nodes (their nodes, summed),\n"
     "submaps, scans, trimmed_submaps, marginalized_nodes, remembered_patches, remembered_cells,\n"
     "bytes, then 'session K nodes N start_time T number M name NAME' per session (M: its\n"
     "place in the map's life, kept when trimming removes earlier sessions) and every parameter "
@@ -136,6 +138,10 @@ int main(int argc, char** argv) {
       std::printf("loop_edges_%s_accepted %zu\n", name.c_str(), accepted_by_source[k]);
     }
     std::printf("marginal_edges %zu\n", marginal);
+    std::size_t dense_nodes = 0;
+    for (const core::DenseFactor& f : map.dense_factors) dense_nodes += f.nodes.size();
+    std::printf("dense_factors %zu\n", map.dense_factors.size());
+    std::printf("dense_factor_nodes %zu\n", dense_nodes);
     std::printf("submaps %zu\n", map.submaps.size());
     std::printf("scans %zu\n", map.nodes.size());  // one scan per node
     std::printf("trimmed_submaps %d\n", map.lifelong.trimmed_submaps);

@@ -134,7 +134,9 @@ inline const std::string& usage() {
       "                    added nodes) are never trimmed (default true: the map keeps the\n"
       "                    newest view of all it saw)\n"
       "  --sparsification  what replaces a trimmed submap's constraints: clt (Chow-Liu tree,\n"
-      "                    default) or delete (nothing; dense is not storable yet and refused)\n"
+      "                    default), dense (the exact marginal as one factor per piece of the\n"
+      "                    blanket: for comparison; the graph grows denser where trims meet)\n"
+      "                    or delete (nothing)\n"
       "  --clt-conservative true|false  the Chow-Liu tree's information scaled down to at\n"
       "                    most the marginal's (default true)\n"
       "  --clt-per-edge-scaling true|false  with it, each edge scaled on its own where\n"
@@ -367,10 +369,11 @@ inline Arguments parseArguments(int argc, char** argv) {
         "--false-loops counts the loop search's candidates of one run: not with "
         "--trim-every-n-nodes, whose trims restart the front end");
   }
-  if (args.trim_every_n_nodes > 0 && args.trim.sparsification != frontend::Sparsification::kClt) {
+  if (args.trim_every_n_nodes > 0 &&
+      args.trim.sparsification == frontend::Sparsification::kDelete) {
     cli.fail(
-        "--trim-every-n-nodes needs --sparsification clt: deletion would drop the running "
-        "session's loops to the map with the trimmed nodes");
+        "--trim-every-n-nodes needs --sparsification clt or dense: deletion would drop the "
+        "running session's loops to the map with the trimmed nodes");
   }
   // A rule's threshold without its rule would be ignored: refused instead.
   auto given = [&](const char* flag) {

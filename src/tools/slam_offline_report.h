@@ -49,15 +49,16 @@ inline void printTrimReport(const frontend::TrimReport& report,
       report.marginalEdges(), report.seconds, report.waiting_submaps);
   std::printf(
       "trim_submaps %d\ntrim_nodes %d\ntrim_marginal_edges %d\n"
-      "trim_marginal_edges_kept %d\ntrim_dropped_rejected_loops %d\ntrim_seconds "
+      "trim_marginal_edges_kept %d\ntrim_dense_factors_kept %d\ntrim_dropped_rejected_loops "
+      "%d\ntrim_seconds "
       "%.4f\ntrim_coverage_seconds %.4f\n"
       "trim_p50_ms %.2f\ntrim_p99_ms %.2f\ntrim_kl %.6g\ntrim_kl_clt %.6g\n"
       "trim_kl_delete %.6g\ntrim_kl_ratio_max %.6g\ntrim_optimize_seconds %.4f\n"
       "trim_kl_seconds %.4f\n",
       report.trimmed_submaps, report.removedNodes(), report.marginalEdges(),
-      report.marginal_edges_kept, report.dropped_rejected_loops, report.seconds,
-      report.coverage_seconds, quantile(0.5), quantile(0.99), kl, kl_clt, kl_delete, worst_ratio,
-      report.optimize_seconds, kl_seconds);
+      report.marginal_edges_kept, report.dense_factors_kept, report.dropped_rejected_loops,
+      report.seconds, report.coverage_seconds, quantile(0.5), quantile(0.99), kl, kl_clt, kl_delete,
+      worst_ratio, report.optimize_seconds, kl_seconds);
   std::printf(
       "trim_remembered_patches %d\ntrim_remembered_cells %zu\ntrim_forgotten_cells %zu\n"
       "trim_memory_seconds %.4f\n",
@@ -66,10 +67,10 @@ inline void printTrimReport(const frontend::TrimReport& report,
   for (const frontend::TrimRecord& t : report.trims) {
     std::printf(
         "trim_record submap %d submaps %d nodes %d blanket %d constraints %d edges %d "
-        "kl %.6g kl_clt %.6g kl_delete %.6g ms %.3f kl_ms %.3f\n",
+        "kl %.6g kl_clt %.6g kl_delete %.6g ms %.3f kl_ms %.3f dense_factors %d\n",
         t.submap, t.submaps, t.removed_nodes, t.blanket_nodes, t.removed_constraints,
         t.marginal_edges, measured(t.kl_nats), measured(t.kl_clt_nats), measured(t.kl_delete_nats),
-        1e3 * t.seconds, 1e3 * t.kl_seconds);
+        1e3 * t.seconds, 1e3 * t.kl_seconds, t.dense_factors);
   }
 }
 

@@ -93,6 +93,37 @@ TEST(GraphIo, RoundTripInBothFormatsIsExact) {
   EXPECT_EQ(formatFromPath("a.g2o"), GraphFormat::kG2o);
 }
 
+// Dense factors travel in g2o files as RRR_DENSE_SE2 lines, exactly; TORO refuses them.
+TEST(GraphIo, DenseFactorsRoundTripInG2o) {
+  TempDir dir;
+  PoseGraph graph;
+  for (PoseGraph::NodeId id = 0; id < 4; ++id)
+    graph.addNode(id, Pose2(0.5 * id, 0.1 * id, 0.2 * id));
+  graph.addEdge(0, 1, Pose2(0.5, 0.1, 0.2), Eigen::Matrix3d::Identity(), EdgeKind::kOdometry);
+  graph.addEdge(2, 3, Pose2(0.5, 0.1, 0.2), Eigen::Matrix3d::Identity(), EdgeKind::kOdometry);
+  DenseFactor f;
+  f.nodes = {1, 2, 3};
+  f.measurements = {Pose2(0.5, 0.1, 0.2), Pose2(1.0 / 3.0, 0.2, -0.1)};
+  f.mean = Eigen::VectorXd::LinSpaced(6, -0.01, 0.02);
+  Eigen::MatrixXd a = Eigen::MatrixXd::Random(6, 6);
+  f.information = a * a.transpose() + 6.0 * Eigen::MatrixXd::Identity(6, 6);
+  f.chi2_offset = 0.125;
+  graph.addDenseFactor(f);
+  const std::string path = dir.file("dense.g2o");
+  writePoseGraph(graph, path);
+  const PoseGraph read = readPoseGraph(path);  // connected only through the factor
+  expectSameGraph(graph, read, 0.0);
+  ASSERT_EQ(read.denseFactors().size(), 1u);
+  const DenseFactor& g = read.denseFactors()[0];
+  EXPECT_EQ(g.nodes, f.nodes);
+  EXPECT_EQ(g.measurements, f.measurements);
+  EXPECT_EQ(g.mean, f.mean);
+  EXPECT_EQ(g.information, f.information);
+  EXPECT_EQ(g.chi2_offset, f.chi2_offset);
+  EXPECT_THROW(writePoseGraph(graph, dir.file("dense.toro")), std::invalid_argument);
+  EXPECT_FALSE(std::filesystem::exists(dir.file("dense.toro")));
+}
+
 TEST(GraphIo, DuplicateEdgesStaySeparateAndInOrder) {
   TempDir dir;
   const std::string path = dir.file("dup.g2o",
@@ -205,6 +236,20 @@ INSTANTIATE_TEST_SUITE_P(
                  "EDGE_SE2 0 1 1 0 0 1 0 0 1 0 1\nEDGE_SE2 2 3 1 0 0 1 0 0 1 0 1\n",
                  0, "2 components: {0..1} (2 nodes), {2..3} (2 nodes)"},
         BadInput{"empty", "# nothing but a comment\n", 0, "no vertices or edges"},
+        // Dense factors (RRR_DENSE_SE2: 2 nodes, 1 measurement, 3 means, 6 entries, offset).
+        BadInput{"dense_count", "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0\nRRR_DENSE_SE2 1 0\n", 3,
+                 "node count 1"},
+        BadInput{"dense_fields",
+                 "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0\nRRR_DENSE_SE2 2 0 1 1 0 0 0 0 0 1 0 0\n",
+                 3, "expects 16 fields"},
+        BadInput{"dense_not_pd",
+                 "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0\n"
+                 "RRR_DENSE_SE2 2 0 1 1 0 0 0 0 0 1 0 0 -1 0 1 0\n",
+                 3, "not positive definite"},
+        BadInput{"dense_unknown_node",
+                 "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0\nEDGE_SE2 0 1 1 0 0 1 0 0 1 0 1\n"
+                 "RRR_DENSE_SE2 2 0 9 1 0 0 0 0 0 1 0 0 1 0 1 0\n",
+                 4, "unknown node 9"},
         // Found by the fuzzer (test/fuzz/regressions/graph_io): finite steps, infinite chain.
         BadInput{"chained_pose_overflows",
                  "EDGE_SE2 0 1 1e308 0 0 1 0 0 1 0 1\nEDGE_SE2 1 2 1e308 0 0 1 0 0 1 0 1\n", 2,

@@ -124,7 +124,7 @@ TEST(MapFile, RoundTripKeepsEverythingAContinuationNeeds) {
 
 TEST(MapFile, DamagedFilesAreRefusedNamingFileAndFault) {
   const std::string good = readBytes(savedMap());
-  auto refused = [&](const std::string& name, const std::string& bytes, const char* fault) {
+  auto refused = [&](const std::string& name, const std::string& bytes, const std::string& fault) {
     const std::string path = tempPath(name);
     writeBytes(path, bytes);
     try {
@@ -141,7 +141,9 @@ TEST(MapFile, DamagedFilesAreRefusedNamingFileAndFault) {
   refused("flipped.rrrmap", flipped, "checksum mismatch");
   std::string newer = good;
   newer[8] = 99;  // the version's low byte
-  refused("newer.rrrmap", newer, "format version 99 is newer than this build reads (4)");
+  refused("newer.rrrmap", newer,
+          "format version 99 is newer than this build reads (" + std::to_string(kMapFormatVersion) +
+              ")");
   refused("text.rrrmap", "VERTEX_SE2 0 0 0 0\n", "not an rrr_graphslam map file");
   refused("empty.rrrmap", "", "not an rrr_graphslam map file");
   EXPECT_THROW(readMapFile(tempPath("does_not_exist.rrrmap")), core::InputError);
@@ -177,7 +179,7 @@ TEST(MapFile, AVersionOneMapIsReadAsItIsAndContinuedAsTheNewest) {
 }
 
 // `map` fails check() with a message holding `fault`, and is not written.
-void expectRefused(const MapSnapshot& map, const char* fault) {
+void expectRefused(const MapSnapshot& map, const std::string& fault) {
   try {
     map.check();
     ADD_FAILURE() << fault << ": accepted";
@@ -320,6 +322,30 @@ TEST(MapFile, ImplausibleContentIsRefusedBeforeAnyGridIsBuiltFromIt) {
   expectRefused(reading, "node 1's scan has a valid reading outside [0, maxRange]");
   // A map without nodes is not saved.
   EXPECT_THROW(LaserSlam(smallMaps()).snapshot(), std::invalid_argument);
+  // Dense factors (version 5): over nodes of the map, and sound.
+  core::DenseFactor f;
+  f.nodes = {2, 5};
+  f.measurements = {core::between(good.nodes[2].map_pose, good.nodes[5].map_pose)};
+  f.mean = Eigen::Vector3d::Zero();
+  f.information = Eigen::Matrix3d::Identity();
+  MapSnapshot dense = good;
+  dense.dense_factors.push_back(f);
+  const std::string path = tempPath("dense_factor.rrrmap");
+  writeMapFile(dense, path);
+  const MapSnapshot read = readMapFile(path);
+  ASSERT_EQ(read.dense_factors.size(), 1u);
+  EXPECT_EQ(read.dense_factors[0].nodes, f.nodes);
+  EXPECT_EQ(read.dense_factors[0].information, f.information);
+  EXPECT_EQ(trustedPoseGraph(read).denseFactors().size(), 1u);
+  MapSnapshot outside = dense;
+  outside.dense_factors[0].nodes[1] = static_cast<mrpt::graphs::TNodeID>(good.nodes.size());
+  expectRefused(outside, "dense factor 0 holds node " + std::to_string(good.nodes.size()));
+  MapSnapshot unsound = dense;
+  unsound.dense_factors[0].information(2, 2) = -1.0;
+  expectRefused(unsound, "dense factor 0: its information is not positive definite");
+  MapSnapshot older = dense;
+  older.format_version = 4;
+  expectRefused(older, "format version 4 cannot hold dense factors");
 }
 
 TEST(MapFile, AMapMadeWithOtherSubmapsIsRefusedNamingTheParameter) {

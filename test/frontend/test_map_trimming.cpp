@@ -148,6 +148,137 @@ TEST(MapTrimming, TheTreeLeavesTheKeptNodesAtTheirMinimum) {
   EXPECT_GT(delete_move, 10.0 * clt_move);
 }
 
+// The exact marginal kept as dense factors: nothing is lost at the trim (KL zero where the tree's
+// and deletion's are not), the kept nodes stay at their minimum, and the map saves, loads and
+// continues with its dense factors as it does with marginal edges.
+TEST(MapTrimming, TheDenseMarginalIsExactAndContinues) {
+  TrimParams params = trimParams();
+  params.sparsification = Sparsification::kDense;
+  params.keep_recent_submaps = 12;  // as TrimmedMapSavesLoadsAndContinues
+  const MapSnapshot& map = threeLaps();
+  const TrimResult dense = trimMap(map, params, roomSizedParams().local.submap);
+  const TrimReport& report = dense.report;
+  ASSERT_FALSE(report.trims.empty());
+  EXPECT_EQ(report.marginalEdges(), 0);
+  EXPECT_EQ(countKind(dense.map, MapSnapshot::EdgeKind::kMarginal), 0);
+  EXPECT_GT(report.dense_factors_kept, 0);
+  EXPECT_EQ(static_cast<int>(dense.map.dense_factors.size()), report.dense_factors_kept);
+  for (const TrimRecord& t : report.trims) {
+    EXPECT_GT(t.dense_factors, 0) << "submap " << t.submap;
+    EXPECT_LT(t.kl_nats, 1e-6) << "submap " << t.submap;
+    EXPECT_GT(t.kl_clt_nats, 1e3 * std::max(t.kl_nats, 1e-9)) << "submap " << t.submap;
+  }
+  // Later trims folded the earlier trims' factors they touched into their own: every factor left
+  // is over nodes of the trimmed map, and the trimmed graph's minimum is the untrimmed one's.
+  for (const core::DenseFactor& f : dense.map.dense_factors) {
+    EXPECT_EQ(core::denseFactorProblem(f), "");
+  }
+  const std::vector<core::Pose2> before = trustedOptimum(map);
+  const std::vector<core::Pose2> after = trustedOptimum(dense.map);
+  std::map<double, std::size_t> node_at;
+  for (std::size_t k = 0; k < map.nodes.size(); ++k) node_at.emplace(map.nodes[k].timestamp, k);
+  const core::Pose2& first = before[node_at.at(dense.map.nodes[0].timestamp)];
+  const core::Pose2 motion = core::compose(first, core::inverse(after[0]));
+  double largest = 0.0;
+  for (std::size_t k = 0; k < dense.map.nodes.size(); ++k) {
+    const core::Pose2 moved = core::compose(motion, after[k]);
+    largest = std::max(
+        largest,
+        (moved.head<2>() - before[node_at.at(dense.map.nodes[k].timestamp)].head<2>()).norm());
+  }
+  EXPECT_LT(largest, 1e-5);
+
+  const std::string path = ::testing::TempDir() + "dense.rrrmap";
+  writeMapFile(dense.map, path);
+  const MapSnapshot read = readMapFile(path);
+  ASSERT_EQ(read.dense_factors.size(), dense.map.dense_factors.size());
+  for (std::size_t k = 0; k < read.dense_factors.size(); ++k) {
+    const core::DenseFactor& a = read.dense_factors[k];
+    const core::DenseFactor& b = dense.map.dense_factors[k];
+    EXPECT_EQ(a.nodes, b.nodes);
+    EXPECT_EQ(a.measurements, b.measurements);
+    EXPECT_EQ(a.mean, b.mean);
+    EXPECT_EQ(a.information, b.information);
+    EXPECT_EQ(a.chi2_offset, b.chi2_offset);
+  }
+  // A version-4 file cannot hold them.
+  MapSnapshot older = dense.map;
+  older.format_version = 4;
+  EXPECT_THROW(older.check(), std::invalid_argument);
+
+  auto slam = LaserSlam::fromMap(read, roomSizedParams(), "next");
+  const core::Pose2 odom_frame(3.0, -2.0, 0.7);
+  drive(*slam, odom_frame, 150, 1000.0, 320);
+  slam->finish();
+  const MapSnapshot next = slam->snapshot();
+  EXPECT_EQ(next.dense_factors.size(), read.dense_factors.size());
+  ASSERT_TRUE(slam->tie().has_value()) << "the new session did not tie to the trimmed map";
+  const core::Pose2 frame =
+      core::compose(next.nodes[0].map_pose, core::inverse(read.nodes[0].map_pose));
+  for (std::size_t k = 0; k < read.nodes.size(); ++k) {
+    const core::Pose2 expected = core::compose(frame, read.nodes[k].map_pose);
+    EXPECT_LT((next.nodes[k].map_pose.head<2>() - expected.head<2>()).norm(), 0.05) << k;
+  }
+  const int first_new = next.sessions.back().first_node;
+  for (std::size_t k = static_cast<std::size_t>(first_new); k < next.nodes.size(); k += 10) {
+    const core::Pose2 truth =
+        core::compose(frame, core::compose(core::inverse(odom_frame), next.nodes[k].local_pose));
+    EXPECT_LT((next.nodes[k].map_pose.head<2>() - truth.head<2>()).norm(), 0.1) << k;
+  }
+  // Trimmed again (the new session covers the old one): the factors it touches fold into the new
+  // ones, and the result still checks.
+  TrimParams again = params;
+  again.keep_current_session = true;
+  const TrimResult twice = trimMap(next, again, roomSizedParams().local.submap);
+  EXPECT_NO_THROW(twice.map.check());
+}
+
+// Online trimming with the exact marginal: the running session goes on from a map whose trimmed
+// part is dense factors, tied, where the untrimmed map has it.
+TEST(MapTrimming, ARunningSessionTrimsToDenseFactorsAndGoesOn) {
+  LaserSlamParams sparse = roomSizedParams();
+  sparse.loops.search_every_n_nodes = 150;
+  auto running = LaserSlam::fromMap(threeLaps(), sparse, "running");
+  const core::Pose2 odom_frame(3.0, -2.0, 0.7);
+  drive(*running, odom_frame, 200, 1000.0, 320);
+  ASSERT_TRUE(running->tied());
+  TrimParams params = trimParams();
+  params.keep_current_session = true;
+  params.sparsification = Sparsification::kDense;
+  const LaserSlam::Trimmed trimmed = LaserSlam::trimmed(
+      running->checkpoint(), params, OverlapRatioTrimming(params.trim_overlap_ratio));
+  ASSERT_NE(trimmed.slam, nullptr);
+  LaserSlam& next = *trimmed.slam;
+  EXPECT_GT(trimmed.report.trimmed_submaps, 0);
+  EXPECT_EQ(trimmed.report.marginalEdges(), 0);
+  EXPECT_GT(trimmed.report.dense_factors_kept, 0);
+  EXPECT_EQ(next.rrr().status().dense_factors, trimmed.report.dense_factors_kept);
+  EXPECT_TRUE(next.tied());
+  drive(*running, odom_frame, 80, 1000.0, 520);
+  drive(next, odom_frame, 80, 1000.0, 520);
+  running->finish();
+  next.finish();
+  EXPECT_TRUE(next.tied());
+  const MapSnapshot a = running->snapshot();
+  const MapSnapshot b = next.snapshot();
+  EXPECT_EQ(static_cast<int>(b.dense_factors.size()), trimmed.report.dense_factors_kept);
+  const std::size_t shift = a.nodes.size() - b.nodes.size();
+  const core::Pose2 motion =
+      core::compose(a.nodes.back().map_pose, core::inverse(b.nodes.back().map_pose));
+  for (std::size_t k = static_cast<std::size_t>(b.sessions.back().first_node); k < b.nodes.size();
+       k += 5) {
+    const core::Pose2 expected = core::compose(motion, b.nodes[k].map_pose);
+    EXPECT_LT((a.nodes[k + shift].map_pose.head<2>() - expected.head<2>()).norm(), 0.1) << k;
+  }
+  // Deletion is refused online: it would drop the session's loops to the map.
+  OnlineTrimParams online;
+  online.every_n_nodes = 100;
+  online.trim.sparsification = Sparsification::kDelete;
+  EXPECT_THROW(OnlineTrimmer{online}, std::invalid_argument);
+  online.trim.sparsification = Sparsification::kDense;
+  EXPECT_NO_THROW(OnlineTrimmer{online});
+}
+
 // A second session over the same room: by default its submaps all stay (the newest view of
 // every cell it saw), the first session's that it covers go; judged all alike, the second
 // session's own earlier submaps go too.
@@ -744,8 +875,7 @@ TEST(MapTrimming, DeletionAndTheFreshAreaRuleAreTheAlternatives) {
   EXPECT_EQ(toString(TrimRule::kOverlapRatio), "overlap-ratio");
   EXPECT_THROW(parseTrimRule("fresh"), std::invalid_argument);
 
-  params.sparsification = Sparsification::kDense;
-  EXPECT_THROW(trimMap(threeLaps(), params, submap), std::invalid_argument);
+  EXPECT_EQ(parseSparsification("dense"), Sparsification::kDense);
   EXPECT_EQ(parseSparsification("clt"), Sparsification::kClt);
   EXPECT_THROW(parseSparsification("tree"), std::invalid_argument);
 }

@@ -614,6 +614,37 @@ def test_lifelong_trims_covered_submaps_when_the_map_is_saved(tmp_path):
 
 
 @needs_map_info
+@needs_binaries
+def test_lifelong_dense_keeps_the_exact_marginal(tmp_path):
+    # --sparsification dense: nothing lost at the trims (KL zero, where the tree's is not), the
+    # marginals kept as dense factors in the map and in g2o exports, which rrr_optimize reads.
+    first_map, before, moved = aces_head_twice(tmp_path)
+    out_map = tmp_path / "dense.rrrmap"
+    second = run(SLAM_OFFLINE, moved, "--load-map", first_map, "--save-map", out_map, "--lifelong",
+                 "--sparsification", "dense", "--trim-kl", "--trim-overlap", 0.5, "--keep-recent-submaps", 2,
+                 "--refine-resolution", 0, "--quiet", *SMALL_SUBMAPS)
+    assert second.returncode == 0, second.stderr
+    trim = dict(line.split(" ", 1) for line in second.stdout.splitlines() if line.startswith("trim_"))
+    assert int(trim["trim_submaps"]) > 0 and int(trim["trim_dense_factors_kept"]) > 0, second.stdout
+    assert int(trim["trim_marginal_edges"]) == 0
+    assert float(trim["trim_kl"]) < 1e-6 < float(trim["trim_kl_clt"]), second.stdout
+    after = dict(line.split(" ", 1) for line in run(MAP_INFO, out_map).stdout.splitlines())
+    assert int(after["dense_factors"]) == int(trim["trim_dense_factors_kept"])
+    assert int(after["dense_factor_nodes"]) >= 2 * int(after["dense_factors"])
+    assert int(after["marginal_edges"]) == 0
+    exported = tmp_path / "exported.g2o"
+    assert run(MAP_INFO, out_map, "--graph", exported).returncode == 0
+    dense_lines = [line for line in open(exported) if line.startswith("RRR_DENSE_SE2 ")]
+    assert len(dense_lines) == int(after["dense_factors"])
+    optimized = run(OPTIMIZE, exported, "--output", tmp_path / "optimized.g2o")
+    assert optimized.returncode == 0, optimized.stderr
+    assert run(MAP_INFO, out_map, "--graph", tmp_path / "exported.toro").returncode != 0  # TORO cannot
+    third = run(SLAM_OFFLINE, moved, "--load-map", out_map, "--max-scans", 40, "--refine-resolution", 0,
+                "--quiet", *SMALL_SUBMAPS)
+    assert third.returncode == 0, third.stderr
+
+
+@needs_map_info
 def test_lifelong_trims_while_the_session_maps(tmp_path):
     # The head of ACES twice: once the second session is tied, the first one's covered submaps
     # go while it maps, every 10 of its nodes.
@@ -685,7 +716,6 @@ def test_lifelong_flags_are_checked(tmp_path):
             (("--trim-overlap", 0.5, "--save-map", out), "--trim-overlap needs --lifelong"),
             (("--lifelong",), "--lifelong trims the map when it is saved: it needs --save-map"),
             (("--lifelong", "--save-map", out, "--sparsification", "tree"), "is not clt, dense or delete"),
-            (("--lifelong", "--save-map", out, "--sparsification", "dense"), "use clt or delete"),
             (("--lifelong", "--save-map", out, "--keep-recent-submaps", 0), "--keep-recent-submaps"),
             (("--lifelong", "--save-map", out, "--keep-current-session", "yes"),
              "--keep-current-session must be true or false"),

@@ -33,7 +33,7 @@ BAD = [
     ({"keep_recent_submaps": 0}, "keep_recent_submaps must be at least 1, got 0"),
     ({"trim_rule": "fresh"}, "trim_rule must be overlap-ratio or fresh-area"),
     ({"trim_min_fresh_area_m2": -2.0}, "trim_min_fresh_area_m2 must be at least 0 (m^2), got -2"),
-    ({"sparsification": "dense"}, "sparsification must be clt or delete"),
+    ({"sparsification": "exact"}, "sparsification must be clt, dense or delete"),
     ({"trim_every_n_nodes": -1}, "trim_every_n_nodes must be at least 0"),
     ({"trim_every_n_nodes": 10}, "online trimming needs lifelong true"),
     ({"lifelong": True, "trim_every_n_nodes": 10, "sparsification": "delete"},

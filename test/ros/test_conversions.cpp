@@ -191,10 +191,17 @@ TEST(Conversions, MarkersAndPathShowTheGraph) {
   graph.addCandidate(40, 0, core::between(pose(40), pose(0)), info);
   graph.addCandidate(45, 25, core::Pose2(0, 0, 0), info);            // 10 m apart, said to coincide
   graph.addMarginal(5, 35, core::between(pose(5), pose(35)), info);  // as a trim would leave it
+  core::DenseFactor dense;  // as a dense trim would leave it: 12 -> 31, 12 -> 50
+  dense.nodes = {12, 31, 50};
+  dense.measurements = {core::between(pose(12), pose(31)), core::between(pose(12), pose(50))};
+  dense.mean = Eigen::VectorXd::Zero(6);
+  dense.information = 100.0 * Eigen::MatrixXd::Identity(6, 6);
+  graph.addDenseFactor(dense);
+  EXPECT_EQ(graph.status().dense_factors, 1);
   graph.finish();
   const std::vector<core::Pose2> poses = graph.mapPoses();
   const visualization_msgs::MarkerArray markers = buildMarkers(graph, poses, "map", ros::Time(1));
-  ASSERT_EQ(markers.markers.size(), 6u);
+  ASSERT_EQ(markers.markers.size(), 7u);
   std::map<std::string, const visualization_msgs::Marker*> by_ns;
   for (const auto& m : markers.markers) {
     by_ns[m.ns] = &m;
@@ -206,6 +213,7 @@ TEST(Conversions, MarkersAndPathShowTheGraph) {
   EXPECT_EQ(by_ns.at("loops_rejected")->points.size(), 2u);
   EXPECT_EQ(by_ns.at("loops_pending")->action, visualization_msgs::Marker::DELETE);
   EXPECT_EQ(by_ns.at("marginal")->points.size(), 2u);
+  EXPECT_EQ(by_ns.at("dense")->points.size(), 4u);
   // The accepted loop's ends meet in the map.
   const auto& a = by_ns.at("loops_accepted")->points;
   EXPECT_LT(std::hypot(a[0].x - a[1].x, a[0].y - a[1].y), 0.05);

@@ -34,7 +34,12 @@ PoseGraph readPoseGraph(const std::string& path, const GraphReadOptions& options
 GraphFormat formatFromPath(const std::string& path);
 
 /// Writes nodes in id order and edges in insertion order, atomically. Numbers are written in
-/// their shortest exact form, so reading the file back gives the same graph bit for bit.
+/// their shortest exact form, so reading the file back gives the same graph bit for bit. Dense
+/// factors (dense_factor.h) follow the edges in g2o files as this product's own lines,
+///   RRR_DENSE_SE2 n id_0 .. id_{n-1} y_1 .. y_{n-1} mean information offset
+/// (each y three numbers, the mean 3(n-1), the information's upper triangle row by row), which
+/// readPoseGraph reads back; g2o itself and other tools do not know them. TORO cannot hold them:
+/// such a graph is refused (std::invalid_argument) rather than written without them.
 void writePoseGraph(const PoseGraph& graph, const std::string& path, GraphFormat format);
 /// The graph's text, for a file written with others (AtomicFileSet).
 void writePoseGraph(const PoseGraph& graph, std::ostream& out, GraphFormat format);

@@ -16,6 +16,7 @@
 
 #include <Eigen/Core>
 
+#include "rrr_graphslam/core/dense_factor.h"
 #include "rrr_graphslam/core/pose_graph.h"
 #include "rrr_graphslam/core/se2.h"
 
@@ -43,6 +44,12 @@ struct QuadraticModel {
 /// in `nodes` order), dense. Throws std::invalid_argument for a constraint with an end not in
 /// `nodes` or for mismatched sizes.
 QuadraticModel linearizeConstraints(const std::vector<PoseConstraint>& constraints,
+                                    const std::vector<NodeId>& nodes,
+                                    const std::vector<Pose2>& poses);
+
+/// The same with dense factors (dense_factor.h) over `nodes` added to the model.
+QuadraticModel linearizeConstraints(const std::vector<PoseConstraint>& constraints,
+                                    const std::vector<DenseFactor>& factors,
                                     const std::vector<NodeId>& nodes,
                                     const std::vector<Pose2>& poses);
 

@@ -44,6 +44,7 @@ namespace rrr_graphslam::core {
 struct Marginal {
   std::vector<NodeId> removed_nodes;             ///< M, increasing ids
   std::vector<std::size_t> removed_constraints;  ///< input constraints touching M, increasing
+  std::vector<std::size_t> removed_factors;      ///< input dense factors touching M, increasing
   std::vector<NodeId> blanket;                   ///< Markov blanket B, increasing ids
   std::vector<Pose2> linearization_point;        ///< blanket poses, in blanket order
   Eigen::MatrixXd information;                   ///< Lambda_B, 3|B| x 3|B|, blanket order
@@ -60,7 +61,15 @@ struct Marginal {
 Marginal marginalizeNodes(const std::vector<PoseConstraint>& constraints,
                           const std::map<NodeId, Pose2>& poses, const std::vector<NodeId>& removed);
 
-/// The same on a PoseGraph (constraint k is edge k, poses the graph's).
+/// The same where dense factors (dense_factor.h, an earlier marginal kept exactly) are part of the
+/// graph: those holding a node of M are marginalized with the constraints touching M, and their
+/// other nodes join the blanket. Also throws for a factor with denseFactorProblem() or a node
+/// without a pose.
+Marginal marginalizeNodes(const std::vector<PoseConstraint>& constraints,
+                          const std::vector<DenseFactor>& factors,
+                          const std::map<NodeId, Pose2>& poses, const std::vector<NodeId>& removed);
+
+/// The same on a PoseGraph (constraint k is edge k, its dense factors, poses the graph's).
 Marginal marginalizeNodes(const PoseGraph& graph, const std::vector<NodeId>& removed);
 
 /// The slow, obvious version: the same Schur complement with dense Eigen matrices over M and B.
@@ -68,6 +77,15 @@ Marginal marginalizeNodes(const PoseGraph& graph, const std::vector<NodeId>& rem
 Marginal marginalizeNodesDense(const std::vector<PoseConstraint>& constraints,
                                const std::map<NodeId, Pose2>& poses,
                                const std::vector<NodeId>& removed);
+Marginal marginalizeNodesDense(const std::vector<PoseConstraint>& constraints,
+                               const std::vector<DenseFactor>& factors,
+                               const std::map<NodeId, Pose2>& poses,
+                               const std::vector<NodeId>& removed);
+
+/// Connected pieces of the blanket: nodes coupled by a nonzero block of the marginal (exactly
+/// zero between pieces, see above), each piece's members as indices into `blanket` in its order;
+/// the first is the piece's root.
+std::vector<std::vector<std::size_t>> blanketPieces(const Marginal& marginal);
 
 /// The dense factor's chi2 at `blanket_poses` (in blanket order):
 /// c + 2 g^T dx + dx^T Lambda dx with dx = perturbation(blanket_poses, linearization_point).

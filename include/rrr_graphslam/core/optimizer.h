@@ -28,6 +28,7 @@
 #include <Eigen/SparseCore>
 
 #include "rrr_graphslam/core/block_hessian.h"
+#include "rrr_graphslam/core/dense_factor.h"
 #include "rrr_graphslam/core/pose_graph.h"
 #include "rrr_graphslam/core/se2.h"
 #include "rrr_graphslam/core/sparse_solver.h"
@@ -138,6 +139,23 @@ class Optimizer {
   int addConstraint(int from, int to, const Pose2& measurement, const Eigen::Matrix3d& information,
                     bool active = true);
 
+  /// Adds a dense factor (dense_factor.h) over the optimizer's nodes `nodes` (the factor's order,
+  /// root first; the factor's own node ids are not used). Always active and unweighted: it stands
+  /// for trusted constraints that were marginalized. Its chi2 (offset included) counts in chi2(),
+  /// weightedChi2() and the results'. Throws std::invalid_argument for a bad node index, a count
+  /// that does not match the factor, or a factor with denseFactorProblem(). Returns its index.
+  int addDenseFactor(const std::vector<int>& nodes, const DenseFactor& factor);
+  int numDenseFactors() const { return static_cast<int>(dense_.size()); }
+  const DenseFactor& denseFactor(int factor) const {
+    return dense_.at(static_cast<std::size_t>(factor)).factor;
+  }
+  /// The optimizer's nodes of a dense factor, in the factor's order.
+  const std::vector<int>& denseFactorNodes(int factor) const {
+    return dense_.at(static_cast<std::size_t>(factor)).nodes;
+  }
+  /// The dense factor's chi2 at the current poses.
+  double denseFactorChi2(int factor) const;
+
   void setActive(int constraint, bool active) {
     auto& a = active_[static_cast<std::size_t>(constraint)];
     if (static_cast<bool>(a) != active) covariance_valid_ = false;
@@ -220,10 +238,10 @@ class Optimizer {
   /// exist or a block outside J's rows.
   Eigen::MatrixXd projectedCovariance(const std::vector<JacobianBlock>& J, int rows) const;
 
-  /// The information matrix H = sum_k J_k^T (w_k Omega_k) J_k of the active constraints at the
-  /// current poses, 3 rows and columns per node in node order (fixed nodes included, anchors'
-  /// weak priors left out): what marginalizing nodes out of the graph starts from. Built directly
-  /// from the constraints, independent of the solver's ordering and factor.
+  /// The information matrix H = sum_k J_k^T (w_k Omega_k) J_k of the active constraints (and the
+  /// dense factors) at the current poses, 3 rows and columns per node in node order (fixed nodes
+  /// included, anchors' weak priors left out): what marginalizing nodes out of the graph starts
+  /// from. Built directly from the constraints, independent of the solver's ordering and factor.
   Eigen::SparseMatrix<double> informationMatrix() const;
 
   /// Symbolic analyses done so far (one per sparsity pattern).
@@ -245,7 +263,19 @@ class Optimizer {
     BlockHessian::OffDiagonalSlots off_diagonal{};
   };
 
+  // A dense factor, the optimizer's node of each factor node, and where its blocks live in H:
+  // the variable of each node (-1 fixed) and the slots of each pair (a < b in factor order, row
+  // by row) whose two nodes are variables.
+  struct Dense {
+    DenseFactor factor;
+    std::vector<int> nodes;
+    std::vector<int> vars;
+    std::vector<BlockHessian::OffDiagonalSlots> pair_slots;
+  };
+
   void prepareStructure();
+  // The dense factors' part of assemble().
+  double assembleDense(bool with_hessian);
   int reservedSlots() const { return params_.factor_updates ? params_.reserved_slots : 0; }
   void rebuildPattern();
   void chooseAnchors();
@@ -273,6 +303,7 @@ class Optimizer {
   std::vector<char> active_;
   std::vector<double> weight_;
   std::vector<char> fixed_;
+  std::vector<Dense> dense_;
 
   // Structure, valid until the fixed set changes or an active constraint is not in the pattern.
   bool variables_valid_ = false;

@@ -4,6 +4,10 @@
 // unverified loop candidate, or a trusted marginal constraint left by node removal). Duplicate
 // edges between the same pair are separate edges.
 //
+// Beside the edges, dense factors (dense_factor.h): the exact marginal of removed nodes over
+// their Markov blanket, trusted like marginal edges, kept in their own list (MRPT's network holds
+// pairwise edges only).
+//
 // Node ids are MRPT's TNodeID and need not be contiguous. Edge indices are positions in
 // edges(), i.e. insertion order; RRR and the tools key everything on them.
 
@@ -14,6 +18,7 @@
 #include <mrpt/graphs/CNetworkOfPoses.h>
 #include <Eigen/Core>
 
+#include "rrr_graphslam/core/dense_factor.h"
 #include "rrr_graphslam/core/se2.h"
 
 namespace rrr_graphslam::core {
@@ -66,10 +71,16 @@ class PoseGraph {
   Pose2 measurement(std::size_t index) const;
   Eigen::Matrix3d information(std::size_t index) const;
 
+  /// Throws std::invalid_argument for an unknown node or a factor with denseFactorProblem().
+  /// Returns the factor's index.
+  std::size_t addDenseFactor(DenseFactor factor);
+  const std::vector<DenseFactor>& denseFactors() const { return dense_factors_; }
+
   /// Node ids in increasing order.
   std::vector<NodeId> nodeIds() const;
 
-  /// Connected components over all edges, each sorted, ordered by their smallest id.
+  /// Connected components over all edges and dense factors, each sorted, ordered by their smallest
+  /// id.
   std::vector<std::vector<NodeId>> connectedComponents() const;
 
   const Network& network() const { return network_; }
@@ -79,6 +90,7 @@ class PoseGraph {
 
   Network network_;
   std::vector<Edge> edges_;
+  std::vector<DenseFactor> dense_factors_;
 };
 
 }  // namespace rrr_graphslam::core

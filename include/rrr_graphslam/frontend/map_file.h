@@ -33,8 +33,9 @@ namespace rrr_graphslam::frontend {
 /// marginal edges and the lifelong counters (a version-1 map holds neither; it is read as is and
 /// continued as the newest version); version 3 the sessions' numbers and the map's memory of
 /// trimmed submaps (map_memory.h; an older map has none, and its sessions are numbered in order);
-/// version 4 each loop candidate's source (older maps: unknown).
-constexpr std::uint32_t kMapFormatVersion = 4;
+/// version 4 each loop candidate's source (older maps: unknown); version 5 the dense factors a
+/// `dense` trim leaves (older maps have none).
+constexpr std::uint32_t kMapFormatVersion = 5;
 
 /// Which search proposed a loop candidate.
 enum class LoopSource : std::uint8_t {
@@ -104,6 +105,9 @@ struct MapSnapshot {
   std::vector<Edge> edges;
   std::vector<Submap> submaps;
   Lifelong lifelong;
+  /// Dense factors (core/dense_factor.h) over node indices, trusted like marginal edges: the exact
+  /// marginals of trims with `sparsification dense` (version 5 on).
+  std::vector<core::DenseFactor> dense_factors;
   /// Cells trimmed submaps decided that the rendered map keeps showing (version 3 on).
   std::vector<RememberedCells> memory;
 
@@ -123,11 +127,11 @@ MapSnapshot readMapFile(const std::string& path);
 core::EdgeKind toCoreKind(MapSnapshot::EdgeKind kind);
 
 /// The graph of the map: nodes at their map poses, its edges (odometry, marginal constraints and
-/// loop candidates) in file order.
+/// loop candidates) in file order, and its dense factors.
 core::PoseGraph mapPoseGraph(const MapSnapshot& map);
 
 /// The same without the loop candidates RRR did not accept: the constraints the map's poses are
-/// the optimum of (odometry, marginal constraints, accepted loops).
+/// the optimum of (odometry, marginal constraints, dense factors, accepted loops).
 core::PoseGraph trustedPoseGraph(const MapSnapshot& map);
 
 }  // namespace rrr_graphslam::frontend

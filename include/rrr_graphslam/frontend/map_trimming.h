@@ -20,7 +20,10 @@
 //      constraints), found once before the first trim: the Schur complement over their Markov
 //      blanket, from the constraints touching them only.
 //   4. Sparsification: the Chow-Liu tree of that marginal (core/chow_liu.h) replaces it as
-//      marginal constraints (kClt), or nothing does (kDelete, Cartographer's trimmer).
+//      marginal constraints (kClt), the marginal itself does as dense factors, one per piece of
+//      the blanket (kDense, core/dense_factor.h: exact; a later trim that touches one folds it
+//      into its own marginal, so blankets grow where trims meet), or nothing does (kDelete,
+//      Cartographer's trimmer).
 //   5. Memory (map_memory.h): the cells the leaving scans of each session decide together are
 //      kept, in 10 m tiles each anchored to the nearest node that stays, for the rendered map;
 //      patches whose anchor leaves move to the nearest that stays; the cells a newer patch
@@ -54,7 +57,7 @@ namespace rrr_graphslam::frontend {
 /// What replaces a trimmed submap's constraints.
 enum class Sparsification {
   kClt,     ///< the Chow-Liu tree of the marginal (default)
-  kDense,   ///< the exact marginal, one factor over the blanket (not storable yet: refused)
+  kDense,   ///< the exact marginal, dense factors over the blanket (core/dense_factor.h)
   kDelete,  ///< nothing: their information is lost (Cartographer's trimmer)
 };
 inline core::Choices<Sparsification> choices(Sparsification /*tag*/) {
@@ -185,8 +188,9 @@ struct TrimRecord {
   int submaps = 0;              ///< how many trimmed submaps owned the nodes
   int removed_nodes = 0;        ///< nodes it owned that left the graph
   int blanket_nodes = 0;        ///< their Markov blanket
-  int removed_constraints = 0;  ///< trusted constraints folded into the marginal
-  int marginal_edges = 0;       ///< what replaced them
+  int removed_constraints = 0;  ///< trusted constraints (and dense factors) folded into it
+  int marginal_edges = 0;       ///< what replaced them (clt)
+  int dense_factors = 0;        ///< what replaced them (dense: one per piece of the blanket)
   double kl_nats = 0.0;         ///< KL(exact marginal || the replacement used)
   double kl_clt_nats = 0.0;     ///< KL(exact marginal || Chow-Liu tree)
   double kl_delete_nats = 0.0;  ///< KL(exact marginal || deletion)
@@ -207,6 +211,9 @@ struct TrimReport {
   /// Marginal edges the trims made that are in the trimmed map (a later trim of the same run may
   /// marginalize an earlier one's edges again: marginalEdges() counts every one made).
   int marginal_edges_kept = 0;
+  /// Dense factors in the trimmed map (the map's earlier ones included: each trim folds those it
+  /// touches into its own).
+  int dense_factors_kept = 0;
   double coverage_seconds = 0.0;
   /// The trusted graph's optimization before the trims (where they all linearize) and after
   /// (the trimmed map at its own minimum); with kDelete and report_kl, after each deletion too.

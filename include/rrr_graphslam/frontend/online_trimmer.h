@@ -43,9 +43,9 @@ struct OnlineTrimRecord {
 
 class OnlineTrimmer {
  public:
-  /// Throws std::invalid_argument for trim parameters out of range, every_n_nodes < 0, or a
-  /// sparsification other than clt (deletion would drop the running session's folded loops to
-  /// the map and could cut it loose while it counts as tied).
+  /// Throws std::invalid_argument for trim parameters out of range, every_n_nodes < 0, or
+  /// sparsification delete (deletion would drop the running session's folded loops to the map
+  /// and could cut it loose while it counts as tied; clt and dense keep them).
   explicit OnlineTrimmer(const OnlineTrimParams& params);
   /// Waits for a trim in flight (its result is dropped).
   ~OnlineTrimmer();

@@ -1,7 +1,8 @@
 #pragma once
 // What rviz shows of the graph: one LINE_LIST marker per namespace ("odometry", "loops_accepted"
 // green, "loops_rejected" red, "loops_pending" yellow, "marginal" purple: what lifelong trimming
-// left of removed nodes) plus the "nodes" as points, and the optimized path. All in the map
+// left of removed nodes, "dense" orange: its exact marginals, each drawn as a star from its
+// root) plus the "nodes" as points, and the optimized path. All in the map
 // frame, at the map poses.
 
 #include <string>

@@ -67,6 +67,7 @@ struct OnlineRrrStatus {
   int sessions = 0;
   int candidates = 0;
   int marginal_edges = 0;
+  int dense_factors = 0;  ///< dense factors in the graph (lifelong trimming, sparsification dense)
   int waiting_candidates = 0;  ///< naming nodes not arrived yet
   int clusters = 0;            ///< closed
   int open_clusters = 0;
@@ -126,6 +127,11 @@ class OnlineRrr {
   void addMarginal(NodeId from, NodeId to, const core::Pose2& measurement,
                    const Eigen::Matrix3d& information);
 
+  /// A dense factor (core/dense_factor.h: the exact marginal a `dense` trim leaves) over existing
+  /// nodes (its own ids), trusted like a marginal constraint. Throws std::invalid_argument for an
+  /// unknown id or a factor with core::denseFactorProblem().
+  void addDenseFactor(const core::DenseFactor& factor);
+
   /// Every optimization checks `*flag` and stops (kCancelled) once it is raised, so that a long
   /// decision ends within a step; the verdicts reached meanwhile are not to be trusted: raise it
   /// only to throw this graph away (a reset, a shutdown). nullptr (default): never cancelled.
@@ -160,6 +166,11 @@ class OnlineRrr {
   const LoopCandidate& candidate(int k) const { return graph_.candidate(k); }
   /// The marginal constraints, by dense node index.
   const std::vector<MarginalLink>& marginalLinks() const { return graph_.marginalLinks(); }
+  int numDenseFactors() const { return graph_.optimizer().numDenseFactors(); }
+  /// The node indices of dense factor `f`, root first.
+  const std::vector<int>& denseFactorNodes(int f) const {
+    return graph_.optimizer().denseFactorNodes(f);
+  }
   Verdict verdict(int candidate) const { return reported_[static_cast<std::size_t>(candidate)]; }
   /// Why the candidate has its verdict (Rrr::reason, or the other verifier's).
   std::string reason(int candidate) const { return decider_->reason(candidate); }

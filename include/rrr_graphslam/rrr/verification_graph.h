@@ -7,7 +7,9 @@
 // Marginal constraints (core::EdgeKind::kMarginal, left where lifelong trimming removed nodes)
 // are trusted like odometry and always active, but join any two nodes and are no part of the
 // odometry chain: a session whose middle was trimmed is two chains, held together by them.
-// trustedComponents() says which nodes odometry and marginal constraints hold together.
+// Dense factors (core/dense_factor.h, the exact marginal a `dense` trim leaves) are trusted the
+// same way, each over several nodes. trustedComponents() says which nodes odometry, marginal
+// constraints and dense factors hold together.
 
 #include <cstddef>
 #include <vector>
@@ -54,6 +56,9 @@ class VerificationGraph {
   /// index in marginalLinks().
   int addMarginal(int from, int to, const core::Pose2& measurement,
                   const Eigen::Matrix3d& information);
+  /// A dense factor over existing distinct nodes (`nodes`, in the factor's order; the factor's own
+  /// ids are kept for poseGraphWith), always active. Returns its index in the optimizer.
+  int addDenseFactor(const std::vector<int>& nodes, const core::DenseFactor& factor);
   /// A loop candidate between existing nodes, switched off; `edge` is the caller's id for it.
   /// Returns the candidate index.
   int addCandidate(int from, int to, const core::Pose2& measurement,
@@ -64,9 +69,9 @@ class VerificationGraph {
   const LoopCandidate& candidate(int k) const { return candidates_[static_cast<std::size_t>(k)]; }
   const std::vector<MarginalLink>& marginalLinks() const { return marginal_; }
   const std::vector<core::PoseGraph::NodeId>& nodeIds() const { return node_ids_; }
-  /// Per node, the component that odometry and marginal constraints (the trusted ones) hold it
-  /// in: 0, 1, ... in order of their first nodes. Without marginal constraints these are the
-  /// odometry chain's sessions.
+  /// Per node, the component that odometry, marginal constraints and dense factors (the trusted
+  /// ones) hold it in: 0, 1, ... in order of their first nodes. Without marginal constraints these
+  /// are the odometry chain's sessions.
   std::vector<int> trustedComponents() const;
   /// How many parts trustedComponents() finds (the sessions, less those marginals joined).
   int numTrustedComponents() const { return numComponents(trustedComponents()); }
@@ -113,7 +118,11 @@ class VerificationGraph {
   std::vector<MarginalLink> marginal_;
   core::Optimizer optimizer_;
   mutable double trusted_chi2_ = 0.0;
-  mutable std::size_t trusted_chi2_marginals_ = 0;  // marginal_.size() it was computed for
+  // marginal_.size() + dense factors it was computed for
+  mutable std::size_t trusted_chi2_marginals_ = 0;
+  std::size_t numMarginalTerms() const {
+    return marginal_.size() + static_cast<std::size_t>(optimizer_.numDenseFactors());
+  }
   OdometryChain chain_;
 };
 
