@@ -138,8 +138,10 @@ void writeDenseFactor(const DenseFactor& f, std::ostream& out) {
 DenseFactor readDenseFactor(const LineParser& parse) {
   parse.expectAtLeast(1, "a node count");
   const std::uint64_t n = parse.unsignedInteger(1, "the node count (an integer of at least 2)");
-  if (n < 2 || n > parse.size()) {
-    parse.fail("node count " + std::to_string(n) + " is not one of a dense factor (2 or more)");
+  if (n < 2) parse.fail("node count " + std::to_string(n) + ": a dense factor has 2 or more");
+  if (n > parse.size()) {
+    parse.fail("node count " + std::to_string(n) + " exceeds the line's " +
+               std::to_string(parse.size() - 1) + " fields");
   }
   const std::size_t k = static_cast<std::size_t>(n) - 1, rows = 3 * k;
   parse.expectCount(1 + n + 3 * k + rows + rows * (rows + 1) / 2 + 1);

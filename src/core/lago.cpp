@@ -46,6 +46,37 @@ struct LinearProblem {
 constexpr double kWeakPrior = 1e-9;
 constexpr double kGaugePrior = 1e9;
 
+// A relative pose LAGO uses: an active constraint, or one residual block of a dense factor (its
+// node's pose in the root's frame at the factor's minimum, weighted by its own diagonal block of
+// the information: the correlations between blocks are left out, as LAGO leaves out the
+// x-y-theta correlations of an edge).
+struct Relation {
+  int from;
+  int to;
+  Pose2 measurement;
+  Eigen::Matrix3d information;
+};
+
+std::vector<Relation> relations(const Optimizer& optimizer) {
+  std::vector<Relation> out;
+  for (int c = 0; c < optimizer.numConstraints(); ++c) {
+    if (!optimizer.isActive(c)) continue;
+    out.push_back(
+        {optimizer.from(c), optimizer.to(c), optimizer.measurement(c), optimizer.information(c)});
+  }
+  for (int f = 0; f < optimizer.numDenseFactors(); ++f) {
+    const DenseFactor& factor = optimizer.denseFactor(f);
+    const std::vector<int>& nodes = optimizer.denseFactorNodes(f);
+    for (std::size_t a = 0; a + 1 < nodes.size(); ++a) {
+      const auto at = static_cast<Eigen::Index>(3 * a);
+      // edgeError(x_root, x, y) = mean at x = root * y * v2t(mean): its pose in the root's frame.
+      const Pose2 minimum = compose(factor.measurements[a], Pose2(factor.mean.segment<3>(at)));
+      out.push_back({nodes.front(), nodes[a + 1], minimum, factor.information.block<3, 3>(at, at)});
+    }
+  }
+  return out;
+}
+
 }  // namespace
 
 std::vector<Pose2> lagoInitialization(const Optimizer& optimizer) {
@@ -70,15 +101,15 @@ std::vector<Pose2> lagoInitialization(const Optimizer& optimizer) {
                        poses[static_cast<std::size_t>(i - 1)].z());
   }
 
+  const std::vector<Relation> measured = relations(optimizer);
   LinearProblem angles(n);
-  for (int c = 0; c < optimizer.numConstraints(); ++c) {
-    if (!optimizer.isActive(c)) continue;
-    const int i = optimizer.from(c), j = optimizer.to(c);
-    const double z = optimizer.measurement(c).z();
+  for (const Relation& c : measured) {
+    const int i = c.from, j = c.to;
+    const double z = c.measurement.z();
     const double turns = std::round(
         (unwrapped[static_cast<std::size_t>(j)] - unwrapped[static_cast<std::size_t>(i)] - z) /
         (2.0 * M_PI));
-    const Eigen::Matrix3d& info = optimizer.information(c);
+    const Eigen::Matrix3d& info = c.information;
     // Marginal angular information: 1 / (Sigma)_thetatheta.
     const double weight = 1.0 / info.inverse()(2, 2);
     angles.addDifference(i, j, weight, z + 2.0 * M_PI * turns);
@@ -92,11 +123,10 @@ std::vector<Pose2> lagoInitialization(const Optimizer& optimizer) {
   // Positions given the orientations: t_j - t_i = R(theta_i) z_t. x and y decouple when the
   // translational information is taken isotropic (its mean eigenvalue); exact enough to start.
   LinearProblem xs(n), ys(n);
-  for (int c = 0; c < optimizer.numConstraints(); ++c) {
-    if (!optimizer.isActive(c)) continue;
-    const int i = optimizer.from(c), j = optimizer.to(c);
-    const Eigen::Vector2d d = rotation(theta(i)) * optimizer.measurement(c).head<2>();
-    const Eigen::Matrix2d cov = optimizer.information(c).inverse().topLeftCorner<2, 2>();
+  for (const Relation& c : measured) {
+    const int i = c.from, j = c.to;
+    const Eigen::Vector2d d = rotation(theta(i)) * c.measurement.head<2>();
+    const Eigen::Matrix2d cov = c.information.inverse().topLeftCorner<2, 2>();
     const double weight = 2.0 / cov.trace();
     xs.addDifference(i, j, weight, d.x());
     ys.addDifference(i, j, weight, d.y());
@@ -121,8 +151,11 @@ std::vector<Pose2> lagoInitialization(const Optimizer& optimizer) {
 }
 
 bool farFromMinimum(const Optimizer& optimizer, double chi2_per_constraint) {
-  int active = 0;
+  int active = 0;  // relative poses: active constraints and the dense factors' residual blocks
   for (int k = 0; k < optimizer.numConstraints(); ++k) active += optimizer.isActive(k) ? 1 : 0;
+  for (int f = 0; f < optimizer.numDenseFactors(); ++f) {
+    active += optimizer.denseFactor(f).dimension() / 3;
+  }
   return active > 0 && optimizer.chi2() > chi2_per_constraint * active;
 }
 

@@ -334,10 +334,14 @@ MapSnapshot decodePayload(const std::vector<std::uint8_t>& bytes, std::uint32_t 
       // Per node at least its id, a measurement and 3 means (the root has neither, but the
       // information's entries more than make up for it).
       const std::size_t n = in.count(8 + 3 * 8 + 3 * 8, "dense factor node");
-      if (n < 2) throw std::invalid_argument("a dense factor has fewer than two nodes");
+      if (n < 2 || n > kMaxDenseFactorNodes) {
+        throw std::invalid_argument("a dense factor over " + std::to_string(n) + " nodes (2 to " +
+                                    std::to_string(kMaxDenseFactorNodes) + " are read)");
+      }
       for (std::size_t i = 0; i < n; ++i) {
-        f.nodes.push_back(
-            static_cast<mrpt::graphs::TNodeID>(toInt(in.get<std::int64_t>(), "dense factor node")));
+        const int id = toInt(in.get<std::int64_t>(), "dense factor node");
+        if (id < 0) throw std::invalid_argument("a dense factor node is negative");
+        f.nodes.push_back(static_cast<mrpt::graphs::TNodeID>(id));
       }
       for (std::size_t i = 0; i + 1 < n; ++i) f.measurements.push_back(in.pose());
       const auto rows = static_cast<Eigen::Index>(3 * (n - 1));
@@ -497,14 +501,18 @@ void MapSnapshot::check() const {
   }
   for (std::size_t k = 0; k < dense_factors.size(); ++k) {
     const core::DenseFactor& f = dense_factors[k];
-    const std::string problem = core::denseFactorProblem(f);
-    if (!problem.empty()) fail("dense factor " + std::to_string(k) + ": " + problem);
+    if (f.nodes.size() > kMaxDenseFactorNodes) {  // before the factorization below
+      fail("dense factor " + std::to_string(k) + " holds " + std::to_string(f.nodes.size()) +
+           " nodes, more than the " + std::to_string(kMaxDenseFactorNodes) + " a map file holds");
+    }
     for (auto id : f.nodes) {
       if (id >= static_cast<std::size_t>(n)) {
         fail("dense factor " + std::to_string(k) + " holds node " + std::to_string(id) +
              ", not one of the " + std::to_string(n) + " nodes");
       }
     }
+    const std::string problem = core::denseFactorProblem(f);
+    if (!problem.empty()) fail("dense factor " + std::to_string(k) + ": " + problem);
   }
   for (std::size_t k = 0; k < submaps.size(); ++k) {
     const Submap& s = submaps[k];

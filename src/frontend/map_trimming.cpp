@@ -212,7 +212,8 @@ void optimizeTrusted(const std::vector<Trusted>& trusted,
 // and deletion are compared with the exact marginal.
 void measureKl(const std::vector<Trusted>& trusted, const std::vector<core::DenseFactor>& dense,
                const std::vector<char>& alive, const std::vector<core::Pose2>& poses,
-               const core::Marginal& marginal, const TrimParams& params, TrimRecord& record) {
+               const core::Marginal& marginal, const std::vector<core::DenseFactor>& replacement,
+               const TrimParams& params, TrimRecord& record) {
   const core::Clock::time_point watch = core::Clock::now();
   std::vector<int> index_of;
   core::Optimizer optimizer = trustedOptimizer(trusted, dense, alive, poses, index_of);
@@ -229,9 +230,10 @@ void measureKl(const std::vector<Trusted>& trusted, const std::vector<core::Dens
       case Sparsification::kClt:
         record.kl_nats = record.kl_clt_nats;
         break;
-      case Sparsification::kDense:  // zero up to rounding: measured, not assumed
+      case Sparsification::kDense:  // the factors made, linearized: zero up to rounding
         record.kl_nats = exact.replacementKl(
-            marginal, core::replacementModel(marginal, core::MarginalReplacement::kDense));
+            marginal, core::linearizeConstraints({}, replacement, marginal.blanket,
+                                                 marginal.linearization_point));
         break;
       case Sparsification::kDelete:
         record.kl_nats = record.kl_delete_nats;
@@ -488,7 +490,7 @@ TrimResult trimMap(const MapSnapshot& map, const TrimParams& params,
           break;
       }
       if (params.report_kl) {
-        measureKl(trusted, dense, alive, poses, marginal, params, record);
+        measureKl(trusted, dense, alive, poses, marginal, dense_replacement, params, record);
       }
     }
     for (NodeId k : group) {

@@ -148,7 +148,11 @@ bool GraphSlamRos::saveMap(SaveMap::Request& req, SaveMap::Response& res) {
           const frontend::TrimReport& r = result.report;
           trimmed = " (lifelong: trimmed " + std::to_string(r.trimmed_submaps) +
                     " submaps, marginalized " + std::to_string(r.removedNodes()) + " nodes into " +
-                    std::to_string(r.marginalEdges()) + " marginal edges)";
+                    std::to_string(r.marginalEdges()) + " marginal edges" +
+                    (r.dense_factors_kept > 0
+                         ? ", " + std::to_string(r.dense_factors_kept) + " dense factors kept"
+                         : std::string()) +
+                    ")";
           map = std::move(result.map);
         }
         frontend::writeMapFile(map, req.path);

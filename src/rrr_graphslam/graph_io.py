@@ -55,9 +55,26 @@ class Edge:
 
 
 @dataclass
+class DenseFactor:
+    """A dense factor (core/dense_factor.h: the exact marginal of trimmed nodes), as the
+    product's g2o files carry it: `RRR_DENSE_SE2 n id_0 .. id_{n-1} y_1 .. y_{n-1} mean
+    information offset`, the information's upper triangle row by row."""
+    nodes: List[int]
+    measurements: List[Pose]
+    mean: List[float]
+    information: List[float]  # upper triangle, row by row
+    offset: float
+    line: int = 0
+
+
+DENSE_TAG = "RRR_DENSE_SE2"
+
+
+@dataclass
 class PoseGraph:
     poses: Dict[int, Pose] = field(default_factory=dict)
     edges: List[Edge] = field(default_factory=list)
+    dense_factors: List[DenseFactor] = field(default_factory=list)
 
     def loops(self) -> List[Edge]:
         return [e for e in self.edges if e.is_loop]
@@ -279,14 +296,20 @@ def read_graph(path: str, allow_disconnected: bool = True) -> PoseGraph:
             if problem:
                 line.fail(f"information matrix of {tag}: {problem}")
             graph.edges.append(Edge(i, j, (x, y, normalize_angle(t)), info, number))
+        elif tag == DENSE_TAG:
+            graph.dense_factors.append(_read_dense_factor(line))
         else:
-            line.fail(f"unknown tag '{tag}' (expected VERTEX_SE2, EDGE_SE2, VERTEX2 or EDGE2)")
+            line.fail(f"unknown tag '{tag}' (expected VERTEX_SE2, EDGE_SE2, VERTEX2, EDGE2 or {DENSE_TAG})")
     if not vertex_line:
         _chain_initial_poses(graph)
     for e in graph.edges:
         for end in (e.source, e.target):
             if end not in graph.poses:
                 raise GraphFileError(path, e.line, f"edge refers to unknown node {end}")
+    for f in graph.dense_factors:
+        for node in f.nodes:
+            if node not in graph.poses:
+                raise GraphFileError(path, f.line, f"dense factor refers to unknown node {node}")
     if not graph.poses:
         raise GraphFileError(path, 0, "no vertices or edges in the file")
     if not allow_disconnected:
@@ -294,6 +317,41 @@ def read_graph(path: str, allow_disconnected: bool = True) -> PoseGraph:
         if len(parts) > 1:
             raise GraphFileError(path, 0, "graph is disconnected: " + describe_components(parts))
     return graph
+
+
+def _read_dense_factor(line: "_Line") -> DenseFactor:
+    """One RRR_DENSE_SE2 line, checked as core::readDenseFactor checks it."""
+    if len(line.fields) < 2:
+        line.fail(f"{line.tag} a node count needs at least 1 fields after the tag, found {len(line.fields) - 1}")
+    count = line.node_id(1)
+    if count < 2:
+        line.fail(f"node count {count}: a dense factor has 2 or more")
+    if count > len(line.fields):
+        line.fail(f"node count {count} exceeds the line's {len(line.fields) - 1} fields")
+    k = count - 1
+    rows = 3 * k
+    line.expect_count(1 + count + 3 * k + rows + rows * (rows + 1) // 2 + 1)
+    at = 2
+    nodes = [line.node_id(at + i) for i in range(count)]
+    at += count
+    values = line.numbers(at, len(line.fields) - at)
+    measurements = [(values[3 * a], values[3 * a + 1], values[3 * a + 2]) for a in range(k)]
+    mean = values[3 * k:3 * k + rows]
+    upper = values[3 * k + rows:-1]
+    offset = values[-1]
+    if len(set(nodes)) != len(nodes):
+        twice = sorted(n for n in set(nodes) if nodes.count(n) > 1)[0]
+        line.fail(f"dense factor: node {twice} is listed twice")
+    matrix = np.zeros((rows, rows))
+    matrix[np.triu_indices(rows)] = upper
+    matrix = matrix + np.triu(matrix, 1).T
+    try:
+        np.linalg.cholesky(matrix)
+    except np.linalg.LinAlgError:
+        line.fail("dense factor: its information is not positive definite")
+    if offset < 0:
+        line.fail(f"dense factor: its chi2 offset {offset:.6f} is not a finite value >= 0")
+    return DenseFactor(nodes, measurements, mean, upper, offset, line.number)
 
 
 def _chain_initial_poses(graph: PoseGraph) -> None:
@@ -340,6 +398,9 @@ def components(graph: PoseGraph) -> List[List[int]]:
 
     for e in graph.edges:
         parent[find(e.source)] = find(e.target)
+    for f in graph.dense_factors:
+        for node in f.nodes[1:]:
+            parent[find(node)] = find(f.nodes[0])
     groups: Dict[int, List[int]] = {}
     for i in sorted(graph.poses):
         groups.setdefault(find(i), []).append(i)
@@ -377,6 +438,13 @@ def write_graph(graph: PoseGraph, path: str, toro: Optional[bool] = None) -> Non
             info = (info[0], info[1], info[3], info[5], info[2], info[4])
         values = list(e.measurement) + list(info)
         lines.append(f"{edge_tag} {e.source} {e.target} " + " ".join(format_number(v) for v in values))
+    if toro and graph.dense_factors:
+        raise ValueError(f"{path}: the graph holds {len(graph.dense_factors)} dense factors, which TORO "
+                         "files cannot hold: nothing was written")
+    for f in graph.dense_factors:
+        values = [v for y in f.measurements for v in y] + list(f.mean) + list(f.information) + [f.offset]
+        lines.append(f"{DENSE_TAG} {len(f.nodes)} " + " ".join(str(n) for n in f.nodes) + " " +
+                     " ".join(format_number(v) for v in values))
     write_text_atomically(path, "\n".join(lines) + "\n")
 
 

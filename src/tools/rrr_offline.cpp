@@ -234,6 +234,7 @@ int main(int argc, char** argv) {
         if (keep)
           optimized.addEdge(e.from, e.to, graph.measurement(k), graph.information(k), e.kind);
       }
+      for (const core::DenseFactor& f : graph.denseFactors()) optimized.addDenseFactor(f);
       core::writePoseGraph(optimized, args.output);
       std::printf("output         %s\n", args.output.c_str());
     }

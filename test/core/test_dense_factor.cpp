@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "marginalization_test_graphs.h"
+#include "rrr_graphslam/core/lago.h"
 #include "rrr_graphslam/core/linearized_constraints.h"
 #include "rrr_graphslam/core/marginalization.h"
 #include "rrr_graphslam/core/optimizer.h"
@@ -235,6 +236,31 @@ TEST(DenseFactor, GradientMatchesNumericalDifferentiation) {
           << "node " << i << " axis " << q;
     }
   }
+}
+
+// LAGO takes a dense factor's residual blocks as relative poses: a part of a chain held to the
+// rest by the factor alone, moved 5 m and 1 rad away, comes back near its minimum.
+TEST(DenseFactor, LagoFollowsItAcrossAGap) {
+  PoseGraph chain = randomChainWithLoops(30, 9, 0, 0.0);  // noise-free: its minimum is its poses
+  const std::vector<NodeId> removed = run(10, 5);
+  const PoseGraph reduced =
+      reducedGraph(chain, removed, denseFactors(marginalizeNodes(chain, removed)));
+  ASSERT_EQ(reduced.connectedComponents().size(), 1u);
+  Optimizer optimizer = makeOptimizer(reduced);
+  const std::vector<Pose2> minimum = optimizer.poses();
+  std::vector<Pose2> moved = minimum;
+  const std::vector<NodeId> ids = reduced.nodeIds();
+  for (std::size_t k = 0; k < ids.size(); ++k) {
+    if (ids[k] >= 15) moved[k] = compose(Pose2(5.0, -3.0, 1.0), minimum[k]);
+  }
+  optimizer.setPoses(moved);
+  EXPECT_GT(optimizer.chi2(), 100.0) << "the factor sees the gap";
+  const std::vector<Pose2> start = lagoInitialization(optimizer);
+  double error = 0.0;
+  for (std::size_t k = 0; k < ids.size(); ++k) {
+    error = std::max(error, (start[k].head<2>() - minimum[k].head<2>()).norm());
+  }
+  EXPECT_LT(error, 0.01);
 }
 
 TEST(DenseFactor, OnePerPieceOfTheBlanket) {

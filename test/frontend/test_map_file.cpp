@@ -346,6 +346,9 @@ TEST(MapFile, ImplausibleContentIsRefusedBeforeAnyGridIsBuiltFromIt) {
   MapSnapshot older = dense;
   older.format_version = 4;
   expectRefused(older, "format version 4 cannot hold dense factors");
+  MapSnapshot huge = dense;  // refused by its size before anything looks inside it
+  huge.dense_factors[0].nodes.assign(kMaxDenseFactorNodes + 1, 0);
+  expectRefused(huge, "more than the " + std::to_string(kMaxDenseFactorNodes));
 }
 
 TEST(MapFile, AMapMadeWithOtherSubmapsIsRefusedNamingTheParameter) {

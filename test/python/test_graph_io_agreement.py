@@ -29,6 +29,8 @@ BUNDLED = sorted(p for p in glob.glob(os.path.join(DATA, "**", "*"), recursive=T
 V01 = "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0\n"
 E01 = "EDGE_SE2 0 1 1 0 0 1 0 0 1 0 1\n"
 BASE = V01 + E01
+# Node 2 one metre ahead of node 1, identity information, zero mean and offset.
+DENSE_12 = "RRR_DENSE_SE2 2 1 2 1 0 0 0 0 0 1 0 0 1 0 1 0\n"
 
 
 def vertex(value):
@@ -109,6 +111,15 @@ EDGE_CASES = {
     "toro_order_is_checked": (V01.replace("_SE2", "2") + "EDGE2 0 1 1 0 0 1 0 1 1 0.9 0\n", None),
     "g2o_order_is_checked": (V01 + "EDGE_SE2 0 1 1 0 0 1 0 1 1 0.9 0\n", "the matrix is not positive definite"),
     "empty": ("", "no vertices or edges in the file"),
+    # Dense factors (core/dense_factor.h) over nodes 1 and 2, the only link of node 2.
+    "dense_factor": (V01 + "VERTEX_SE2 2 2 0 0\n" + E01 + DENSE_12, None),
+    "dense_factor_alone": ("VERTEX_SE2 0 0 0 0\nRRR_DENSE_SE2\n", "needs at least 1 fields after the tag, found 0"),
+    "dense_factor_count": (BASE + "RRR_DENSE_SE2 1 0\n", "node count 1: a dense factor has 2 or more"),
+    "dense_factor_fields": (BASE + "RRR_DENSE_SE2 2 0 1 1 0 0\n", "RRR_DENSE_SE2 expects 16 fields after the tag"),
+    "dense_factor_twice": (BASE + DENSE_12.replace(" 1 2 ", " 1 1 "), "dense factor: node 1 is listed twice"),
+    "dense_factor_not_positive_definite": (BASE + "VERTEX_SE2 2 2 0 0\n" + DENSE_12.replace(" 1 0 0 1 0 1 0", " 1 0 0 -1 0 1 0"),
+                                           "dense factor: its information is not positive definite"),
+    "dense_factor_unknown_node": (BASE + DENSE_12.replace(" 1 2 ", " 1 9 "), "dense factor refers to unknown node 9"),
     "only_comments": ("# nothing\n\n", "no vertices or edges in the file"),
 }
 
@@ -144,6 +155,7 @@ def python_read(path):
     except GraphFileError as e:
         return "error", str(e)
     edges = [(e.source, e.target, e.measurement, e.information) for e in graph.edges]
+    edges += [(f.nodes, f.measurements, f.mean, f.information, f.offset) for f in graph.dense_factors]
     return "ok", graph.poses, edges
 
 
@@ -155,6 +167,13 @@ def parse_g2o(path):
             tag, *v = line.split()
             if tag == "VERTEX_SE2":
                 poses[int(v[0])] = tuple(float(x) for x in v[1:])
+            elif tag == "RRR_DENSE_SE2":
+                n = int(v[0])
+                numbers = [float(x) for x in v[1 + n:]]
+                rows = 3 * (n - 1)
+                edges.append(([int(x) for x in v[1:1 + n]],
+                              [tuple(numbers[3 * a:3 * a + 3]) for a in range(n - 1)],
+                              numbers[rows:2 * rows], numbers[2 * rows:-1], numbers[-1]))
             else:
                 assert tag == "EDGE_SE2", line
                 numbers = [float(x) for x in v[2:]]
@@ -211,6 +230,11 @@ def assert_agree(cxx, python):
         cx, cy, ct = cxx_poses[i]
         assert close(x, cx) and close(y, cy) and same_angle(t, ct), (i, (x, y, t), cxx_poses[i])
     assert len(cxx_edges) == len(py_edges)
+    dense = [(p, c) for p, c in zip(py_edges, cxx_edges) if len(p) == 5]
+    for p, c in dense:  # a dense factor: nodes, measurements, mean, information, offset
+        assert p[0] == c[0] and all(close(u, v) for u, v in zip(sum(map(list, p[1]), []), sum(map(list, c[1]), [])))
+        assert all(close(u, v) for u, v in zip(list(p[2]) + list(p[3]) + [p[4]], list(c[2]) + list(c[3]) + [c[4]]))
+    py_edges, cxx_edges = py_edges[:len(py_edges) - len(dense)], cxx_edges[:len(cxx_edges) - len(dense)]
     for k, ((a, b, z, info), (ca, cb, cz, cinfo)) in enumerate(zip(py_edges, cxx_edges)):
         assert (a, b) == (ca, cb), k
         assert close(z[0], cz[0]) and close(z[1], cz[1]) and same_angle(z[2], cz[2]), (k, z, cz)

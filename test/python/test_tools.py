@@ -478,7 +478,7 @@ def test_a_saved_map_is_continued_as_a_new_session_from_another_odometry_frame(t
     for key in ("format_version", "sessions", "nodes", "edges", "loop_edges_accepted",
                 "loop_edges_rejected", "submaps", "scans", "bytes"):
         assert key in keys, key
-    assert keys["format_version"] == "4" and keys["sessions"] == "1"
+    assert keys["format_version"] == "5" and keys["sessions"] == "1"
     # One session: every loop the search around the estimate's.
     assert keys["loop_edges_local_search"] == keys["loop_edges"] != "0"
     assert keys["loop_edges_local_search_accepted"] == keys["loop_edges_accepted"]
@@ -638,6 +638,10 @@ def test_lifelong_dense_keeps_the_exact_marginal(tmp_path):
     assert len(dense_lines) == int(after["dense_factors"])
     optimized = run(OPTIMIZE, exported, "--output", tmp_path / "optimized.g2o")
     assert optimized.returncode == 0, optimized.stderr
+    # rrr_offline decides the exported graph with its dense factors and writes them back.
+    decided = run(OFFLINE, exported, "--output", tmp_path / "decided.g2o")
+    assert decided.returncode == 0, decided.stderr
+    assert sum(1 for line in open(tmp_path / "decided.g2o") if line.startswith("RRR_DENSE_SE2 ")) == len(dense_lines)
     assert run(MAP_INFO, out_map, "--graph", tmp_path / "exported.toro").returncode != 0  # TORO cannot
     third = run(SLAM_OFFLINE, moved, "--load-map", out_map, "--max-scans", 40, "--refine-resolution", 0,
                 "--quiet", *SMALL_SUBMAPS)

@@ -13,13 +13,16 @@
 
 namespace rrr_graphslam::core {
 
-/// Poses for the optimizer's active constraints (weights ignored), starting from its current
+/// Poses for the optimizer's active constraints (weights ignored) and dense factors (each
+/// residual block a relative pose from the factor's root, weighted by its own block of the
+/// information), starting from its current
 /// poses for the angle unwrapping and for nodes no active constraint reaches. The optimizer's
 /// gauge keeps its poses: its fixed nodes, or node 0 when none is fixed. Both linear solves go
 /// through CHOLMOD.
 std::vector<Pose2> lagoInitialization(const Optimizer& optimizer);
 
-/// True when the optimizer's poses are far from a minimum: chi2 per active constraint above
+/// True when the optimizer's poses are far from a minimum: chi2 per active constraint (a dense
+/// factor counts as its residual blocks) above
 /// `chi2_per_constraint` (near a minimum it is about 3, the dimension of a constraint). Started
 /// there, Gauss-Newton spends several factorizations on what LAGO's two linear solves give
 /// (M3500 from its file's estimate: 458 per constraint, 6 iterations; from LAGO: 3).

@@ -37,6 +37,11 @@ namespace rrr_graphslam::frontend {
 /// `dense` trim leaves (older maps have none).
 constexpr std::uint32_t kMapFormatVersion = 5;
 
+/// The most nodes a dense factor in a map file may hold (its information is a dense 3(n-1)
+/// square: 1.2 GB at this size). A trim whose blanket piece is larger cannot be saved with
+/// `--sparsification dense`; a file that claims one is refused before anything is allocated.
+constexpr std::size_t kMaxDenseFactorNodes = 4096;
+
 /// Which search proposed a loop candidate.
 enum class LoopSource : std::uint8_t {
   kUnknown = 0,         ///< a map written before version 4

@@ -253,8 +253,7 @@ enum class NewestSession {
 
 /// Trims `map` (see above). `submap_params` are those the map's submaps were made with (their
 /// insertion rules make the coverage grids). Throws std::invalid_argument for parameters out of
-/// range, kDense (the map file and RRR hold pairwise constraints only), or a map that fails
-/// MapSnapshot::check().
+/// range or a map that fails MapSnapshot::check().
 TrimResult trimMap(const MapSnapshot& map, const TrimParams& params,
                    const TrimmingStrategy& strategy, const SubmapParams& submap_params,
                    NewestSession newest = NewestSession::kFinished);
