@@ -280,6 +280,15 @@ void LaserSlam::noteCrossing(int candidate) {
   }
 }
 
+LoopSource LaserSlam::candidateSource(int candidate) const {
+  if (candidate < 0 || candidate >= rrr_->numCandidates()) {
+    throw std::out_of_range("candidate " + std::to_string(candidate) + " is not one of RRR's " +
+                            std::to_string(rrr_->numCandidates()));
+  }
+  const auto k = static_cast<std::size_t>(candidate);
+  return k < candidate_source_.size() ? candidate_source_[k] : LoopSource::kExternal;
+}
+
 void LaserSlam::adoptCandidatesFromOutside() {
   for (int k = static_cast<int>(candidate_source_.size()); k < rrr_->numCandidates(); ++k) {
     candidate_source_.push_back(LoopSource::kExternal);

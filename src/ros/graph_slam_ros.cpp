@@ -422,9 +422,12 @@ void GraphSlamRos::publishChanges() {
   const ros::Time now = ros::Time::now();
   for (const rrr::DecisionChange& change : changes) {
     try {
-      decisions_pub_.publish(toDecisionMsg(change, params_.map_frame, now));
+      LoopClosureDecision msg = toDecisionMsg(change, params_.map_frame, now);
+      msg.source = slam_ ? frontend::toString(slam_->candidateSource(change.candidate))
+                         : frontend::toString(frontend::LoopSource::kExternal);
+      decisions_pub_.publish(msg);
       ++decisions_published_;
-    } catch (const std::invalid_argument& e) {
+    } catch (const std::exception& e) {  // an id beyond uint32, a candidate with no source
       ROS_ERROR_THROTTLE(1.0, "%s: decision on candidate %d not published: %s",
                          decisions_pub_.getTopic().c_str(), change.candidate, e.what());
     }

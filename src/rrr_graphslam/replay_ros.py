@@ -45,6 +45,7 @@ class PoseGraphReplay:
         self.nodes_sent = 0
         self.finishing = False
         self.decision_messages = 0
+        self.sources = set()  # the decisions' candidate sources (LoopClosureDecision.source)
         rospy.Subscriber(self.node + "/status", RrrStatus, self._on_status, queue_size=100)
         rospy.Subscriber(self.node + "/decisions", LoopClosureDecision, self._on_decision, queue_size=100000)
         self.sent = 0
@@ -54,6 +55,7 @@ class PoseGraphReplay:
 
     def _on_decision(self, msg: LoopClosureDecision) -> None:
         self.decision_messages += 1
+        self.sources.add(msg.source)
         self.stream.append(StreamRow(self.finishing, self.nodes_sent, msg.header.stamp.to_sec(), msg.candidate,
                                      VERDICT_NAMES.get(msg.previous_verdict, "pending"),
                                      VERDICT_NAMES.get(msg.verdict, "pending")))
@@ -82,6 +84,7 @@ class PoseGraphReplay:
             self.final.clear()
             self.stream.clear()
             self.decision_messages = 0
+            self.sources.clear()
         self._wait(lambda: self.status is not None, "the node's status")
         self.baseline = 0 if reset else self.status.messages_processed
 

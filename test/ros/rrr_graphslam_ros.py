@@ -72,6 +72,8 @@ class RrrGraphSlamRos(unittest.TestCase):
         self.assertGreaterEqual(s.recall, rospy.get_param("~min_recall", 0.95))
         self.assertEqual(self.status().pending, 0)
         self.assertEqual(self.status().nodes, len(self.graph.poses))
+        # Pose-graph mode: every candidate came from outside the loop search.
+        self.assertEqual(self.replay.sources, {"external"})
         # The ~decisions stream, candidate by candidate (replay_posegraph --history): each starts
         # at its arrival and ends in the verdict the node reports at the end.
         by_arrival = file_index_by_arrival(self.plan, self.replay.final_by_pair())

@@ -104,6 +104,9 @@ class Sessions(unittest.TestCase):
         crossing = [d for d in final.values() if (d.from_id < first_nodes) != (d.to_id < first_nodes)
                     and d.verdict == LoopClosureDecision.ACCEPTED]
         self.assertTrue(crossing, "no accepted loop between the sessions was published")
+        # The session was placed by relocalization: whole-map searches, then searches around it.
+        sources = {d.source for d in crossing}
+        self.assertTrue(sources <= {"local-search", "whole-map-search"}, sources)
 
         # /initialpose (rviz's 2D Pose Estimate) must be in the map frame; either way the node goes on.
         publisher = rospy.Publisher("/initialpose", PoseWithCovarianceStamped, queue_size=1, latch=True)

@@ -81,6 +81,8 @@ class SlamMode(unittest.TestCase):
         self.assertTrue(all(v != LoopClosureDecision.PENDING for v in final.values()))
         self.assertGreater(sum(v == LoopClosureDecision.ACCEPTED for v in final.values()), 0)
         self.assertEqual(self.status.candidates, len(final))
+        # One session: every candidate the search around the estimate's (as rrr_map_info says).
+        self.assertEqual({d.source for d in self.decisions}, {"local-search"})
 
     def test_path_and_map_to_odom(self):
         self.assertTrue(wait_for(lambda: self.path is not None and len(self.path.poses) == self.status.nodes, 10.0))

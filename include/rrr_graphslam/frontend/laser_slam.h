@@ -151,6 +151,10 @@ class LaserSlam {
 
   const rrr::OnlineRrr& rrr() const { return *rrr_; }
   rrr::OnlineRrr& rrr() { return *rrr_; }
+  /// Which search proposed RRR's candidate `candidate` (its arrival index, as in rrr()): what the
+  /// map file records of it; kExternal for one RRR took from outside since the last scan.
+  /// std::out_of_range for an index RRR does not have.
+  LoopSource candidateSource(int candidate) const;
   const LaserSlamStats& stats() const { return stats_; }
   const LaserSlamParams& params() const { return params_; }
 
