@@ -7,6 +7,7 @@
 #include <utility>
 
 #include <Eigen/Cholesky>
+#include <Eigen/LU>
 #include <Eigen/SparseCore>
 
 #include "rrr_graphslam/core/constraint_check.h"
@@ -316,6 +317,54 @@ std::vector<std::vector<std::size_t>> blanketPieces(const Marginal& marginal) {
                                [](const std::vector<std::size_t>& m) { return m.empty(); }),
                 members.end());
   return members;
+}
+
+std::vector<DenseFactor> denseFactors(const Marginal& marginal) {
+  std::vector<DenseFactor> factors;
+  double offset = marginal.chi2_at_linearization;
+  for (const std::vector<std::size_t>& piece : blanketPieces(marginal)) {
+    if (piece.size() < 2) continue;
+    const std::size_t root = piece.front();
+    const Pose2& x_root = marginal.linearization_point[root];
+    const auto k = static_cast<Eigen::Index>(piece.size() - 1);
+    DenseFactor f;
+    f.nodes.push_back(marginal.blanket[root]);
+    std::vector<Eigen::Index> rows;
+    Eigen::MatrixXd j_inverse = Eigen::MatrixXd::Zero(3 * k, 3 * k);  // blockdiag(J_to^-1)
+    for (std::size_t a = 1; a < piece.size(); ++a) {
+      const Pose2& x_a = marginal.linearization_point[piece[a]];
+      f.nodes.push_back(marginal.blanket[piece[a]]);
+      f.measurements.push_back(between(x_root, x_a));
+      const EdgeLinearization lin = linearizeEdge(x_root, x_a, f.measurements.back());
+      const auto at = static_cast<Eigen::Index>(3 * (a - 1));
+      j_inverse.block<3, 3>(at, at) = lin.J_to.inverse();  // a rotation: always invertible
+      for (int q = 0; q < 3; ++q) rows.push_back(3 * static_cast<Eigen::Index>(piece[a]) + q);
+    }
+    // Over the errors: Omega = J^-T Lambda_oo J^-1, h = J^-T g_o (the root held: the gauge).
+    const Eigen::MatrixXd product =
+        j_inverse.transpose() * marginal.information(rows, rows) * j_inverse;
+    Eigen::MatrixXd omega = 0.5 * (product + product.transpose());  // exactly symmetric
+    const Eigen::VectorXd h = j_inverse.transpose() * marginal.gradient(rows);
+    const Eigen::LLT<Eigen::MatrixXd> llt(omega);
+    if (llt.info() != Eigen::Success) {
+      std::string ids;
+      for (std::size_t b : piece)
+        ids += (ids.empty() ? "" : ", ") + std::to_string(marginal.blanket[b]);
+      throw std::invalid_argument("denseFactors: the marginal over blanket nodes {" + ids +
+                                  "} is singular beyond its gauge (node " +
+                                  std::to_string(marginal.blanket[root]) +
+                                  " anchored): some relative pose carries no information");
+    }
+    f.mean = -llt.solve(h);
+    f.information = std::move(omega);
+    offset += h.dot(f.mean);  // - h^T Omega^-1 h
+    factors.push_back(std::move(f));
+  }
+  // The removed chi2 at the factors' minimum is the marginal's, whichever piece it came from:
+  // kept on the first factor (pieces are independent, so only the sum has a meaning). Rounding
+  // can take a zero minimum a hair below zero.
+  if (!factors.empty()) factors.front().chi2_offset = std::max(0.0, offset);
+  return factors;
 }
 
 double marginalChi2(const Marginal& marginal, const std::vector<Pose2>& blanket_poses) {

@@ -119,6 +119,23 @@ bool sameMap(const MapSnapshot& a, const MapSnapshot& b) {
       return false;
     }
   }
+  if (a.dense_factors.size() != b.dense_factors.size()) return false;
+  for (std::size_t k = 0; k < a.dense_factors.size(); ++k) {
+    const auto &fa = a.dense_factors[k], &fb = b.dense_factors[k];
+    if (fa.nodes != fb.nodes || fa.measurements.size() != fb.measurements.size() ||
+        fa.mean.size() != fb.mean.size() || fa.information.size() != fb.information.size() ||
+        !sameBits(fa.chi2_offset, fb.chi2_offset)) {
+      return false;
+    }
+    for (std::size_t i = 0; i < fa.measurements.size(); ++i) {
+      if (!samePose(fa.measurements[i], fb.measurements[i])) return false;
+    }
+    if (std::memcmp(fa.mean.data(), fb.mean.data(), sizeof(double) * fa.mean.size()) != 0 ||
+        std::memcmp(fa.information.data(), fb.information.data(),
+                    sizeof(double) * fa.information.size()) != 0) {
+      return false;
+    }
+  }
   if (a.memory.size() != b.memory.size()) return false;
   for (std::size_t k = 0; k < a.memory.size(); ++k) {
     const auto &pa = a.memory[k], &pb = b.memory[k];
@@ -230,8 +247,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       size >= sizeof fuzz::kMagic && std::memcmp(data, fuzz::kMagic, sizeof fuzz::kMagic) == 0;
   std::string wrapped;
   if (!whole_file) {
-    // A payload of the version its first two bytes name ("V2", "V3": the later sections), or of
-    // version 1.
+    // A payload of the version its first two bytes name ("V2" .. "V5": the later sections), or
+    // of version 1.
     std::uint32_t version = 1;
     if (size >= 2 && data[0] == 'V' && data[1] >= '1' &&
         data[1] < '1' + static_cast<int>(frontend::kMapFormatVersion)) {

@@ -13,15 +13,15 @@
 // again, keep its meaning. Its residual has 3k = 3(|B| - 1) rows, as many as a spanning tree of
 // |B| - 1 relative-pose constraints over the same nodes.
 //
-// From a marginal (marginalization.h: information Lambda, gradient g, chi2 c at x0, additive
-// perturbation dx): each connected piece of the blanket becomes one factor, rooted at its first
-// node. The marginal is gauge invariant, so holding the root at x0 loses nothing; the others'
-// perturbations map to the errors by the edges' Jacobians, de_a = J_to,a dx_a (J_to invertible),
-// so over the errors the quadratic is c + 2 h^T e + e^T Omega e with Omega = J^-T Lambda_oo J^-1
-// and h = J^-T g_o. Completing the square: mean = -Omega^-1 h and
-// chi2_offset = c - h^T Omega^-1 h >= 0 (the removed constraints' chi2 minimized over both M and
-// the blanket's shape). Linearized at x0 the factor gives back the marginal's information,
-// gradient and chi2 exactly (test_dense_factor): KL(marginal || dense) = 0 at the trim.
+// From a marginal (marginalization.h's denseFactors: information Lambda, gradient g, chi2 c at
+// x0, additive perturbation dx): each connected piece of the blanket becomes one factor, rooted at
+// its first node. The marginal is gauge invariant, so holding the root at x0 loses nothing; the
+// others' perturbations map to the errors by the edges' Jacobians, de_a = J_to,a dx_a (J_to
+// invertible), so over the errors the quadratic is c + 2 h^T e + e^T Omega e with Omega = J^-T
+// Lambda_oo J^-1 and h = J^-T g_o. Completing the square: mean = -Omega^-1 h and chi2_offset = c -
+// h^T Omega^-1 h >= 0 (the removed constraints' chi2 minimized over both M and the blanket's
+// shape). Linearized at x0 the factor gives back the marginal's information, gradient and chi2
+// exactly (test_dense_factor): KL(marginal || dense) = 0 at the trim.
 //
 // Why the offset is kept: with it, the factor's chi2 is the removed constraints' (minimized over
 // M) to second order, so a graph's chi2 and its degrees of freedom count keep their meaning for
@@ -36,8 +36,6 @@
 #include "rrr_graphslam/core/se2.h"
 
 namespace rrr_graphslam::core {
-
-struct Marginal;
 
 /// A dense Gaussian factor over the relative poses of `nodes[1..]` from `nodes[0]`.
 struct DenseFactor {
@@ -70,10 +68,5 @@ DenseFactorLinearization linearize(const DenseFactor& factor, const std::vector<
 
 /// chi2 of the factor at `poses` (its node order).
 double denseFactorChi2(const DenseFactor& factor, const std::vector<Pose2>& poses);
-
-/// The marginal as dense factors, one per connected piece of its blanket with at least two nodes
-/// (a node alone in its piece holds nothing: its rows are the gauge). Throws
-/// std::invalid_argument when a piece's information is singular beyond its gauge.
-std::vector<DenseFactor> denseFactors(const Marginal& marginal);
 
 }  // namespace rrr_graphslam::core

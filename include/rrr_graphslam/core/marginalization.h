@@ -82,6 +82,11 @@ Marginal marginalizeNodesDense(const std::vector<PoseConstraint>& constraints,
                                const std::map<NodeId, Pose2>& poses,
                                const std::vector<NodeId>& removed);
 
+/// The marginal as dense factors (dense_factor.h), one per connected piece of its blanket with
+/// at least two nodes (a node alone in its piece holds nothing: its rows are the gauge). Throws
+/// std::invalid_argument when a piece's information is singular beyond its gauge.
+std::vector<DenseFactor> denseFactors(const Marginal& marginal);
+
 /// Connected pieces of the blanket: nodes coupled by a nonzero block of the marginal (exactly
 /// zero between pieces, see above), each piece's members as indices into `blanket` in its order;
 /// the first is the piece's root.
