@@ -11,6 +11,26 @@
 
 namespace rrr_graphslam::core {
 
+namespace {
+
+// r = e(x) - mean, the stacked edge errors from the root.
+Eigen::VectorXd residual(const DenseFactor& factor, const std::vector<Pose2>& poses) {
+  if (poses.size() != factor.nodes.size()) {
+    throw std::invalid_argument("DenseFactor: " + std::to_string(poses.size()) + " poses for " +
+                                std::to_string(factor.nodes.size()) + " nodes");
+  }
+  const auto k = static_cast<Eigen::Index>(factor.nodes.size() - 1);
+  Eigen::VectorXd r(3 * k);
+  for (Eigen::Index a = 0; a < k; ++a) {
+    const auto ua = static_cast<std::size_t>(a);
+    r.segment<3>(3 * a) =
+        edgeError(poses[0], poses[ua + 1], factor.measurements[ua]) - factor.mean.segment<3>(3 * a);
+  }
+  return r;
+}
+
+}  // namespace
+
 std::string denseFactorProblem(const DenseFactor& factor) {
   const std::size_t n = factor.nodes.size();
   if (n < 2) return "it has " + std::to_string(n) + " nodes (at least two needed)";
@@ -94,17 +114,7 @@ DenseFactorLinearization linearize(const DenseFactor& factor, const std::vector<
 }
 
 double denseFactorChi2(const DenseFactor& factor, const std::vector<Pose2>& poses) {
-  if (poses.size() != factor.nodes.size()) {
-    throw std::invalid_argument("denseFactorChi2: " + std::to_string(poses.size()) + " poses for " +
-                                std::to_string(factor.nodes.size()) + " nodes");
-  }
-  const auto k = static_cast<Eigen::Index>(factor.nodes.size() - 1);
-  Eigen::VectorXd r(3 * k);
-  for (Eigen::Index a = 0; a < k; ++a) {
-    const auto ua = static_cast<std::size_t>(a);
-    r.segment<3>(3 * a) =
-        edgeError(poses[0], poses[ua + 1], factor.measurements[ua]) - factor.mean.segment<3>(3 * a);
-  }
+  const Eigen::VectorXd r = residual(factor, poses);
   return r.dot(factor.information * r) + factor.chi2_offset;
 }
 

@@ -85,12 +85,21 @@ int Optimizer::addDenseFactor(const std::vector<int>& nodes, const DenseFactor& 
   return numDenseFactors() - 1;
 }
 
+namespace {
+
+// The poses of a dense factor's nodes, in its order.
+std::vector<Pose2> posesOf(const std::vector<Pose2>& poses, const std::vector<int>& nodes) {
+  std::vector<Pose2> at;
+  at.reserve(nodes.size());
+  for (int n : nodes) at.push_back(poses[static_cast<std::size_t>(n)]);
+  return at;
+}
+
+}  // namespace
+
 double Optimizer::denseFactorChi2(int factor) const {
   const Dense& d = dense_.at(static_cast<std::size_t>(factor));
-  std::vector<Pose2> at;
-  at.reserve(d.nodes.size());
-  for (int n : d.nodes) at.push_back(poses_[static_cast<std::size_t>(n)]);
-  return core::denseFactorChi2(d.factor, at);
+  return core::denseFactorChi2(d.factor, posesOf(poses_, d.nodes));
 }
 
 void Optimizer::setFixed(int node, bool fixed) {
@@ -329,11 +338,8 @@ double Optimizer::assemble(bool with_hessian) {
 
 double Optimizer::assembleDense(bool with_hessian) {
   double chi2_sum = 0.0;
-  std::vector<Pose2> at;
   for (const Dense& d : dense_) {
-    at.clear();
-    for (int n : d.nodes) at.push_back(poses_[static_cast<std::size_t>(n)]);
-    const DenseFactorLinearization lin = linearize(d.factor, at);
+    const DenseFactorLinearization lin = linearize(d.factor, posesOf(poses_, d.nodes));
     chi2_sum += lin.chi2;
     std::size_t pair = 0;
     for (std::size_t i = 0; i < d.nodes.size(); ++i) {
