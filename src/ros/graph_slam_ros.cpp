@@ -14,6 +14,7 @@
 #include "rrr_graphslam/core/constraint_check.h"
 #include "rrr_graphslam/core/odometry_noise.h"
 #include "rrr_graphslam/core/stopwatch.h"
+#include "rrr_graphslam/frontend/map_file.h"
 #include "rrr_graphslam/ros/conversions.h"
 #include "rrr_graphslam/ros/visualization.h"
 #include "topics.h"

@@ -31,7 +31,7 @@
 
 #include "rrr_graphslam/core/param_info.h"
 #include "rrr_graphslam/core/se2.h"
-#include "rrr_graphslam/frontend/map_file.h"
+#include "rrr_graphslam/frontend/map_snapshot.h"
 #include "rrr_graphslam/frontend/map_memory.h"
 #include "rrr_graphslam/frontend/submap.h"
 

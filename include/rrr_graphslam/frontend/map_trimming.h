@@ -48,7 +48,7 @@
 
 #include "rrr_graphslam/core/chow_liu.h"
 #include "rrr_graphslam/core/param_info.h"
-#include "rrr_graphslam/frontend/map_file.h"
+#include "rrr_graphslam/frontend/map_snapshot.h"
 #include "rrr_graphslam/frontend/map_render.h"
 #include "rrr_graphslam/frontend/submap.h"
 

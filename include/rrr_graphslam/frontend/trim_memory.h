@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "rrr_graphslam/core/se2.h"
-#include "rrr_graphslam/frontend/map_file.h"
+#include "rrr_graphslam/frontend/map_snapshot.h"
 #include "rrr_graphslam/frontend/map_memory.h"
 #include "rrr_graphslam/frontend/map_trimming.h"
 #include "rrr_graphslam/frontend/submap.h"
