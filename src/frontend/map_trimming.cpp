@@ -5,19 +5,15 @@
 #include <cstdint>
 #include <deque>
 #include <exception>
-#include <map>
 #include <stdexcept>
 #include <unordered_set>
 
 #include <mrpt/maps/COccupancyGridMap2D.h>
 #include <mrpt/poses/CPose3D.h>
 
-#include "rrr_graphslam/core/chow_liu.h"
-#include "rrr_graphslam/core/gaussian_kl.h"
-#include "rrr_graphslam/core/marginalization.h"
-#include "rrr_graphslam/core/optimizer.h"
 #include "rrr_graphslam/core/stopwatch.h"
 #include "rrr_graphslam/core/union_find.h"
+#include "rrr_graphslam/frontend/trim_graph.h"
 #include "rrr_graphslam/frontend/trim_memory.h"
 
 namespace rrr_graphslam::frontend {
@@ -160,125 +156,30 @@ std::vector<Cells> observedCells(const MapSnapshot& map, const SubmapParams& sub
   return cells;
 }
 
-// A trusted constraint of the working graph: an edge of the map (`origin`), or a marginal
-// constraint a trim made (origin -1, `submap` the trimmed submap).
-struct Trusted {
-  core::PoseConstraint constraint;
-  int origin = -1;
-  int submap = -1;
-};
-
-bool touches(const core::PoseConstraint& c, const std::vector<char>& removed) {
-  return removed[c.from] != 0 || removed[c.to] != 0;
-}
-
-// The trusted graph over the nodes still alive, at `poses`, in an optimizer (not yet optimized
-// or factored), and the dense index of each node id (-1 for removed ones).
-core::Optimizer trustedOptimizer(const std::vector<Trusted>& trusted,
-                                 const std::vector<core::DenseFactor>& dense,
-                                 const std::vector<char>& alive,
-                                 const std::vector<core::Pose2>& poses,
-                                 std::vector<int>& index_of) {
-  core::PoseGraph graph;
-  index_of.assign(alive.size(), -1);
-  int next = 0;
-  for (std::size_t k = 0; k < alive.size(); ++k) {
-    if (!alive[k]) continue;
-    graph.addNode(static_cast<NodeId>(k), poses[k]);
-    index_of[k] = next++;
-  }
-  for (const Trusted& t : trusted) {
-    graph.addEdge(t.constraint.from, t.constraint.to, t.constraint.measurement,
-                  t.constraint.information, core::EdgeKind::kOdometry);
-  }
-  for (const core::DenseFactor& f : dense) graph.addDenseFactor(f);
-  return core::makeOptimizer(graph);
-}
-
-// The trusted graph at its minimum: `poses` of the nodes still alive move there.
-void optimizeTrusted(const std::vector<Trusted>& trusted,
-                     const std::vector<core::DenseFactor>& dense, const std::vector<char>& alive,
-                     std::vector<core::Pose2>& poses) {
-  std::vector<int> index_of;
-  core::Optimizer optimizer = trustedOptimizer(trusted, dense, alive, poses, index_of);
-  optimizer.optimize();
-  for (std::size_t k = 0; k < alive.size(); ++k) {
-    if (index_of[k] >= 0) poses[k] = optimizer.poses()[static_cast<std::size_t>(index_of[k])];
-  }
-}
-
-// The measurement behind TrimRecord's KL figures: the trusted graph's covariance over the
-// blanket (one factorization of the whole graph at the current poses), against which the tree
-// and deletion are compared with the exact marginal.
-void measureKl(const std::vector<Trusted>& trusted, const std::vector<core::DenseFactor>& dense,
-               const std::vector<char>& alive, const std::vector<core::Pose2>& poses,
-               const core::Marginal& marginal, const std::vector<core::DenseFactor>& replacement,
-               const TrimParams& params, TrimRecord& record) {
-  const core::Clock::time_point watch = core::Clock::now();
-  std::vector<int> index_of;
-  core::Optimizer optimizer = trustedOptimizer(trusted, dense, alive, poses, index_of);
-  if (optimizer.factorAtCurrentPoses() && optimizer.covarianceAvailable()) {
-    std::vector<int> blanket;
-    for (NodeId b : marginal.blanket) blanket.push_back(index_of[b]);
-    const core::KlReference exact(optimizer.covariance(blanket));
-    record.kl_clt_nats = exact.replacementKl(
-        marginal,
-        core::replacementModel(marginal, core::MarginalReplacement::kChowLiuTree, params.chow_liu));
-    record.kl_delete_nats = exact.replacementKl(
-        marginal, core::replacementModel(marginal, core::MarginalReplacement::kDelete));
-    switch (params.sparsification) {
-      case Sparsification::kClt:
-        record.kl_nats = record.kl_clt_nats;
-        break;
-      case Sparsification::kDense:  // the factors made, linearized: zero up to rounding
-        record.kl_nats = exact.replacementKl(
-            marginal, core::linearizeConstraints({}, replacement, marginal.blanket,
-                                                 marginal.linearization_point));
-        break;
-      case Sparsification::kDelete:
-        record.kl_nats = record.kl_delete_nats;
-        break;
-    }
-  }
-  record.kl_seconds = core::secondsSince(watch);
-}
-
-}  // namespace
-
-TrimResult trimMap(const MapSnapshot& map, const TrimParams& params,
-                   const SubmapParams& submap_params, NewestSession newest) {
-  return trimMap(map, params, *trimmingStrategy(params), submap_params, newest);
-}
-
-TrimResult trimMap(const MapSnapshot& map, const TrimParams& params,
-                   const TrimmingStrategy& strategy, const SubmapParams& submap_params,
-                   NewestSession newest) {
-  validate(params);
-  map.check();
-  const core::Clock::time_point total = core::Clock::now();
-  TrimResult result;
-  TrimReport& report = result.report;
-  const std::size_t n = map.nodes.size();
-  const int submaps = static_cast<int>(map.submaps.size());
-
-  // Nodes a pending loop touches: their submaps wait; in a running session, so do those its loops
-  // in open clusters touch (their verdicts are not final).
-  const int newest_session = n > 0 ? map.nodes.back().session : 0;
-  const bool running = newest == NewestSession::kRunning;
-  auto inNewest = [&](int node) {
-    return map.nodes[static_cast<std::size_t>(node)].session == newest_session;
-  };
-  std::vector<char> pending_node(n, 0);
+// Nodes a pending loop touches: their submaps wait; in a running session, so do those its loops
+// in open clusters touch (their verdicts are not final).
+std::vector<char> pendingNodes(const MapSnapshot& map, bool running) {
+  std::vector<char> pending(map.nodes.size(), 0);
   for (const MapSnapshot::Edge& e : map.edges) {
     if (e.kind != MapSnapshot::EdgeKind::kLoopCandidate) continue;
     if (e.verdict == rrr::Verdict::kPending || (running && e.cluster < 0)) {
-      pending_node[static_cast<std::size_t>(e.from)] =
-          pending_node[static_cast<std::size_t>(e.to)] = 1;
+      pending[static_cast<std::size_t>(e.from)] = pending[static_cast<std::size_t>(e.to)] = 1;
     }
   }
+  return pending;
+}
 
-  // 1. Coverage, from the newest submap back, against the newer kept ones.
-  const core::Clock::time_point coverage_watch = core::Clock::now();
+// 1. Coverage, from the newest submap back, against the newer kept ones: which submaps go.
+std::vector<char> trimmedSubmaps(const MapSnapshot& map, const TrimParams& params,
+                                 const TrimmingStrategy& strategy,
+                                 const SubmapParams& submap_params, bool running,
+                                 TrimReport& report) {
+  const int submaps = static_cast<int>(map.submaps.size());
+  const int newest_session = map.nodes.empty() ? 0 : map.nodes.back().session;
+  auto inNewest = [&](int node) {
+    return map.nodes[static_cast<std::size_t>(node)].session == newest_session;
+  };
+  const std::vector<char> pending = pendingNodes(map, running);
   const std::vector<Cells> cells =
       observedCells(map, submap_params, params.coverage_resolution_m, params.threads);
   std::vector<char> trimmed(map.submaps.size(), 0);
@@ -309,17 +210,33 @@ TrimResult trimMap(const MapSnapshot& map, const TrimParams& params,
     bool trim = s < submaps - params.keep_recent_submaps && !current && strategy.trim(c);
     if (trim) {
       for (int k = span.first_node; k <= span.last_node && trim; ++k) {
-        if (pending_node[static_cast<std::size_t>(k)]) trim = false;
+        if (pending[static_cast<std::size_t>(k)]) trim = false;
       }
       if (!trim) ++report.waiting_submaps;
     }
     trimmed[static_cast<std::size_t>(s)] = trim ? 1 : 0;
     if (!trim) not_yet.push_back(s);
   }
-  report.coverage_seconds = core::secondsSince(coverage_watch);
+  return trimmed;
+}
 
-  // 2. Owned nodes: those every submap holding them is trimmed from; each goes with the first.
-  std::vector<int> owner(n, -1);
+// The nodes that leave and the groups they leave in.
+struct Leaving {
+  std::vector<int> owner;    // per node, the first trimmed submap holding it (-1: none)
+  std::vector<char> leaves;  // per node
+  std::vector<std::vector<NodeId>> groups;
+};
+
+// 2. Owned nodes: those every submap holding them is trimmed from; each goes with the first.
+// They leave in groups that trusted constraints join: each group is marginalized at once
+// (neighbouring trimmed submaps together), so no tree is ever approximated again.
+Leaving leavingNodes(const MapSnapshot& map, const std::vector<char>& trimmed,
+                     const TrimGraph& graph, const TrimParams& params) {
+  const std::size_t n = map.nodes.size();
+  const int submaps = static_cast<int>(map.submaps.size());
+  Leaving leaving;
+  std::vector<int>& owner = leaving.owner;
+  owner.assign(n, -1);
   std::vector<char> kept_by_some(n, 0);
   for (int s = 0; s < submaps; ++s) {
     const MapSnapshot::Submap& span = map.submaps[static_cast<std::size_t>(s)];
@@ -332,38 +249,17 @@ TrimResult trimMap(const MapSnapshot& map, const TrimParams& params,
       }
     }
   }
-  // The trusted graph: odometry, accepted loops, marginal constraints.
-  std::vector<Trusted> trusted;
-  for (std::size_t e = 0; e < map.edges.size(); ++e) {
-    const MapSnapshot::Edge& edge = map.edges[e];
-    if (edge.kind == MapSnapshot::EdgeKind::kLoopCandidate &&
-        edge.verdict != rrr::Verdict::kAccepted) {
-      continue;
-    }
-    trusted.push_back({{static_cast<NodeId>(edge.from), static_cast<NodeId>(edge.to),
-                        edge.measurement, edge.information},
-                       static_cast<int>(e),
-                       -1});
-  }
-  // The map's dense factors (node ids are node indices), trusted too.
-  std::vector<core::DenseFactor> dense = map.dense_factors;
-  std::vector<core::Pose2> poses(n);
-  for (std::size_t k = 0; k < n; ++k) poses[k] = map.nodes[k].map_pose;
-  std::vector<char> alive(n, 1);
-  std::vector<char> removed(n, 0);
-
-  // The nodes that leave, in groups that trusted constraints join: each group is marginalized at
-  // once (neighbouring trimmed submaps together), so no tree is ever approximated again.
-  std::vector<char> leaves(n, 0);
+  std::vector<char>& leaves = leaving.leaves;
+  leaves.assign(n, 0);
   for (std::size_t k = 0; k < n; ++k) leaves[k] = owner[k] >= 0 && !kept_by_some[k];
   core::UnionFind joined(n);
   if (params.group_neighbours) {
-    for (const Trusted& t : trusted) {
+    for (const TrimGraph::Constraint& t : graph.constraints()) {
       const auto a = static_cast<std::size_t>(t.constraint.from);
       const auto b = static_cast<std::size_t>(t.constraint.to);
       if (leaves[a] && leaves[b]) joined.unite(a, b);
     }
-    for (const core::DenseFactor& f : dense) {
+    for (const core::DenseFactor& f : graph.denseFactors()) {
       for (auto a : f.nodes) {
         for (auto b : f.nodes) {
           if (leaves[a] && leaves[b]) joined.unite(a, b);
@@ -379,7 +275,7 @@ TrimResult trimMap(const MapSnapshot& map, const TrimParams& params,
       joined.unite(first, k);
     }
   }
-  std::vector<std::vector<NodeId>> groups;
+  std::vector<std::vector<NodeId>>& groups = leaving.groups;
   std::vector<int> group_of_root(n, -1);
   for (std::size_t k = 0; k < n; ++k) {
     if (!leaves[k]) continue;
@@ -390,156 +286,16 @@ TrimResult trimMap(const MapSnapshot& map, const TrimParams& params,
     }
     groups[static_cast<std::size_t>(g)].push_back(static_cast<NodeId>(k));
   }
+  return leaving;
+}
 
-  // 3-4. Each group, oldest first, linearized at the trusted graph's minimum (one optimization
-  // for every trim: marginalizing exactly leaves the other nodes' minimum where it was, and the
-  // tree keeps the marginal's gradient, so later trims find the graph still there; deletion
-  // moves it, and with report_kl the graph is optimized again after each deletion).
-  const core::Clock::time_point optimize_watch = core::Clock::now();
-  if (!groups.empty()) optimizeTrusted(trusted, dense, alive, poses);
-  report.optimize_seconds = core::secondsSince(optimize_watch);
-
-  // 5. Memory, at the same estimate (trim_memory.h).
-  const core::Clock::time_point memory_watch = core::Clock::now();
-  std::vector<char> stays(n, 0);
-  for (std::size_t k = 0; k < n; ++k) stays[k] = !leaves[k];
-  TrimmedMemory memory = memoryAfterTrim(map, poses, stays, params, submap_params,
-                                         params.remember_trimmed_cells && !groups.empty());
-  report.remembered_patches = memory.made_patches;
-  report.memory_seconds = core::secondsSince(memory_watch);
-  std::vector<char> in_group(n, 0);
-  for (const std::vector<NodeId>& group : groups) {
-    const core::Clock::time_point watch = core::Clock::now();
-    TrimRecord record;
-    std::vector<int> owners;
-    for (NodeId k : group) owners.push_back(owner[k]);
-    std::sort(owners.begin(), owners.end());
-    owners.erase(std::unique(owners.begin(), owners.end()), owners.end());
-    record.submap = owners.front();
-    record.submaps = static_cast<int>(owners.size());
-    record.removed_nodes = static_cast<int>(group.size());
-    const int s = record.submap;
-    // The trusted constraints touching the group: all the Schur complement needs. A part of the
-    // group that shares none with the rest (a session nothing else saw) just leaves.
-    for (NodeId k : group) in_group[k] = 1;
-    std::vector<core::PoseConstraint> local;
-    for (const Trusted& t : trusted) {
-      if (in_group[t.constraint.from] || in_group[t.constraint.to]) local.push_back(t.constraint);
-    }
-    core::UnionFind pieces(n);
-    std::vector<char> reaches_out(n, 0);
-    for (const core::PoseConstraint& c : local) {
-      const auto a = static_cast<std::size_t>(c.from);
-      const auto b = static_cast<std::size_t>(c.to);
-      if (in_group[a] && in_group[b]) pieces.unite(a, b);
-    }
-    std::vector<core::DenseFactor> local_dense;
-    for (const core::DenseFactor& f : dense) {
-      if (std::any_of(f.nodes.begin(), f.nodes.end(), [&](auto id) { return in_group[id]; })) {
-        local_dense.push_back(f);
-      }
-    }
-    for (const core::DenseFactor& f : local_dense) {  // its group nodes join one another
-      std::size_t first_in = n;
-      for (auto id : f.nodes) {
-        if (!in_group[id]) continue;
-        if (first_in == n) first_in = id;
-        pieces.unite(first_in, id);
-      }
-    }
-    for (const core::PoseConstraint& c : local) {
-      const auto a = static_cast<std::size_t>(c.from);
-      const auto b = static_cast<std::size_t>(c.to);
-      if (in_group[a] != in_group[b]) reaches_out[pieces.find(in_group[a] ? a : b)] = 1;
-    }
-    for (const core::DenseFactor& f : local_dense) {
-      const bool out =
-          std::any_of(f.nodes.begin(), f.nodes.end(), [&](auto id) { return !in_group[id]; });
-      for (auto id : f.nodes) {
-        if (out && in_group[id]) reaches_out[pieces.find(id)] = 1;
-      }
-    }
-    std::vector<NodeId> marginalized;
-    for (NodeId k : group) {
-      if (reaches_out[pieces.find(k)]) marginalized.push_back(k);
-    }
-    std::vector<Trusted> replacement;
-    std::vector<core::DenseFactor> dense_replacement;
-    if (!marginalized.empty()) {
-      std::map<NodeId, core::Pose2> pose_of;
-      for (const core::PoseConstraint& c : local) {
-        pose_of.emplace(c.from, poses[c.from]);
-        pose_of.emplace(c.to, poses[c.to]);
-      }
-      for (const core::DenseFactor& f : local_dense) {
-        for (auto id : f.nodes) pose_of.emplace(id, poses[id]);
-      }
-      const core::Marginal marginal =
-          core::marginalizeNodes(local, local_dense, pose_of, marginalized);
-      record.blanket_nodes = static_cast<int>(marginal.blanket.size());
-      switch (params.sparsification) {
-        case Sparsification::kClt:
-          for (const core::ChowLiuEdge& e : core::chowLiuTree(marginal, params.chow_liu)) {
-            replacement.push_back({e.constraint, -1, s});
-          }
-          break;
-        case Sparsification::kDense:
-          dense_replacement = core::denseFactors(marginal);
-          break;
-        case Sparsification::kDelete:
-          break;
-      }
-      if (params.report_kl) {
-        measureKl(trusted, dense, alive, poses, marginal, dense_replacement, params, record);
-      }
-    }
-    for (NodeId k : group) {
-      in_group[k] = 0;
-      alive[k] = 0;
-      removed[k] = 1;
-    }
-    std::vector<Trusted> still;
-    still.reserve(trusted.size() + replacement.size());
-    for (Trusted& t : trusted) {
-      if (touches(t.constraint, removed)) {
-        ++record.removed_constraints;
-      } else {
-        still.push_back(std::move(t));
-      }
-    }
-    record.marginal_edges = static_cast<int>(replacement.size());
-    still.insert(still.end(), replacement.begin(), replacement.end());
-    trusted.swap(still);
-    // Dense factors holding a removed node were folded into the marginal (their nodes reach out).
-    std::vector<core::DenseFactor> dense_still;
-    for (core::DenseFactor& f : dense) {
-      if (std::any_of(f.nodes.begin(), f.nodes.end(), [&](auto id) { return removed[id] != 0; })) {
-        ++record.removed_constraints;
-      } else {
-        dense_still.push_back(std::move(f));
-      }
-    }
-    record.dense_factors = static_cast<int>(dense_replacement.size());
-    for (core::DenseFactor& f : dense_replacement) dense_still.push_back(std::move(f));
-    dense.swap(dense_still);
-    record.seconds = core::secondsSince(watch) - record.kl_seconds;
-    report.trims.push_back(record);
-    if (params.report_kl && params.sparsification == Sparsification::kDelete &&
-        record.removed_constraints > 0) {
-      // Deletion drops the removed constraints' pull on the blanket: the minimum moves, and the
-      // next trim's KL is measured at the new one (the trims themselves need no linearization).
-      const core::Clock::time_point again = core::Clock::now();
-      optimizeTrusted(trusted, dense, alive, poses);
-      report.optimize_seconds += core::secondsSince(again);
-    }
-  }
-  if (!groups.empty()) {
-    const core::Clock::time_point watch = core::Clock::now();
-    optimizeTrusted(trusted, dense, alive, poses);  // the trimmed map at its own minimum
-    report.optimize_seconds += core::secondsSince(watch);
-  }
-
-  // The trimmed map, renumbered.
+// The trimmed map: the nodes that stay, renumbered, at the graph's poses; the edges that stay;
+// the trims' marginal constraints and dense factors; the kept submaps; the memory settled.
+void writeTrimmed(const MapSnapshot& map, const TrimGraph& graph, const std::vector<char>& trimmed,
+                  TrimmedMemory memory, const TrimParams& params, TrimResult& result) {
+  const std::size_t n = map.nodes.size();
+  const int submaps = static_cast<int>(map.submaps.size());
+  TrimReport& report = result.report;
   MapSnapshot& out = result.map;
   out.format_version = kMapFormatVersion;
   out.params = map.params;
@@ -547,7 +303,7 @@ TrimResult trimMap(const MapSnapshot& map, const TrimParams& params,
   new_index.assign(n, -1);
   std::vector<int> new_session(map.sessions.size(), -1);
   for (std::size_t k = 0; k < n; ++k) {
-    if (!alive[k]) continue;
+    if (!graph.alive(k)) continue;
     const MapSnapshot::Node& node = map.nodes[k];
     const auto session = static_cast<std::size_t>(node.session);
     if (new_session[session] < 0) {
@@ -559,19 +315,19 @@ TrimResult trimMap(const MapSnapshot& map, const TrimParams& params,
     new_index[k] = static_cast<int>(out.nodes.size());
     MapSnapshot::Node moved = node;
     moved.session = new_session[session];
-    moved.map_pose = poses[k];
+    moved.map_pose = graph.poses()[k];
     out.nodes.push_back(std::move(moved));
   }
   std::vector<char> trusted_kept(map.edges.size(), 0);
-  for (const Trusted& t : trusted) {
+  for (const TrimGraph::Constraint& t : graph.constraints()) {
     if (t.origin >= 0) trusted_kept[static_cast<std::size_t>(t.origin)] = 1;
   }
   for (std::size_t e = 0; e < map.edges.size(); ++e) {
     const MapSnapshot::Edge& edge = map.edges[e];
     const bool is_trusted = edge.kind != MapSnapshot::EdgeKind::kLoopCandidate ||
                             edge.verdict == rrr::Verdict::kAccepted;
-    const bool ends_alive = alive[static_cast<std::size_t>(edge.from)] != 0 &&
-                            alive[static_cast<std::size_t>(edge.to)] != 0;
+    const bool ends_alive = graph.alive(static_cast<std::size_t>(edge.from)) &&
+                            graph.alive(static_cast<std::size_t>(edge.to));
     if (is_trusted ? !trusted_kept[e] : !ends_alive) {
       if (!is_trusted) ++report.dropped_rejected_loops;  // pending ones wait: never here
       continue;
@@ -581,7 +337,7 @@ TrimResult trimMap(const MapSnapshot& map, const TrimParams& params,
     moved.to = new_index[static_cast<std::size_t>(edge.to)];
     out.edges.push_back(std::move(moved));
   }
-  for (const Trusted& t : trusted) {
+  for (const TrimGraph::Constraint& t : graph.constraints()) {
     if (t.origin >= 0) continue;
     ++report.marginal_edges_kept;
     MapSnapshot::Edge edge;
@@ -594,7 +350,7 @@ TrimResult trimMap(const MapSnapshot& map, const TrimParams& params,
     edge.reason = "Chow-Liu tree of trimmed submap " + std::to_string(t.submap);
     out.edges.push_back(std::move(edge));
   }
-  for (core::DenseFactor f : dense) {
+  for (core::DenseFactor f : graph.denseFactors()) {
     for (auto& id : f.nodes) id = static_cast<mrpt::graphs::TNodeID>(new_index[id]);
     out.dense_factors.push_back(std::move(f));
   }
@@ -617,6 +373,80 @@ TrimResult trimMap(const MapSnapshot& map, const TrimParams& params,
   out.lifelong.trimmed_submaps += report.trimmed_submaps;
   out.lifelong.marginalized_nodes += static_cast<int>(n - out.nodes.size());
   out.check();
+}
+
+}  // namespace
+
+TrimResult trimMap(const MapSnapshot& map, const TrimParams& params,
+                   const SubmapParams& submap_params, NewestSession newest) {
+  return trimMap(map, params, *trimmingStrategy(params), submap_params, newest);
+}
+
+TrimResult trimMap(const MapSnapshot& map, const TrimParams& params,
+                   const TrimmingStrategy& strategy, const SubmapParams& submap_params,
+                   NewestSession newest) {
+  validate(params);
+  map.check();
+  const core::Clock::time_point total = core::Clock::now();
+  TrimResult result;
+  TrimReport& report = result.report;
+  const std::size_t n = map.nodes.size();
+
+  const core::Clock::time_point coverage_watch = core::Clock::now();
+  const std::vector<char> trimmed = trimmedSubmaps(map, params, strategy, submap_params,
+                                                   newest == NewestSession::kRunning, report);
+  report.coverage_seconds = core::secondsSince(coverage_watch);
+
+  // The trusted graph: odometry, accepted loops, marginal constraints, dense factors.
+  TrimGraph graph(map);
+  const Leaving leaving = leavingNodes(map, trimmed, graph, params);
+  const std::vector<std::vector<NodeId>>& groups = leaving.groups;
+
+  // 3-4. Each group, oldest first, linearized at the trusted graph's minimum (one optimization
+  // for every trim: marginalizing exactly leaves the other nodes' minimum where it was, and the
+  // tree keeps the marginal's gradient, so later trims find the graph still there; deletion
+  // moves it, and with report_kl the graph is optimized again after each deletion).
+  const core::Clock::time_point optimize_watch = core::Clock::now();
+  if (!groups.empty()) graph.optimize();
+  report.optimize_seconds = core::secondsSince(optimize_watch);
+
+  // 5. Memory, at the same estimate (trim_memory.h).
+  const core::Clock::time_point memory_watch = core::Clock::now();
+  std::vector<char> stays(n, 0);
+  for (std::size_t k = 0; k < n; ++k) stays[k] = !leaving.leaves[k];
+  TrimmedMemory memory = memoryAfterTrim(map, graph.poses(), stays, params, submap_params,
+                                         params.remember_trimmed_cells && !groups.empty());
+  report.remembered_patches = memory.made_patches;
+  report.memory_seconds = core::secondsSince(memory_watch);
+  for (const std::vector<NodeId>& group : groups) {
+    const core::Clock::time_point watch = core::Clock::now();
+    TrimRecord record;
+    std::vector<int> owners;
+    for (NodeId k : group) owners.push_back(leaving.owner[k]);
+    std::sort(owners.begin(), owners.end());
+    owners.erase(std::unique(owners.begin(), owners.end()), owners.end());
+    record.submap = owners.front();
+    record.submaps = static_cast<int>(owners.size());
+    record.removed_nodes = static_cast<int>(group.size());
+    graph.marginalize(group, params, record);
+    record.seconds = core::secondsSince(watch) - record.kl_seconds;
+    report.trims.push_back(record);
+    if (params.report_kl && params.sparsification == Sparsification::kDelete &&
+        record.removed_constraints > 0) {
+      // Deletion drops the removed constraints' pull on the blanket: the minimum moves, and the
+      // next trim's KL is measured at the new one (the trims themselves need no linearization).
+      const core::Clock::time_point again = core::Clock::now();
+      graph.optimize();
+      report.optimize_seconds += core::secondsSince(again);
+    }
+  }
+  if (!groups.empty()) {
+    const core::Clock::time_point watch = core::Clock::now();
+    graph.optimize();  // the trimmed map at its own minimum
+    report.optimize_seconds += core::secondsSince(watch);
+  }
+
+  writeTrimmed(map, graph, trimmed, std::move(memory), params, result);
   report.seconds = core::secondsSince(total);
   return result;
 }

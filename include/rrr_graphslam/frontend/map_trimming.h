@@ -14,11 +14,12 @@
 //      keep_current_session) the newest session's.
 //   2. Owned nodes: a node leaves when every submap it was inserted into is trimmed (consecutive
 //      submaps share half their scans: the nodes of a kept neighbour stay).
-//   3. Marginalization (core/marginalization.h) of each trimmed submap's leaving nodes, oldest
-//      first (or, with group_neighbours, of each group of leaving nodes that trusted constraints
-//      join), at the optimum of the trusted graph (odometry, accepted loops and earlier marginal
-//      constraints), found once before the first trim: the Schur complement over their Markov
-//      blanket, from the constraints touching them only.
+//   3. Marginalization (core/marginalization.h; the working graph is trim_graph.h) of each
+//      trimmed submap's leaving nodes, oldest first (or, with group_neighbours, of each group of
+//      leaving nodes that trusted constraints join), at the optimum of the trusted graph
+//      (odometry, accepted loops and earlier marginal constraints), found once before the first
+//      trim: the Schur complement over their Markov blanket, from the constraints touching them
+//      only.
 //   4. Sparsification: the Chow-Liu tree of that marginal (core/chow_liu.h) replaces it as
 //      marginal constraints (kClt), the marginal itself does as dense factors, one per piece of
 //      the blanket (kDense, core/dense_factor.h: exact; a later trim that touches one folds it
@@ -48,8 +49,8 @@
 
 #include "rrr_graphslam/core/chow_liu.h"
 #include "rrr_graphslam/core/param_info.h"
-#include "rrr_graphslam/frontend/map_snapshot.h"
 #include "rrr_graphslam/frontend/map_render.h"
+#include "rrr_graphslam/frontend/map_snapshot.h"
 #include "rrr_graphslam/frontend/submap.h"
 
 namespace rrr_graphslam::frontend {
