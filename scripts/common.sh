@@ -45,15 +45,17 @@ rrr_enough_tests() {
 # test targets are built first, so a compile error fails here. `catkin_make run_tests` records
 # each test's result (a failing or crashing test included) and exits 0 for failed tests, so its
 # status says nothing: catkin_test_results does, and a run that counted fewer tests than its floor
-# ($1, a key of test/minimum_tests) fails too.
+# ($1, a key of test/minimum_tests) fails too. $2: the catkin target that runs them (default
+# run_tests: every test; run_tests_rrr_graphslam_gtest: the gtests alone).
 # Results of earlier runs are removed first, so a test that no longer runs cannot pass on them.
 rrr_run_tests() {
+  local run_target=${2:-run_tests}
   rm -rf build/test_results
   catkin_make tests >/dev/null || { echo "[rrr] building the tests failed"; return 1; }
   # Its output is filtered to the test lines; its own status still counts (a target that fails
   # to build or run), and grep finding no line is not a failure.
-  catkin_make run_tests 2>&1 | { grep -E '^\[ +(RUN|OK|FAILED|PASSED) +\]|Failure|error' || true; }
-  [[ ${PIPESTATUS[0]} == 0 ]] || { echo "[rrr] catkin_make run_tests failed"; return 1; }
+  catkin_make "${run_target}" 2>&1 | { grep -E '^\[ +(RUN|OK|FAILED|PASSED) +\]|Failure|error' || true; }
+  [[ ${PIPESTATUS[0]} == 0 ]] || { echo "[rrr] catkin_make ${run_target} failed"; return 1; }
   local summary status=0
   summary=$(catkin_test_results build/test_results) || status=$?
   echo "${summary}" | tail -n 1

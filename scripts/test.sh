@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# Installs what is missing, checks formatting, builds, and runs every test: the gtests and pytest,
-# the gtests again built with AddressSanitizer + UndefinedBehaviorSanitizer in a second
+# Installs what is missing, checks formatting, builds, and runs every test: the gtests, pytest and
+# rostest, the gtests again built with AddressSanitizer + UndefinedBehaviorSanitizer in a second
 # workspace, and the file readers' fuzz targets for a bounded time (scripts/fuzz).
 # The last line is catkin_test_results' summary of the normal build.
 # Usage: scripts/test.sh [--no-sanitize]
@@ -16,13 +16,16 @@ echo "[rrr] clang-format check"
   { echo "[rrr] formatting differs from .clang-format: run clang-format-14 -i on the files above"; exit 1; }
 
 if [[ $sanitize == 1 ]]; then
-  echo "[rrr] sanitizer build (ASan + UBSan) of the core tests"
+  echo "[rrr] sanitizer build (ASan + UBSan) of the gtests"
   (
-    RRR_WS=${RRR_WS}_asan RRR_CMAKE_ARGS="-DRRR_SANITIZE=ON" rrr_build >/dev/null
+    # The gtests and the libraries they link, nothing else (the tools, the node and the benches
+    # are not run here: pytest and rostest run in the normal build).
+    RRR_WS=${RRR_WS}_asan RRR_CMAKE_ARGS="-DRRR_SANITIZE=ON" rrr_build tests >/dev/null
     # libgomp keeps its thread pool alive at exit; leak checks would only report that.
     export ASAN_OPTIONS=detect_leaks=0:abort_on_error=1 UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1
     cd "${RRR_WS}_asan"
-    rrr_run_tests sanitizer >sanitizer_tests.log 2>&1 || { tail -n 80 sanitizer_tests.log; exit 1; }
+    rrr_run_tests sanitizer run_tests_rrr_graphslam_gtest >sanitizer_tests.log 2>&1 ||
+      { tail -n 80 sanitizer_tests.log; exit 1; }
     tail -n 1 sanitizer_tests.log
   ) || { echo "[rrr] sanitizer tests failed"; exit 1; }
 fi
