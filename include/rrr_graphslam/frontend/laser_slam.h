@@ -34,8 +34,8 @@
 #include "rrr_graphslam/frontend/laser_slam_params.h"
 #include "rrr_graphslam/frontend/local_slam.h"
 #include "rrr_graphslam/frontend/loop_search.h"
-#include "rrr_graphslam/frontend/map_snapshot.h"
 #include "rrr_graphslam/frontend/map_render.h"
+#include "rrr_graphslam/frontend/map_snapshot.h"
 #include "rrr_graphslam/frontend/map_trimming.h"
 #include "rrr_graphslam/rrr/online_rrr.h"
 

@@ -31,8 +31,8 @@
 
 #include "rrr_graphslam/core/param_info.h"
 #include "rrr_graphslam/core/se2.h"
-#include "rrr_graphslam/frontend/map_snapshot.h"
 #include "rrr_graphslam/frontend/map_memory.h"
+#include "rrr_graphslam/frontend/map_snapshot.h"
 #include "rrr_graphslam/frontend/submap.h"
 
 namespace rrr_graphslam::frontend {

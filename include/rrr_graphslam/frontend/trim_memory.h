@@ -10,8 +10,8 @@
 #include <vector>
 
 #include "rrr_graphslam/core/se2.h"
-#include "rrr_graphslam/frontend/map_snapshot.h"
 #include "rrr_graphslam/frontend/map_memory.h"
+#include "rrr_graphslam/frontend/map_snapshot.h"
 #include "rrr_graphslam/frontend/map_trimming.h"
 #include "rrr_graphslam/frontend/submap.h"
 
