@@ -83,7 +83,7 @@ bool touches(const core::PoseConstraint& c, const std::vector<char>& alive) {
 }  // namespace
 
 TrimGraph::TrimGraph(const MapSnapshot& map)
-    : dense_(map.dense_factors), alive_(map.nodes.size(), 1), in_group_(map.nodes.size(), 0) {
+    : dense_(map.dense_factors), alive_(map.nodes.size(), 1) {
   for (std::size_t e = 0; e < map.edges.size(); ++e) {
     const MapSnapshot::Edge& edge = map.edges[e];
     if (edge.kind == MapSnapshot::EdgeKind::kLoopCandidate &&
@@ -111,7 +111,7 @@ void TrimGraph::optimize() {
 void TrimGraph::marginalize(const std::vector<NodeId>& group, const TrimParams& params,
                             TrimRecord& record) {
   const std::size_t n = size();
-  std::vector<char>& in_group = in_group_;
+  std::vector<char> in_group(n, 0);
   // The trusted constraints touching the group: all the Schur complement needs. A part of the
   // group that shares none with the rest (a session nothing else saw) just leaves.
   for (NodeId k : group) in_group[k] = 1;
@@ -191,10 +191,7 @@ void TrimGraph::marginalize(const std::vector<NodeId>& group, const TrimParams& 
 
   // The group leaves with every constraint and dense factor it touched (those folded into the
   // marginal: their nodes reach out), and the replacement takes their place.
-  for (NodeId k : group) {
-    in_group[k] = 0;
-    alive_[k] = 0;
-  }
+  for (NodeId k : group) alive_[k] = 0;
   std::vector<Constraint> still;
   still.reserve(constraints_.size() + replacement.size());
   for (Constraint& t : constraints_) {

@@ -43,8 +43,10 @@ class TrimGraph {
 
   /// Marginalizes `group` (the nodes trimmed submaps own; `record.submap` the oldest of them) at
   /// the current poses and replaces the constraints and dense factors that touch it by
-  /// `params.sparsification`'s. Fills `record`'s counts, and its KL figures with
-  /// `params.report_kl` (the whole graph's covariance over the blanket: one factorization).
+  /// `params.sparsification`'s. A part of the group that no constraint joins to a node outside it
+  /// (a session nothing else saw) carries no information about the rest and just leaves. Fills
+  /// `record`'s counts, and its KL figures with `params.report_kl` (the whole graph's covariance
+  /// over the blanket: one factorization).
   void marginalize(const std::vector<core::NodeId>& group, const TrimParams& params,
                    TrimRecord& record);
 
@@ -53,7 +55,6 @@ class TrimGraph {
   std::vector<core::DenseFactor> dense_;
   std::vector<core::Pose2> poses_;
   std::vector<char> alive_;
-  std::vector<char> in_group_;  // scratch of marginalize(), all 0 between calls
 };
 
 }  // namespace rrr_graphslam::frontend
