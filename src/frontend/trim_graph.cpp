@@ -17,43 +17,44 @@ namespace {
 using core::NodeId;
 using Constraint = TrimGraph::Constraint;
 
-// The trusted graph over the nodes still alive, at `poses`, in an optimizer (not yet optimized
+bool touches(const core::PoseConstraint& c, const std::vector<char>& alive) {
+  return alive[c.from] == 0 || alive[c.to] == 0;
+}
+
+}  // namespace
+
+// The trusted graph over the nodes still alive, at their poses, in an optimizer (not yet optimized
 // or factored), and the dense index of each node id (-1 for removed ones).
-core::Optimizer trustedOptimizer(const std::vector<Constraint>& trusted,
-                                 const std::vector<core::DenseFactor>& dense,
-                                 const std::vector<char>& alive,
-                                 const std::vector<core::Pose2>& poses,
-                                 std::vector<int>& index_of) {
+core::Optimizer TrimGraph::optimizer(std::vector<int>& index_of) const {
   core::PoseGraph graph;
-  index_of.assign(alive.size(), -1);
+  index_of.assign(alive_.size(), -1);
   int next = 0;
-  for (std::size_t k = 0; k < alive.size(); ++k) {
-    if (!alive[k]) continue;
-    graph.addNode(static_cast<NodeId>(k), poses[k]);
+  for (std::size_t k = 0; k < alive_.size(); ++k) {
+    if (!alive_[k]) continue;
+    graph.addNode(static_cast<NodeId>(k), poses_[k]);
     index_of[k] = next++;
   }
-  for (const Constraint& t : trusted) {
+  for (const Constraint& t : constraints_) {
     graph.addEdge(t.constraint.from, t.constraint.to, t.constraint.measurement,
                   t.constraint.information, core::EdgeKind::kOdometry);
   }
-  for (const core::DenseFactor& f : dense) graph.addDenseFactor(f);
+  for (const core::DenseFactor& f : dense_) graph.addDenseFactor(f);
   return core::makeOptimizer(graph);
 }
 
 // The measurement behind TrimRecord's KL figures: the trusted graph's covariance over the
 // blanket (one factorization of the whole graph at the current poses), against which the tree
 // and deletion are compared with the exact marginal.
-void measureKl(const std::vector<Constraint>& trusted, const std::vector<core::DenseFactor>& dense,
-               const std::vector<char>& alive, const std::vector<core::Pose2>& poses,
-               const core::Marginal& marginal, const std::vector<core::DenseFactor>& replacement,
-               const TrimParams& params, TrimRecord& record) {
+void TrimGraph::measureKl(const core::Marginal& marginal,
+                          const std::vector<core::DenseFactor>& replacement,
+                          const TrimParams& params, TrimRecord& record) const {
   const core::Clock::time_point watch = core::Clock::now();
   std::vector<int> index_of;
-  core::Optimizer optimizer = trustedOptimizer(trusted, dense, alive, poses, index_of);
-  if (optimizer.factorAtCurrentPoses() && optimizer.covarianceAvailable()) {
+  core::Optimizer trusted = optimizer(index_of);
+  if (trusted.factorAtCurrentPoses() && trusted.covarianceAvailable()) {
     std::vector<int> blanket;
     for (NodeId b : marginal.blanket) blanket.push_back(index_of[b]);
-    const core::KlReference exact(optimizer.covariance(blanket));
+    const core::KlReference exact(trusted.covariance(blanket));
     record.kl_clt_nats = exact.replacementKl(
         marginal,
         core::replacementModel(marginal, core::MarginalReplacement::kChowLiuTree, params.chow_liu));
@@ -76,12 +77,6 @@ void measureKl(const std::vector<Constraint>& trusted, const std::vector<core::D
   record.kl_seconds = core::secondsSince(watch);
 }
 
-bool touches(const core::PoseConstraint& c, const std::vector<char>& alive) {
-  return alive[c.from] == 0 || alive[c.to] == 0;
-}
-
-}  // namespace
-
 TrimGraph::TrimGraph(const MapSnapshot& map)
     : dense_(map.dense_factors), alive_(map.nodes.size(), 1) {
   for (std::size_t e = 0; e < map.edges.size(); ++e) {
@@ -101,10 +96,10 @@ TrimGraph::TrimGraph(const MapSnapshot& map)
 
 void TrimGraph::optimize() {
   std::vector<int> index_of;
-  core::Optimizer optimizer = trustedOptimizer(constraints_, dense_, alive_, poses_, index_of);
-  optimizer.optimize();
+  core::Optimizer trusted = optimizer(index_of);
+  trusted.optimize();
   for (std::size_t k = 0; k < alive_.size(); ++k) {
-    if (index_of[k] >= 0) poses_[k] = optimizer.poses()[static_cast<std::size_t>(index_of[k])];
+    if (index_of[k] >= 0) poses_[k] = trusted.poses()[static_cast<std::size_t>(index_of[k])];
   }
 }
 
@@ -185,7 +180,7 @@ void TrimGraph::marginalize(const std::vector<NodeId>& group, const TrimParams& 
         break;
     }
     if (params.report_kl) {
-      measureKl(constraints_, dense_, alive_, poses_, marginal, dense_replacement, params, record);
+      measureKl(marginal, dense_replacement, params, record);
     }
   }
 

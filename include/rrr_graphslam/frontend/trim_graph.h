@@ -14,6 +14,11 @@
 #include "rrr_graphslam/core/se2.h"
 #include "rrr_graphslam/frontend/map_snapshot.h"
 
+namespace rrr_graphslam::core {
+class Optimizer;
+struct Marginal;
+}  // namespace rrr_graphslam::core
+
 namespace rrr_graphslam::frontend {
 
 struct TrimParams;
@@ -51,6 +56,14 @@ class TrimGraph {
                    TrimRecord& record);
 
  private:
+  /// The graph over the nodes still alive, at their poses, in an optimizer (not yet optimized or
+  /// factored); `index_of` the optimizer's index of each node (-1 for removed ones).
+  core::Optimizer optimizer(std::vector<int>& index_of) const;
+  /// TrimRecord's KL figures for `marginal`, replaced by the tree, by deletion and by what
+  /// params.sparsification made (`replacement`: the dense factors, for kDense).
+  void measureKl(const core::Marginal& marginal, const std::vector<core::DenseFactor>& replacement,
+                 const TrimParams& params, TrimRecord& record) const;
+
   std::vector<Constraint> constraints_;
   std::vector<core::DenseFactor> dense_;
   std::vector<core::Pose2> poses_;
