@@ -242,6 +242,14 @@ class Layers {
   // What the rendering made of the memory; only with `record_use`, after every patch was painted.
   MemoryUse takeMemoryUse() {
     assert(record_use_);
+    // A cell that owns the evidence of some grid cell stays in its patch, with all of its
+    // evidence: it is not also added to another owner (a coarse or turned older cell can
+    // straddle grid cells with and without newer evidence; adding it there too would count it
+    // twice, and again at every later forgetting).
+    for (const Fusion& f : fusions_) {
+      if (owner_[f.patch][f.cell]) continue;
+      use_.added[f.owner_patch][f.owner_cell] += f.evidence;
+    }
     use_.superseded.assign(placed_.size(), {});
     for (std::size_t p = 0; p < placed_.size(); ++p) {
       const std::vector<std::uint8_t>& cells = *placed_[p].patch->cells;
@@ -282,7 +290,9 @@ class Layers {
   }
 
   // The first patch with evidence in grid cell g owns it; a later (older) patch's evidence there
-  // is added to the owner's cell once, however many grid cells it covers.
+  // is to be added to the owner's cell, as the rendering adds it to g (a coarse older cell to
+  // the owner of every grid cell it covers), unless the older cell owns another grid cell
+  // (takeMemoryUse).
   void recordEvidence(std::size_t p, std::size_t g, const Samples& samples, int glimpses) {
     auto& [owner_patch, owner_cell] = evidence_owner_[g];
     for (std::size_t n = 0; n < samples.n; ++n) {
@@ -292,10 +302,10 @@ class Layers {
         owner_patch = static_cast<int>(p);
         owner_cell = k;
         owner_[p][k] = 1;
-      } else if (static_cast<std::size_t>(owner_patch) != p && !fused_[p][k] && !owner_[p][k]) {
+      } else if (static_cast<std::size_t>(owner_patch) != p) {
         fused_[p][k] = 1;
-        use_.added[static_cast<std::size_t>(owner_patch)][owner_cell] +=
-            evidenceLogOdds(v) / static_cast<float>(glimpses);
+        fusions_.push_back({p, k, static_cast<std::size_t>(owner_patch), owner_cell,
+                            evidenceLogOdds(v) / static_cast<float>(glimpses)});
       }
     }
   }
@@ -312,6 +322,13 @@ class Layers {
   std::vector<char> has_evidence_;
   bool record_use_;
   std::vector<std::pair<int, std::size_t>> evidence_owner_;  // per grid cell: (patch, cell)
+  // An older cell's evidence to add to a grid cell's owner (patch, cell), with record_use only.
+  struct Fusion {
+    std::size_t patch, cell;
+    std::size_t owner_patch, owner_cell;
+    float evidence;
+  };
+  std::vector<Fusion> fusions_;
   MemoryUse use_;
 };
 

@@ -319,6 +319,22 @@ RememberedCells glimpse(int session, int n = 20) {
   return patch;
 }
 
+// Forgetting what is already forgotten changes nothing: no cell's evidence is added twice
+// (forgetSuperseded runs at every trim, over the patches the earlier trims left).
+void expectForgettingIsIdempotent(const std::vector<RememberedCells>& memory,
+                                  const std::vector<core::Pose2>& poses) {
+  const std::vector<RememberedCells> once = forgetSuperseded(memory, poses, 0.05);
+  const std::vector<RememberedCells> twice = forgetSuperseded(once, poses, 0.05);
+  ASSERT_EQ(twice.size(), once.size());
+  for (std::size_t p = 0; p < once.size(); ++p) {
+    EXPECT_EQ(twice[p].session, once[p].session) << p;
+    EXPECT_EQ(twice[p].width, once[p].width) << p;
+    EXPECT_EQ(twice[p].height, once[p].height) << p;
+    EXPECT_LT((twice[p].origin - once[p].origin).norm(), 1e-12) << p;
+    EXPECT_EQ(*twice[p].cells, *once[p].cells) << p;
+  }
+}
+
 // What several sessions glimpsed adds up where none decided: two glimpses of the floor decide
 // it free, one does not (the untrimmed map's scans would add up the same way).
 TEST(MapRender, GlimpsesOfSeveralSessionsAddUpWhereNoneDecides) {
@@ -370,6 +386,17 @@ TEST(MapRender, GlimpsesOfSeveralSessionsAddUpWhereNoneDecides) {
     if (v == RememberedCells::kUnknown) continue;
     EXPECT_LE(freeProbability(v), 0.85F);  // 0.7 and 0.7: 0.845; more would be double counting
   }
+  // Forgetting leaves the rendered map as it was, also where the older cells straddle grid
+  // cells with and without newer evidence.
+  MapInputs straddling = inputs;
+  straddling.memory = {turned, glimpse(2)};
+  MapInputs forgotten = straddling;
+  forgotten.memory = once;
+  EXPECT_EQ(
+      differingCells(renderOccupancyMap(straddling, 0.05), renderOccupancyMap(forgotten, 0.05)), 0);
+  expectForgettingIsIdempotent({glimpse(1), glimpse(2)}, inputs.poses);
+  expectForgettingIsIdempotent({turned, glimpse(2)}, inputs.poses);
+  expectForgettingIsIdempotent({turned, glimpse(2, 10), glimpse(3)}, inputs.poses);
 }
 
 TEST(MapRender, RememberedCellsThatANewerPatchDecidesAreForgotten) {
@@ -391,6 +418,7 @@ TEST(MapRender, RememberedCellsThatANewerPatchDecidesAreForgotten) {
   const std::size_t box_cells = memory[0].knownCells();
   const std::size_t room_cells = memory[1].knownCells();
   std::vector<RememberedCells> left = forgetSuperseded(memory, poses, 0.05);
+  expectForgettingIsIdempotent(memory, poses);
   ASSERT_GE(left.size(), 1u);
   ASSERT_LE(left.size(), 2u);
   EXPECT_EQ(left.back().knownCells(), room_cells);
