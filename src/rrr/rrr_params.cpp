@@ -24,6 +24,7 @@ void applyPreset(const std::string& name, RrrParams& params) {
     p.recover_gate = std::numeric_limits<double>::infinity();
     p.far_retry_min_links = 0;
     p.leave_one_out_check = false;
+    p.loo_joint_min_index = 0.0;
     p.joint_link_check = false;
     p.place_sessions = false;
     p.online_map_check = false;

@@ -56,6 +56,7 @@ ABLATION_SWITCHES = (
     ("recover-gate", "inf"),
     ("far-retry-min-links", "0"),
     ("leave-one-out-check", "false"),
+    ("loo-joint-min-index", "0"),
     ("joint-link-check", "false"),
     ("place-sessions", "false"),
 )

@@ -141,8 +141,9 @@ def test_ablation_counts_each_switch_against_the_default(tmp_path):
     assert len(calls) == 2 + len(ABLATION_SWITCHES)
     assert calls[0].endswith("g_random4_s1_gated.g2o.ablation-default.tsv --quiet")
     assert calls[1].endswith(".ablation-paper.tsv --quiet --preset paper")
-    assert calls[-8].endswith(".ablation-batch-removal-fraction-1.tsv --quiet "
-                              "--batch-removal-fraction 1")
+    fraction = 2 + [switch for switch, _ in ABLATION_SWITCHES].index("batch-removal-fraction")
+    assert calls[fraction].endswith(".ablation-batch-removal-fraction-1.tsv --quiet "
+                                    "--batch-removal-fraction 1")
     assert (cache / "g_random4_s1_gated.g2o.ablation-recover-gate-inf.tsv").exists()
     assert not list(cache.glob("*.batch.tsv"))
 

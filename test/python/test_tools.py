@@ -95,7 +95,7 @@ def test_joint_leave_out_rejects_two_false_groups_that_mask_each_other(tmp_path)
     graph, truth = synthetic_input(DATA, str(tmp_path), OPTIMIZE, "manhattanOlson3500_olson", "aliased",
                                    100, seed=3)
     false_accepted = {}
-    for label, extra in (("off", ()), ("on", ("--loo-joint-min-index", 0.2))):
+    for label, extra in (("off", ("--loo-joint-min-index", 0)), ("on", ())):
         decisions = tmp_path / f"{label}.tsv"
         result = run(OFFLINE, graph, "--decisions", decisions, "--quiet", *extra)
         assert result.returncode == 0, result.stderr
@@ -104,7 +104,7 @@ def test_joint_leave_out_rejects_two_false_groups_that_mask_each_other(tmp_path)
         false_accepted[label] = [d for d, t in zip(rows, labels) if d.verdict == "accepted" and t is False]
         if label == "on":
             assert any(d.reason.startswith("joint leave-out: ") for d in rows)
-    assert false_accepted["off"], "the default now rejects them: the case no longer shows masking"
+    assert false_accepted["off"], "rejected without it: the case no longer shows masking"
     assert false_accepted["on"] == []
 
 

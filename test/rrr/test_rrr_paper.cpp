@@ -154,6 +154,10 @@ TEST(RrrPaper, EachAdditionAloneKeepsTheTrueClusters) {
                                         [](RrrParams& p) { p.recover_gate = 10.0; },
                                         [](RrrParams& p) { p.far_retry_min_links = 2; },
                                         [](RrrParams& p) { p.leave_one_out_check = true; },
+                                        [](RrrParams& p) {
+                                          p.leave_one_out_check = true;
+                                          p.loo_joint_min_index = 0.2;
+                                        },
                                         [](RrrParams& p) { p.joint_link_check = true; }};
   for (std::size_t i = 0; i < switches.size(); ++i) {
     RrrParams p = paper();

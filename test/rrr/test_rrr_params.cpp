@@ -62,11 +62,13 @@ TEST(RrrParams, PaperPresetSwitchesEveryAdditionOff) {
   EXPECT_EQ(p.batch_removal_fraction, 1.0);
   EXPECT_TRUE(std::isinf(p.recover_gate));
   EXPECT_EQ(p.far_retry_min_links, 0);
+  EXPECT_EQ(p.loo_joint_min_index, 0.0);
   EXPECT_EQ(p.incremental_rebatch_every, 0);
   EXPECT_NO_THROW(validate(p));
 
   applyPreset("default", p);
   EXPECT_TRUE(p.robust_ordering && p.joint_link_check && p.leave_one_out_check);
+  EXPECT_EQ(p.loo_joint_min_index, 0.2);
   EXPECT_EQ(p.alpha, 0.9);
   EXPECT_THROW(applyPreset("papers", p), std::invalid_argument);
 }

@@ -80,9 +80,9 @@ struct RrrParams {
   /// Joint leave-out: after the leave-one-out check rejects nothing, the examined clusters whose
   /// leave-one-out index is at least this are left out together; if their joint index reaches 1,
   /// the one of the highest own leave-one-out index is rejected and the check runs again (two
-  /// false groups can each hold the other's bend, so that neither fails alone). 0 (default,
-  /// paper): off.
-  double loo_joint_min_index = 0.0;
+  /// false groups can each hold the other's bend, so that neither fails alone); default 0.2
+  /// (paper: 0, off).
+  double loo_joint_min_index = 0.2;
   /// After a batch decision, links of good clusters that fail the per-link chi-square test at
   /// the good set's joint solution are dropped; default true.
   bool joint_link_check = true;
