@@ -8,6 +8,7 @@
 #include <limits>
 #include <set>
 #include <stdexcept>
+#include <tuple>
 
 #include <mrpt/poses/CPose3D.h>
 
@@ -246,8 +247,19 @@ class Layers {
     // evidence: it is not also added to another owner (a coarse or turned older cell can
     // straddle grid cells with and without newer evidence; adding it there too would count it
     // twice, and again at every later forgetting).
+    // An older cell and an owner cell that both cover several grid cells meet in each of them:
+    // the older cell's evidence is added to that owner once (the first meeting's), as the owner
+    // shows it in all of them.
+    std::stable_sort(fusions_.begin(), fusions_.end(), [](const Fusion& a, const Fusion& b) {
+      return std::tie(a.patch, a.cell, a.owner_patch, a.owner_cell) <
+             std::tie(b.patch, b.cell, b.owner_patch, b.owner_cell);
+    });
+    const Fusion* last = nullptr;
     for (const Fusion& f : fusions_) {
-      if (owner_[f.patch][f.cell]) continue;
+      const bool again = last != nullptr && last->patch == f.patch && last->cell == f.cell &&
+                         last->owner_patch == f.owner_patch && last->owner_cell == f.owner_cell;
+      last = &f;
+      if (again || owner_[f.patch][f.cell]) continue;
       use_.added[f.owner_patch][f.owner_cell] += f.evidence;
     }
     use_.superseded.assign(placed_.size(), {});

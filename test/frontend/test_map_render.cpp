@@ -394,6 +394,22 @@ TEST(MapRender, GlimpsesOfSeveralSessionsAddUpWhereNoneDecides) {
   forgotten.memory = once;
   EXPECT_EQ(
       differingCells(renderOccupancyMap(straddling, 0.05), renderOccupancyMap(forgotten, 0.05)), 0);
+  // Coarser patches than the forgetting's cells, aligned: an older cell meets the same newer
+  // owner in each of the four cells both cover, and is added to it once.
+  RememberedCells coarse_old = glimpse(1, 10);
+  coarse_old.resolution_m = 0.1;
+  RememberedCells coarse_new = glimpse(2, 10);
+  coarse_new.resolution_m = 0.1;
+  MapInputs coarse = inputs;
+  coarse.memory = {coarse_old, coarse_new};
+  MapInputs coarse_forgotten = coarse;
+  coarse_forgotten.memory = forgetSuperseded(coarse.memory, inputs.poses, 0.05);
+  ASSERT_EQ(coarse_forgotten.memory.size(), 1u);
+  EXPECT_NEAR(freeProbability(coarse_forgotten.memory[0].cells->front()), 0.845F, 0.005F);
+  EXPECT_EQ(
+      differingCells(renderOccupancyMap(coarse, 0.05), renderOccupancyMap(coarse_forgotten, 0.05)),
+      0);
+  expectForgettingIsIdempotent(coarse.memory, inputs.poses);
   expectForgettingIsIdempotent({glimpse(1), glimpse(2)}, inputs.poses);
   expectForgettingIsIdempotent({turned, glimpse(2)}, inputs.poses);
   expectForgettingIsIdempotent({turned, glimpse(2, 10), glimpse(3)}, inputs.poses);
