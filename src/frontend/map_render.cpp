@@ -250,15 +250,11 @@ class Layers {
     // An older cell and an owner cell that both cover several grid cells meet in each of them:
     // the older cell's evidence is added to that owner once (the first meeting's), as the owner
     // shows it in all of them.
-    std::stable_sort(fusions_.begin(), fusions_.end(), [](const Fusion& a, const Fusion& b) {
-      return std::tie(a.patch, a.cell, a.owner_patch, a.owner_cell) <
-             std::tie(b.patch, b.cell, b.owner_patch, b.owner_cell);
-    });
-    const Fusion* last = nullptr;
-    for (const Fusion& f : fusions_) {
-      const bool again = last != nullptr && last->patch == f.patch && last->cell == f.cell &&
-                         last->owner_patch == f.owner_patch && last->owner_cell == f.owner_cell;
-      last = &f;
+    std::stable_sort(fusions_.begin(), fusions_.end(),
+                     [](const Fusion& a, const Fusion& b) { return a.pair() < b.pair(); });
+    for (std::size_t i = 0; i < fusions_.size(); ++i) {
+      const Fusion& f = fusions_[i];
+      const bool again = i > 0 && fusions_[i - 1].pair() == f.pair();
       if (again || owner_[f.patch][f.cell]) continue;
       use_.added[f.owner_patch][f.owner_cell] += f.evidence;
     }
@@ -339,6 +335,9 @@ class Layers {
     std::size_t patch, cell;
     std::size_t owner_patch, owner_cell;
     float evidence;
+    std::tuple<std::size_t, std::size_t, std::size_t, std::size_t> pair() const {
+      return {patch, cell, owner_patch, owner_cell};
+    }
   };
   std::vector<Fusion> fusions_;
   MemoryUse use_;
