@@ -1,5 +1,6 @@
 #include "rrr_graphslam/frontend/laser_slam.h"
 #include "rrr_graphslam/frontend/plausible_pose.h"
+#include "rrr_graphslam/frontend/rival_reading.h"
 
 #include <algorithm>
 #include <chrono>
@@ -140,6 +141,7 @@ void LaserSlam::searchLoops(int node, const PointCloud& scan_points) {
     bool whole;
     std::optional<LoopMatch> loop;
     double seconds = 0.0;
+    bool rival = false;  // around the rival reading of where the session lies
   };
   std::vector<Search> searches;
   // With a hint, where it puts this node in the map.
@@ -183,6 +185,30 @@ void LaserSlam::searchLoops(int node, const PointCloud& scan_points) {
                         {},
                         0.0});
   }
+  // Once tied, the rival reading too (rivalReading): the earlier sessions' submaps near where it
+  // puts this node, with their own sampling and pauses.
+  std::optional<core::Pose2> rival;
+  if (sessions_.size() > 1 && !relocalizing && p.rival_min_loops > 0) {
+    rival = rivalReading(node, map);
+  }
+  if (rival) {
+    rival_search_state_.resize(search_state_.size());
+    for (const auto& submap : finished_) {
+      if (submap->index() >= session_first_submap_) continue;
+      const core::Pose2& anchor = map[static_cast<std::size_t>(submap->anchorNode())];
+      if ((anchor.head<2>() - rival->head<2>()).norm() > p.max_constraint_distance_m) continue;
+      SubmapSearchState& state = rival_search_state_[static_cast<std::size_t>(submap->index())];
+      if (node - state.last_searched < p.search_every_n_nodes) continue;
+      if (node - state.last_matched < p.pause_after_match_nodes) continue;
+      state.last_searched = node;
+      searches.push_back({submap.get(),
+                          core::compose(submap->anchorPose(), core::between(anchor, *rival)),
+                          false,
+                          {},
+                          0.0,
+                          true});
+    }
+  }
   if (searches.empty()) return;
   const auto start = std::chrono::steady_clock::now();
   const LoopSearchScan scan = loopSearchScan(std::move(points), p);  // thinned once per node
@@ -199,13 +225,14 @@ void LaserSlam::searchLoops(int node, const PointCloud& scan_points) {
   for (const Search& s : searches) {
     stats_.loop_search_pair_seconds += s.seconds;
     (s.whole ? stats_.relocalization_searches : stats_.loop_searches) += 1;
+    stats_.rival_searches += s.rival ? 1 : 0;
   }
   bool relocalized = false;
   std::vector<PlacedSubmap> earlier_submaps;  // placed once, for the first match to check
   for (const Search& s : searches) {
     if (!s.loop) continue;
     const bool to_earlier_session = relocalizing && s.submap->index() < session_first_submap_;
-    if (to_earlier_session && p.relocalization_max_conflict < 1.0) {
+    if ((to_earlier_session || s.rival) && p.relocalization_max_conflict < 1.0) {
       if (earlier_submaps.empty()) {
         for (const auto& submap : finished_) {
           if (submap->index() >= session_first_submap_) continue;
@@ -219,7 +246,8 @@ void LaserSlam::searchLoops(int node, const PointCloud& scan_points) {
         continue;
       }
     }
-    search_state_[static_cast<std::size_t>(s.submap->index())].last_matched = node;
+    (s.rival ? rival_search_state_ : search_state_)[static_cast<std::size_t>(s.submap->index())]
+        .last_matched = node;
     addCandidate(s.loop->from, s.loop->to, s.loop->measurement, s.loop->information,
                  s.whole ? LoopSource::kWholeMapSearch : LoopSource::kLocalSearch);
     relocalized = relocalized || to_earlier_session;
@@ -236,7 +264,8 @@ void LaserSlam::searchLoops(int node, const PointCloud& scan_points) {
 
 void LaserSlam::keepSessionPoints(int node, const PointCloud& points) {
   const LoopSearchParams& p = params_.loops;
-  if (sessions_.size() < 2 || p.relocalization_max_conflict >= 1.0 || tied()) {
+  if (sessions_.size() < 2 || p.relocalization_max_conflict >= 1.0 ||
+      (tied() && p.rival_min_loops == 0)) {
     session_points_.clear();
     return;
   }
@@ -270,6 +299,27 @@ MapAgreement LaserSlam::sessionAgreement(const LoopMatch& loop,
     for (const Eigen::Vector2d& q : kept.points) points.push_back(rotation * q + pose.head<2>());
   }
   return mapAgreement(map, points, params_.loops.agreement);
+}
+
+std::optional<core::Pose2> LaserSlam::rivalReading(int node,
+                                                   const std::vector<core::Pose2>& map) const {
+  const auto at = [&](int n) -> const core::Pose2& { return map[static_cast<std::size_t>(n)]; };
+  const core::Pose2& here = at(node);
+  const ReadingAgreement within;
+  const ReadingAgreement searched{params_.loops.window.linear_m, params_.loops.window.angular_rad};
+  std::vector<SessionReading> readings;
+  for (const Crossing& c : crossing_) {
+    if (rrr_->verdict(c.candidate) == rrr::Verdict::kAccepted) continue;
+    const rrr::LoopCandidate& l = rrr_->candidate(c.candidate);
+    const core::Pose2 placed = l.to == c.session_node
+                                   ? core::compose(at(l.from), l.measurement)
+                                   : core::compose(at(l.to), core::inverse(l.measurement));
+    const core::Pose2 pose = core::compose(placed, core::between(at(c.session_node), here));
+    // Readings within the search window around where the map has the node are the accepted
+    // reading's search's to find.
+    if (!readingsAgree(pose, here, searched)) readings.push_back({pose, c.session_node});
+  }
+  return largestReading(readings, static_cast<std::size_t>(params_.loops.rival_min_loops), within);
 }
 
 void LaserSlam::noteCrossing(int candidate) {

@@ -27,6 +27,7 @@ void applyPreset(const std::string& name, RrrParams& params) {
     p.loo_joint_min_index = 0.0;
     p.joint_link_check = false;
     p.place_sessions = false;
+    p.placement_wider_reading = false;
     p.online_map_check = false;
     p.online_untestable_ratio = 0.0;
     p.online_group_wait_nodes = 0;

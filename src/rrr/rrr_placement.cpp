@@ -96,18 +96,26 @@ std::vector<int> Rrr::takePlacingClusters(std::vector<int>& pending) {
   for (const auto& [untied, clusters] : joining) {
     std::vector<JoiningLink> links;
     for (const auto& [c, link] : clusters) links.push_back(link);
-    PlacementGroup group = largestAgreeingGroup(graph_, base_, links, params_.alpha, true,
-                                                params_.placement_min_ratio > 1.0);
-    // How far apart the session saw the group: over every kept link, not only the first ones.
-    std::vector<int> ends;
-    for (int k : group.members) {
-      const int c = clusters[static_cast<std::size_t>(k)].first;
-      for (int link : kept_links_[static_cast<std::size_t>(c)]) {
-        const LoopCandidate& l = graph_.candidate(link);
-        ends.push_back(in_map(l.from) ? l.to : l.from);
+    PlacementGroup group =
+        largestAgreeingGroup(graph_, base_, links, params_.alpha, true,
+                             params_.placement_min_ratio > 1.0 || params_.placement_wider_reading);
+    // How far apart the session saw a group: over every kept link, not only the first ones.
+    const auto stretch = [&](const std::vector<int>& members) {
+      std::vector<int> ends;
+      for (int k : members) {
+        const int c = clusters[static_cast<std::size_t>(k)].first;
+        for (int link : kept_links_[static_cast<std::size_t>(c)]) {
+          const LoopCandidate& l = graph_.candidate(link);
+          ends.push_back(in_map(l.from) ? l.to : l.from);
+        }
       }
+      return spread(graph_, base_, ends);
+    };
+    if (params_.placement_wider_reading) {
+      preferWiderReading(group, stretch);
+    } else {
+      group.spread_m = stretch(group.members);
     }
-    group.spread_m = spread(graph_, base_, ends);
     const bool placed = groupPlaces(group, group.spread_m);
     if (placed) {
       // The joint test starts with the session moved rigidly onto the group's largest cluster's

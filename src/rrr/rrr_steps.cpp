@@ -184,18 +184,27 @@ std::vector<core::Pose2> Rrr::placeSessions(const std::vector<core::Pose2>& init
       clusters.push_back(j.cluster);
       links.push_back(from_placed ? JoiningLink{k, c.from, c.to} : JoiningLink{k, c.to, c.from});
     }
-    const PlacementGroup group =
-        largestAgreeingGroup(graph_, good_map != nullptr ? *good_map : poses, links, params_.alpha,
-                             good_map != nullptr, params_.placement_min_ratio > 1.0);
-    std::vector<int> ends;  // every kept link's end in the session, as takePlacingClusters counts
-    for (int k : group.members) {
-      for (int link :
-           kept_links_[static_cast<std::size_t>(clusters[static_cast<std::size_t>(k)])]) {
-        const LoopCandidate& c = graph_.candidate(link);
-        ends.push_back(of(c.from) == session_to_place ? c.from : c.to);
+    PlacementGroup group = largestAgreeingGroup(
+        graph_, good_map != nullptr ? *good_map : poses, links, params_.alpha, good_map != nullptr,
+        params_.placement_min_ratio > 1.0 || params_.placement_wider_reading);
+    // Every kept link's end in the session, as takePlacingClusters counts.
+    const auto stretch = [&](const std::vector<int>& members) {
+      std::vector<int> ends;
+      for (int k : members) {
+        for (int link :
+             kept_links_[static_cast<std::size_t>(clusters[static_cast<std::size_t>(k)])]) {
+          const LoopCandidate& c = graph_.candidate(link);
+          ends.push_back(of(c.from) == session_to_place ? c.from : c.to);
+        }
       }
+      return spread(graph_, poses, ends);
+    };
+    if (params_.placement_wider_reading) {
+      preferWiderReading(group, stretch);
+    } else {
+      group.spread_m = stretch(group.members);
     }
-    if (!groupPlaces(group, spread(graph_, poses, ends))) return -1;
+    if (!groupPlaces(group, group.spread_m)) return -1;
     return clusters[static_cast<std::size_t>(group.members.front())];  // `joining` is by size
   };
   for (bool moved = true; moved;) {

@@ -3,6 +3,7 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <limits>
+#include <utility>
 
 #include "rrr_graphslam/core/chi2.h"
 #include "rrr_graphslam/core/max_clique.h"
@@ -122,6 +123,20 @@ PlacementGroup largestAgreeingGroup(const VerificationGraph& graph,
   }
   if (!disagreeing.empty()) group.rival = core::maximumClique(agree, disagreeing);
   return group;
+}
+
+void preferWiderReading(PlacementGroup& group,
+                        const std::function<double(const std::vector<int>&)>& stretch_of) {
+  group.spread_m = stretch_of(group.members);
+  if (group.rival.size() < 2 ||
+      static_cast<double>(group.rival.size()) <
+          kWiderReadingMinShare * static_cast<double>(group.members.size())) {
+    return;
+  }
+  const double rival = stretch_of(group.rival);
+  if (rival <= group.spread_m) return;
+  std::swap(group.members, group.rival);
+  group.spread_m = rival;
 }
 
 bool outnumbersRival(const PlacementGroup& group, double min_ratio) {

@@ -5,8 +5,11 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <functional>
 #include <random>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Dense>
@@ -204,6 +207,112 @@ TEST(SessionPlacement, TwoReadingsAlikeWaitUntilOneHasTwiceTheClusters) {
   ahead.finish();
   for (int c : {1, 3}) EXPECT_EQ(ahead.verdict(c), Verdict::kRejected);
   for (int c : {0, 2, 4, 5}) EXPECT_EQ(ahead.verdict(c), Verdict::kAccepted);
+}
+
+// The stretch of a set of links whose places along the session are `at`.
+std::function<double(const std::vector<int>&)> stretchAlong(std::vector<double> at) {
+  return [at = std::move(at)](const std::vector<int>& members) {
+    double lo = 1e9, hi = -1e9;
+    for (int k : members) {
+      lo = std::min(lo, at[static_cast<std::size_t>(k)]);
+      hi = std::max(hi, at[static_cast<std::size_t>(k)]);
+    }
+    return hi - lo;
+  };
+}
+
+TEST(SessionPlacement, TheRivalSeenOverALongerStretchPlacesTheSession) {
+  PlacementGroup group;
+  group.members = {0, 1, 2};
+  group.rival = {3, 4};
+  PlacementGroup wider = group;
+  preferWiderReading(wider, stretchAlong({0.0, 4.0, 8.0, 0.0, 30.0}));
+  EXPECT_EQ(wider.members, (std::vector<int>{3, 4}));
+  EXPECT_EQ(wider.rival, (std::vector<int>{0, 1, 2}));
+  EXPECT_EQ(wider.spread_m, 30.0);
+  // A rival of one cluster, or of fewer than half the group's, never places the session.
+  PlacementGroup lone = group;
+  lone.rival = {4};
+  preferWiderReading(lone, stretchAlong({0.0, 4.0, 8.0, 0.0, 30.0}));
+  EXPECT_EQ(lone.members, (std::vector<int>{0, 1, 2}));
+  EXPECT_EQ(lone.spread_m, 8.0);
+  PlacementGroup outnumbered = group;
+  outnumbered.members = {0, 1, 2, 5, 6};
+  preferWiderReading(outnumbered, stretchAlong({0.0, 4.0, 8.0, 0.0, 30.0, 5.0, 6.0}));
+  EXPECT_EQ(outnumbered.members, (std::vector<int>{0, 1, 2, 5, 6}));
+  // A stretch no longer than the group's: the larger group stays.
+  PlacementGroup even = group;
+  preferWiderReading(even, stretchAlong({0.0, 4.0, 8.0, 1.0, 9.0}));
+  EXPECT_EQ(even.members, (std::vector<int>{0, 1, 2}));
+}
+
+// An aliased reading matched three times over 11 m of the session ties it first; the true one
+// matches (two links each time) at the session's start and again 27.5 m on, where the likeness
+// has ended.
+OnlineRrr& driveAliasFirst(OnlineRrr& online, int until) {
+  const std::vector<Match> matches{{5, 0}, {6, 30}, {17, 30}, {28, 30}, {60, 0}};
+  for (int k = 0; k <= until; ++k) {
+    addSessionNode(online, k);
+    for (const Match& match : matches) {
+      if (match.k != k) continue;
+      addLoop(online, 20 + k, k, match.alias);
+      if (match.alias == 0) addLoop(online, 21 + k, k);
+    }
+  }
+  return online;
+}
+
+TEST(SessionPlacement, TheReadingSeenOverTheLongerStretchPlacesTheSession) {
+  // Candidates 0, 1, 5, 6: the true reading (two clusters, 27.5 m apart); 2-4: the aliased one
+  // (three clusters over 11 m). Ties need 20 m: only the true reading can tie the session, and
+  // only when the larger group's rival is considered.
+  const std::vector<int> right = {0, 1, 5, 6}, wrong = {2, 3, 4};
+  for (const bool wider : {true, false}) {
+    OnlineRrrParams params = withSpread(20.0);
+    params.rrr.placement_wider_reading = wider;
+    OnlineRrr online(params);
+    addMap(online);
+    driveAliasFirst(online, 80);
+    ASSERT_EQ(online.numCandidates(), 7);
+    for (int c : right) {
+      EXPECT_EQ(online.verdict(c), wider ? Verdict::kAccepted : Verdict::kPending)
+          << "wider " << wider << ", " << c << ": " << online.reason(c);
+    }
+    if (!wider) {
+      EXPECT_NE(online.reason(0).find("has 3 of 5, seen 11.0 m apart"), std::string::npos)
+          << online.reason(0);
+    }
+    online.finish();
+    for (int c : right) {
+      EXPECT_EQ(online.verdict(c), wider ? Verdict::kAccepted : Verdict::kRejected)
+          << "wider " << wider << ", " << c << ": " << online.reason(c);
+    }
+    for (int c : wrong) {
+      EXPECT_EQ(online.verdict(c), Verdict::kRejected)
+          << "wider " << wider << ", " << c << ": " << online.reason(c);
+    }
+  }
+}
+
+TEST(SessionPlacement, ASessionTiedByAnAliasIsPlacedByTheWiderReadingFromScratch) {
+  // Ties need 10 m: the aliased group spans 11 m first and ties the session online; the true
+  // links that come later disagree with the tie. The decision from scratch places the session by
+  // the reading seen over the longer stretch.
+  OnlineRrr online(withSpread(10.0));
+  addMap(online);
+  driveAliasFirst(online, 80);
+  ASSERT_EQ(online.numCandidates(), 7);
+  for (int c : {2, 3, 4}) {
+    EXPECT_EQ(online.verdict(c), Verdict::kAccepted) << c << ": " << online.reason(c);
+  }
+  for (int c : {5, 6}) EXPECT_NE(online.verdict(c), Verdict::kAccepted) << online.reason(c);
+  online.finish();
+  for (int c : {0, 1, 5, 6}) {
+    EXPECT_EQ(online.verdict(c), Verdict::kAccepted) << c << ": " << online.reason(c);
+  }
+  for (int c : {2, 3, 4}) {
+    EXPECT_EQ(online.verdict(c), Verdict::kRejected) << c << ": " << online.reason(c);
+  }
 }
 
 TEST(SessionPlacement, ALoneAliasedClusterWaitsAndTheAgreeingGroupTiesTheSession) {

@@ -19,7 +19,9 @@
 // place only, nothing in the graph can contradict a self-consistent match with the wrong one of
 // two alike corridors (the first link between two sessions closes no cycle). Should a later
 // decision keep loops that place the session without tying it, its nodes are also searched
-// around where they place it.
+// around where they place it. Once tied, a rival reading that rival_min_loops unaccepted loops
+// agree on is searched as well (rivalReading), so RRR's later decisions from scratch can still
+// place the session by whichever reading gathers more loops.
 
 #include <deque>
 #include <memory>
@@ -69,6 +71,7 @@ struct LaserSlamStats {
   /// Matches to earlier sessions not proposed: the session's path they place conflicts with the
   /// map (relocalization_max_conflict).
   int contradicted_matches = 0;
+  long long rival_searches = 0;  ///< node-submap pairs searched around a rival reading
 };
 
 /// A scan from another sensor setup than the loaded map's (SensorSetup): the run cannot continue
@@ -227,13 +230,17 @@ class LaserSlam {
   void adoptCandidatesFromOutside();
   // Adds RRR's candidate to crossing_ if it joins the current session to an earlier one.
   void noteCrossing(int candidate);
-  /// Keeps a thinned copy of the node's scan while its session is not tied, over the last
-  /// relocalization_check_travel_m of the path.
+  /// Keeps a thinned copy of the node's scan while its session is not tied (or a rival reading
+  /// may be searched), over the last relocalization_check_travel_m of the path.
   void keepSessionPoints(int node, const PointCloud& points);
   /// The map agreement (map_agreement.h) of the session's kept scans placed by `loop` (a match
   /// of the newest node to an earlier session's submap); `map` the earlier sessions' submaps.
   MapAgreement sessionAgreement(const LoopMatch& loop, const std::vector<core::Pose2>& poses,
                                 const std::vector<PlacedSubmap>& map) const;
+  /// Where the largest group of the current session's unaccepted loops to the earlier sessions
+  /// puts `node` (rival_reading.h), if at least rival_min_loops of them agree there, leaving out
+  /// those within the search window around where `map` has the node (its own search's).
+  std::optional<core::Pose2> rivalReading(int node, const std::vector<core::Pose2>& map) const;
 
   LaserSlamParams params_;
   SessionMode mode_ = SessionMode::kMapping;
@@ -251,7 +258,8 @@ class LaserSlam {
     int last_searched = -1000000000;
     int last_matched = -1000000000;
   };
-  std::vector<SubmapSearchState> search_state_;  // by submap index
+  std::vector<SubmapSearchState> search_state_;        // by submap index
+  std::vector<SubmapSearchState> rival_search_state_;  // the same, for the rival reading's searches
   LaserSlamStats stats_;
   std::vector<MapSnapshot::Session> sessions_;
   std::vector<double> node_timestamps_;
@@ -284,7 +292,7 @@ class LaserSlam {
     int node;
     PointCloud points;  // thinned, in the node's frame
   };
-  std::deque<KeptPoints> session_points_;  // while the session is not tied
+  std::deque<KeptPoints> session_points_;  // while matches to the map are checked
 
  public:
   /// LaserSlam's own state (see checkpoint()): what trimmed() continues from.

@@ -120,6 +120,10 @@ void forEachSlamParam(Params& p, F&& f) {
   f(core::ParamInfo{"relocalization_check_travel", 0.0, 1e6,
                     "m of the session's path whose scans that check places"},
     loops.relocalization_check_travel_m);
+  f(core::ParamInfo{"rival_min_loops", 0, 1e6,
+                    "once a session is tied, a second reading of where it lies that N of its "
+                    "unaccepted loops to the map agree on is searched too (0: off)"},
+    loops.rival_min_loops);
   f(core::ParamInfo{"loop_search_threads", 1, 256, "threads matching a node against its submaps"},
     loops.threads);
   f(core::ParamInfo{"loop_search_max_range", 0.1, 1e3,

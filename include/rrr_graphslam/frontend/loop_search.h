@@ -61,6 +61,13 @@ struct LoopSearchParams {
   /// m of the session's path, back from the matched node, whose scans the check places (the
   /// session's own drift grows with it); default 50.
   double relocalization_check_travel_m = 50.0;
+  /// Once a session is tied: a second reading of where it lies (the building seen from its other
+  /// end, the next corridor), beyond the search window around the tied one, that at least this
+  /// many of its unaccepted loops to the earlier sessions agree on is searched too, around where it
+  /// puts each node (rival_reading.h). Both readings keep gathering loops as long as they fit, and
+  /// RRR's decisions from scratch (its rebatches, the end) place the session by the one seen over
+  /// the longer stretch (doc/rrr_extensions.md#the-wider-reading). 0: off; default 5.
+  int rival_min_loops = 5;
   MapAgreementParams agreement;
   /// Least-squares refinement of a match (weak pull toward the branch-and-bound pose).
   LeastSquaresParams refinement{1.0, 1.0, 1.0, 20, {0.05, 0.05, 0.5 * M_PI / 180}};

@@ -102,6 +102,10 @@ struct RrrParams {
   /// group places the session however close the other (2 is measured in
   /// doc/rrr_extensions.md#two-readings-of-one-place: safer, later ties).
   double placement_min_ratio = 1.0;
+  /// With placement_min_spread_m: of the largest agreeing group and its rival, the one the session
+  /// saw over the longer stretch places it (session_placement.h: preferWiderReading); default
+  /// true; false: the one with more clusters.
+  bool placement_wider_reading = true;
 
   // --- Incremental RRR.
   /// A new cluster that fits the good set's map unchanged (index < 1) is accepted, and one whose
@@ -220,6 +224,10 @@ void forEachParam(Params& p, F&& f) {
               "a session is placed by a group of agreeing clusters only with this many times the "
               "clusters of a group that disagrees with it"},
     p.placement_min_ratio);
+  f(ParamInfo{"placement_wider_reading", 0, 1,
+              "of two groups that read differently where a session lies, the one seen over the "
+              "longer stretch of it places it, not the one with more clusters"},
+    p.placement_wider_reading);
   f(ParamInfo{"online_map_check", 0, 1,
               "incremental: clusters decided against the map before any joint test"},
     p.online_map_check);
