@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <limits>
 #include <stdexcept>
 
@@ -188,7 +189,8 @@ void LaserSlam::searchLoops(int node, const PointCloud& scan_points) {
   // Once tied, the rival reading too (rivalReading): the earlier sessions' submaps near where it
   // puts this node, with their own sampling and pauses.
   std::optional<core::Pose2> rival;
-  if (sessions_.size() > 1 && !relocalizing && p.rival_min_loops > 0) {
+  // Not once trimming folded the tie into marginal constraints: RRR cannot place it anew.
+  if (sessions_.size() > 1 && !relocalizing && !tied_by_marginals_ && p.rival_min_loops > 0) {
     rival = rivalReading(node, map);
   }
   if (rival) {
@@ -306,7 +308,9 @@ std::optional<core::Pose2> LaserSlam::rivalReading(int node,
   const auto at = [&](int n) -> const core::Pose2& { return map[static_cast<std::size_t>(n)]; };
   const core::Pose2& here = at(node);
   const ReadingAgreement within;
-  const ReadingAgreement searched{params_.loops.window.linear_m, params_.loops.window.angular_rad};
+  // The search window is a square (in the submap's frame): its corners reach sqrt(2) times out.
+  const ReadingAgreement searched{std::sqrt(2.0) * params_.loops.window.linear_m,
+                                  params_.loops.window.angular_rad};
   std::vector<SessionReading> readings;
   for (const Crossing& c : crossing_) {
     if (rrr_->verdict(c.candidate) == rrr::Verdict::kAccepted) continue;

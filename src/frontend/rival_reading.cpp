@@ -49,8 +49,9 @@ std::optional<core::Pose2> largestReading(const std::vector<SessionReading>& rea
   }
   if (best_count < min_size) return std::nullopt;
   std::size_t newest = best;
-  for (std::size_t j : agreeing(best)) {
-    if (readings[j].session_node > readings[newest].session_node) newest = j;
+  for (std::size_t j : agreeing(best)) {  // among equals the first, as the grid's order is not
+    const int a = readings[j].session_node, b = readings[newest].session_node;
+    if (a > b || (a == b && j < newest)) newest = j;
   }
   return readings[newest].pose;
 }

@@ -250,10 +250,8 @@ int main(int argc, char** argv) {
           stats.contradicted_matches);
     }
     if (stats.rival_searches > 0) {
-      std::printf(
-          "rival search   %lld node-submap pairs around a second reading of where the session "
-          "lies\n",
-          stats.rival_searches);
+      std::printf("rival search   %lld of them around a second reading of where the session lies\n",
+                  stats.rival_searches);
     }
     std::printf("accepted       %d\n", status.accepted);
     std::printf("rejected       %d\n", status.rejected);

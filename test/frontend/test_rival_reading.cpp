@@ -34,10 +34,16 @@ std::optional<core::Pose2> largestReadingSlow(const std::vector<SessionReading>&
   }
   if (best_count == 0 || best_count < min_size) return std::nullopt;
   std::size_t newest = best;
-  for (std::size_t j = 0; j < readings.size(); ++j) {
+  for (std::size_t j = 0; j < readings.size(); ++j) {  // by index: the first among equals
     if (readingsAgree(readings[j].pose, readings[best].pose, within) &&
         readings[j].session_node > readings[newest].session_node) {
       newest = j;
+    }
+  }
+  for (std::size_t j = 0; j < newest; ++j) {
+    if (readingsAgree(readings[j].pose, readings[best].pose, within) &&
+        readings[j].session_node == readings[newest].session_node) {
+      return readings[j].pose;
     }
   }
   return readings[newest].pose;
