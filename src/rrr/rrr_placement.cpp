@@ -112,7 +112,7 @@ std::vector<int> Rrr::takePlacingClusters(std::vector<int>& pending) {
       return spread(graph_, base_, ends);
     };
     if (params_.placement_wider_reading) {
-      preferWiderReading(group, stretch, params_.placement_min_spread_m);
+      preferWiderReading(group, stretch);
     } else {
       group.spread_m = stretch(group.members);
     }

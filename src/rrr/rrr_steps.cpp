@@ -200,7 +200,7 @@ std::vector<core::Pose2> Rrr::placeSessions(const std::vector<core::Pose2>& init
       return spread(graph_, poses, ends);
     };
     if (params_.placement_wider_reading) {
-      preferWiderReading(group, stretch, params_.placement_min_spread_m);
+      preferWiderReading(group, stretch);
     } else {
       group.spread_m = stretch(group.members);
     }

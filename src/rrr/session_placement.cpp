@@ -126,8 +126,7 @@ PlacementGroup largestAgreeingGroup(const VerificationGraph& graph,
 }
 
 void preferWiderReading(PlacementGroup& group,
-                        const std::function<double(const std::vector<int>&)>& stretch_of,
-                        double min_margin_m) {
+                        const std::function<double(const std::vector<int>&)>& stretch_of) {
   group.spread_m = stretch_of(group.members);
   if (group.rival.size() < 2 ||
       static_cast<double>(group.rival.size()) <
@@ -135,7 +134,7 @@ void preferWiderReading(PlacementGroup& group,
     return;
   }
   const double rival = stretch_of(group.rival);
-  if (rival <= group.spread_m + min_margin_m) return;
+  if (rival <= group.spread_m) return;
   std::swap(group.members, group.rival);
   group.spread_m = rival;
 }

@@ -66,10 +66,9 @@ PlacementGroup largestAgreeingGroup(const VerificationGraph& graph,
                                     bool map_exact = true, bool with_rival = false);
 
 /// Of the largest group and its rival (computed with `with_rival`), the reading that places the
-/// session: the rival instead when the session saw it over a stretch longer by more than
-/// `min_margin_m` (placement_min_spread_m: the distance that ties a session), by
-/// `stretch_of(members)` (m; e.g. spread() over every kept link's session end), and it has at
-/// least kWiderReadingMinShare of the largest group's clusters and two or more. A place seen alike
+/// session: the rival instead when the session saw it over a longer stretch, by
+/// `stretch_of(members)` (m; e.g. spread() over every kept link's session end), and it has two or
+/// more clusters and at least kWiderReadingMinShare of the largest group's. A place seen alike
 /// from two poses (a building turned by 180 degrees, the next of two alike corridors) fits only as
 /// far as the likeness goes; the true reading fits wherever the session meets the map. Clusters
 /// count the same reading unevenly (the front end's whole-map search before a tie rests after a
@@ -78,8 +77,7 @@ PlacementGroup largestAgreeingGroup(const VerificationGraph& graph,
 /// placing one's stretch. After a swap the group has fewer clusters than its rival, so a
 /// placement_min_ratio above 1 holds the session until the other outnumbers it again.
 void preferWiderReading(PlacementGroup& group,
-                        const std::function<double(const std::vector<int>&)>& stretch_of,
-                        double min_margin_m);
+                        const std::function<double(const std::vector<int>&)>& stretch_of);
 inline constexpr double kWiderReadingMinShare = 0.5;
 
 /// Whether the group has at least `min_ratio` times its rival's clusters. A place seen the same
