@@ -312,8 +312,12 @@ std::optional<core::Pose2> LaserSlam::rivalReading(int node,
   const ReadingAgreement searched{std::sqrt(2.0) * params_.loops.window.linear_m,
                                   params_.loops.window.angular_rad};
   std::vector<SessionReading> readings;
+  std::size_t tied_loops = 0;
   for (const Crossing& c : crossing_) {
-    if (rrr_->verdict(c.candidate) == rrr::Verdict::kAccepted) continue;
+    if (rrr_->verdict(c.candidate) == rrr::Verdict::kAccepted) {
+      ++tied_loops;
+      continue;
+    }
     const rrr::LoopCandidate& l = rrr_->candidate(c.candidate);
     const core::Pose2 placed = l.to == c.session_node
                                    ? core::compose(at(l.from), l.measurement)
@@ -323,7 +327,17 @@ std::optional<core::Pose2> LaserSlam::rivalReading(int node,
     // reading's search's to find.
     if (!readingsAgree(pose, here, searched)) readings.push_back({pose, c.session_node});
   }
-  return largestReading(readings, static_cast<std::size_t>(params_.loops.rival_min_loops), within);
+  const auto group =
+      largestReading(readings, static_cast<std::size_t>(params_.loops.rival_min_loops), within);
+  // A reading with a small share of the tied one's loops is a local likeness (a room like the
+  // next), not a rival the session could be placed by: searching it would only feed RRR loops to
+  // reject.
+  constexpr double kRivalMinShareOfTied = 0.25;
+  if (!group ||
+      static_cast<double>(group->size) < kRivalMinShareOfTied * static_cast<double>(tied_loops)) {
+    return std::nullopt;
+  }
+  return group->pose;
 }
 
 void LaserSlam::noteCrossing(int candidate) {

@@ -11,8 +11,8 @@ bool readingsAgree(const core::Pose2& a, const core::Pose2& b, const ReadingAgre
          std::abs(core::normalizeAngle(a.z() - b.z())) <= within.angle_rad;
 }
 
-std::optional<core::Pose2> largestReading(const std::vector<SessionReading>& readings,
-                                          std::size_t min_size, const ReadingAgreement& within) {
+std::optional<ReadingGroup> largestReading(const std::vector<SessionReading>& readings,
+                                           std::size_t min_size, const ReadingAgreement& within) {
   if (readings.empty() || readings.size() < min_size) return std::nullopt;
   // Readings by grid cell: those agreeing with one lie in its 3 x 3 cells.
   using Cell = std::pair<long long, long long>;
@@ -53,7 +53,7 @@ std::optional<core::Pose2> largestReading(const std::vector<SessionReading>& rea
     const int a = readings[j].session_node, b = readings[newest].session_node;
     if (a > b || (a == b && j < newest)) newest = j;
   }
-  return readings[newest].pose;
+  return ReadingGroup{readings[newest].pose, best_count};
 }
 
 }  // namespace rrr_graphslam::frontend

@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 #include <vector>
@@ -80,7 +81,7 @@ TEST(RivalReading, GridGroupingEqualsTheAllPairsOne) {
       ASSERT_EQ(fast.has_value(), slow.has_value()) << "trial " << trial << " min " << min_size;
       if (!fast) continue;
       ++found;
-      EXPECT_EQ(*fast, *slow) << "trial " << trial << " min " << min_size;
+      EXPECT_EQ(fast->pose, *slow) << "trial " << trial << " min " << min_size;
     }
   }
   EXPECT_GT(found, 300);
@@ -96,7 +97,8 @@ TEST(RivalReading, AgreementWrapsTheAngleAndNeedsEnoughReadings) {
   EXPECT_FALSE(largestReading(readings, 4).has_value());
   const auto three = largestReading(readings, 3);
   ASSERT_TRUE(three.has_value());
-  EXPECT_EQ(*three, readings[1].pose) << "the newest of the group";
+  EXPECT_EQ(three->pose, readings[1].pose) << "the newest of the group";
+  EXPECT_EQ(three->size, 3u);
   EXPECT_FALSE(largestReading({}, 0).has_value());
 }
 
@@ -119,14 +121,16 @@ const MapSnapshot& roomMap() {
   return map;
 }
 
-// Loops from the map's node `count` apart to the session's newest nodes, each putting the session
-// where `motion` (map frame) moves it from where the map has it now: one other reading.
-void addOtherReading(LaserSlam& slam, const core::Pose2& motion, int count) {
+// `count` loops from the map's nodes to the session's newest nodes (from the `first`-th on), each
+// putting the session where `motion` (map frame) moves it from where the map has it now: one
+// other reading.
+void addOtherReading(LaserSlam& slam, const core::Pose2& motion, int first, int count,
+                     int map_nodes) {
   const auto poses = slam.rrr().mapPoses();
   const int newest = static_cast<int>(poses.size()) - 1;
-  for (int k = 0; k < count; ++k) {
-    const int map_node = 10 + 20 * k;
-    const int session_node = newest - 3 * k;
+  for (int k = first; k < first + count; ++k) {
+    const int map_node = 5 + (7 * k) % (map_nodes - 10);
+    const int session_node = newest - k % 40;
     const core::Pose2 elsewhere =
         core::compose(motion, poses[static_cast<std::size_t>(session_node)]);
     ASSERT_TRUE(slam.addCandidate(
@@ -135,26 +139,47 @@ void addOtherReading(LaserSlam& slam, const core::Pose2& motion, int count) {
   }
 }
 
+// Loops RRR accepts between the session and the map.
+int tiedLoops(const LaserSlam& slam, int map_nodes) {
+  int tied = 0;
+  for (int c = 0; c < slam.rrr().numCandidates(); ++c) {
+    const auto& link = slam.rrr().candidate(c);
+    const bool crossing =
+        std::min(link.from, link.to) < map_nodes && std::max(link.from, link.to) >= map_nodes;
+    tied += crossing && slam.rrr().verdict(c) == rrr::Verdict::kAccepted ? 1 : 0;
+  }
+  return tied;
+}
+
 TEST(RivalReading, ATiedSessionSearchesTheReadingEnoughUnacceptedLoopsAgreeOn) {
   const core::Pose2 elsewhere(100.0, -50.0, 2.0);
   const core::Pose2 turned(12.0, 8.0, M_PI);  // the room read from its other end
+  const int map_nodes = static_cast<int>(roomMap().nodes.size());
   auto slam = LaserSlam::fromMap(roomMap(), roomParams(5), "second");
   drive(*slam, elsewhere, 100, 1000.0);
   ASSERT_TRUE(slam->tied());
-  const long long before = slam->stats().rival_searches;
-  EXPECT_EQ(before, 0) << "the session's own unaccepted loops were not expected to agree";
-  addOtherReading(*slam, turned, 4);
+  EXPECT_EQ(slam->stats().rival_searches, 0)
+      << "the session's own unaccepted loops were not expected to agree";
+  // Enough loops: rival_min_loops, and a quarter of the tied reading's.
+  const int tied = tiedLoops(*slam, map_nodes);
+  const int needed = std::max(5, (tied + 3) / 4);
+  ASSERT_GT(needed, 5) << "the tie was expected to hold more than 20 loops (" << tied << ")";
+  addOtherReading(*slam, turned, 0, 4, map_nodes);
   drive(*slam, elsewhere, 10, 1000.0, 100);
   EXPECT_EQ(slam->stats().rival_searches, 0) << "four loops are fewer than rival_min_loops";
-  addOtherReading(*slam, turned, 1);
+  addOtherReading(*slam, turned, 4, needed - 5, map_nodes);
   drive(*slam, elsewhere, 10, 1000.0, 110);
-  EXPECT_GT(slam->stats().rival_searches, 0);
+  EXPECT_EQ(slam->stats().rival_searches, 0)
+      << needed - 1 << " loops are fewer than a quarter of the tied reading's " << tied;
+  addOtherReading(*slam, turned, needed - 1, needed, map_nodes);
+  drive(*slam, elsewhere, 10, 1000.0, 120);
+  EXPECT_GT(slam->stats().rival_searches, 0) << "tied loops " << tiedLoops(*slam, map_nodes);
   EXPECT_TRUE(slam->tied()) << "the tie stays with the reading its loops agree on";
 
   auto off = LaserSlam::fromMap(roomMap(), roomParams(0), "second");
   drive(*off, elsewhere, 100, 1000.0);
   ASSERT_TRUE(off->tied());
-  addOtherReading(*off, turned, 5);
+  addOtherReading(*off, turned, 0, 2 * needed, map_nodes);
   drive(*off, elsewhere, 20, 1000.0, 100);
   EXPECT_EQ(off->stats().rival_searches, 0);
 }

@@ -63,8 +63,9 @@ struct LoopSearchParams {
   double relocalization_check_travel_m = 50.0;
   /// Once a session is tied: a second reading of where it lies (the building seen from its other
   /// end, the next corridor), beyond the search window around the tied one, that at least this
-  /// many of its unaccepted loops to the earlier sessions agree on is searched too, around where it
-  /// puts each node (rival_reading.h). Both readings keep gathering loops as long as they fit, and
+  /// many of its unaccepted loops to the earlier sessions agree on, and a quarter as many as the
+  /// tied reading's accepted ones, is searched too, around where it puts each node
+  /// (rival_reading.h). Both readings keep gathering loops as long as they fit, and
   /// RRR's decisions from scratch (its rebatches, the end) place the session by the one seen over
   /// the longer stretch (doc/rrr_extensions.md#the-wider-reading). 0: off; default 5.
   int rival_min_loops = 5;

@@ -34,11 +34,15 @@ bool readingsAgree(const core::Pose2& a, const core::Pose2& b, const ReadingAgre
 
 /// The readings that agree with the one most others agree with (itself included; the first such
 /// reading among equals), if there are at least `min_size` of them: the pose of their newest
-/// (largest session_node, the first among equals; the session's drift since is least), else
-/// nullopt. O(n) per reading
+/// (largest session_node, the first among equals; the session's drift since is least) and their
+/// number, else nullopt. O(n) per reading
 /// through a grid of distance_m cells.
-std::optional<core::Pose2> largestReading(const std::vector<SessionReading>& readings,
-                                          std::size_t min_size,
-                                          const ReadingAgreement& within = {});
+struct ReadingGroup {
+  core::Pose2 pose;  ///< where its newest reading puts the node
+  std::size_t size;  ///< readings in the group
+};
+std::optional<ReadingGroup> largestReading(const std::vector<SessionReading>& readings,
+                                           std::size_t min_size,
+                                           const ReadingAgreement& within = {});
 
 }  // namespace rrr_graphslam::frontend
