@@ -96,9 +96,6 @@ std::vector<int> Rrr::takePlacingClusters(std::vector<int>& pending) {
   for (const auto& [untied, clusters] : joining) {
     std::vector<JoiningLink> links;
     for (const auto& [c, link] : clusters) links.push_back(link);
-    PlacementGroup group =
-        largestAgreeingGroup(graph_, base_, links, params_.alpha, true,
-                             params_.placement_min_ratio > 1.0 || params_.placement_wider_reading);
     // How far apart the session saw a group: over every kept link, not only the first ones.
     const auto stretch = [&](const std::vector<int>& members) {
       std::vector<int> ends;
@@ -111,11 +108,7 @@ std::vector<int> Rrr::takePlacingClusters(std::vector<int>& pending) {
       }
       return spread(graph_, base_, ends);
     };
-    if (params_.placement_wider_reading) {
-      preferWiderReading(group, stretch);
-    } else {
-      group.spread_m = stretch(group.members);
-    }
+    PlacementGroup group = placingGroup(base_, links, true, stretch);
     const bool placed = groupPlaces(group, group.spread_m);
     if (placed) {
       // The joint test starts with the session moved rigidly onto the group's largest cluster's
@@ -154,6 +147,20 @@ std::vector<int> Rrr::takePlacingClusters(std::vector<int>& pending) {
     }
   }
   return groups;
+}
+
+PlacementGroup Rrr::placingGroup(
+    const std::vector<core::Pose2>& poses, const std::vector<JoiningLink>& links, bool map_exact,
+    const std::function<double(const std::vector<int>&)>& stretch) const {
+  PlacementGroup group =
+      largestAgreeingGroup(graph_, poses, links, params_.alpha, map_exact,
+                           params_.placement_min_ratio > 1.0 || params_.placement_wider_reading);
+  if (params_.placement_wider_reading) {
+    preferWiderReading(group, stretch);
+  } else {
+    group.spread_m = stretch(group.members);
+  }
+  return group;
 }
 
 bool Rrr::groupPlaces(const PlacementGroup& group, double spread_m) const {

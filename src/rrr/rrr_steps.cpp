@@ -184,9 +184,6 @@ std::vector<core::Pose2> Rrr::placeSessions(const std::vector<core::Pose2>& init
       clusters.push_back(j.cluster);
       links.push_back(from_placed ? JoiningLink{k, c.from, c.to} : JoiningLink{k, c.to, c.from});
     }
-    PlacementGroup group = largestAgreeingGroup(
-        graph_, good_map != nullptr ? *good_map : poses, links, params_.alpha, good_map != nullptr,
-        params_.placement_min_ratio > 1.0 || params_.placement_wider_reading);
     // Every kept link's end in the session, as takePlacingClusters counts.
     const auto stretch = [&](const std::vector<int>& members) {
       std::vector<int> ends;
@@ -199,11 +196,8 @@ std::vector<core::Pose2> Rrr::placeSessions(const std::vector<core::Pose2>& init
       }
       return spread(graph_, poses, ends);
     };
-    if (params_.placement_wider_reading) {
-      preferWiderReading(group, stretch);
-    } else {
-      group.spread_m = stretch(group.members);
-    }
+    const PlacementGroup group =
+        placingGroup(good_map != nullptr ? *good_map : poses, links, good_map != nullptr, stretch);
     if (!groupPlaces(group, group.spread_m)) return -1;
     return clusters[static_cast<std::size_t>(group.members.front())];  // `joining` is by size
   };

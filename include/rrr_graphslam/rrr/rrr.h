@@ -247,6 +247,12 @@ class Rrr {
   /// session: two clusters or more, placement_min_spread_m apart, placement_min_ratio times its
   /// rival's clusters.
   bool groupPlaces(const PlacementGroup& group, double spread_m) const;
+  /// The group of `links` that places their session (largestAgreeingGroup at `poses`; with
+  /// placement_wider_reading, preferWiderReading), its spread_m by `stretch` (m over a set of
+  /// members).
+  PlacementGroup placingGroup(const std::vector<core::Pose2>& poses,
+                              const std::vector<JoiningLink>& links, bool map_exact,
+                              const std::function<double(const std::vector<int>&)>& stretch) const;
   /// After a batch decision: a session the good clusters join to the others only at places
   /// closer than placement_min_spread_m has those clusters wait (kUnplaced) and goes back to its
   /// own frame; repeated while a session is let go. Returns true if a cluster was.
