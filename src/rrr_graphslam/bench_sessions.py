@@ -40,6 +40,7 @@ from dataclasses import dataclass, field
 from typing import Dict, List, Optional, Sequence, Tuple
 
 from .carmen import read_carmen, write_moved_log
+from .decision_stream import StreamRow, read_decision_stream
 from .evaluation import read_decisions
 from .graph_io import Pose, between, compose, normalize_angle, open_text, read_graph
 from .relations import RelationError, read_relations, read_tum, relation_error
@@ -357,9 +358,16 @@ def accepted_loops(graph_path: str, decisions_path: str) -> List[Loop]:
 
 
 def decided_loops(graph_path: str, decisions_path: str) -> List[Tuple[Loop, str]]:
-    """Every candidate with its measurement and verdict: each decision row (from, to) takes the
-    graph's edge between the same nodes, candidates after odometry (the graph lists odometry
-    first), so a candidate between consecutive node ids is not taken for odometry."""
+    """Every candidate with its measurement and verdict (candidate_loops, those found)."""
+    return [(loop, verdict) for loop, verdict in candidate_loops(graph_path, decisions_path)
+            if loop is not None]
+
+
+def candidate_loops(graph_path: str, decisions_path: str) -> List[Tuple[Optional[Loop], str]]:
+    """Per RRR candidate (the decisions table's rows, in candidate order) its measurement and
+    verdict: each decision row (from, to) takes the graph's edge between the same nodes,
+    candidates after odometry (the graph lists odometry first), so a candidate between consecutive
+    node ids is not taken for odometry; None where the graph has no such edge."""
     graph = read_graph(graph_path)
     edges: Dict[Tuple[int, int], List] = defaultdict(list)
     for e in graph.edges:
@@ -376,8 +384,8 @@ def decided_loops(graph_path: str, decisions_path: str) -> List[Tuple[Loop, str]
         # the candidates are the last counts[key] edges between these nodes
         k = len(same) - counts[key] + used[key]
         used[key] += 1
-        if 0 <= k < len(same):
-            out.append((Loop(d.source, d.target, same[k].measurement), d.verdict))
+        out.append((Loop(d.source, d.target, same[k].measurement) if 0 <= k < len(same) else None,
+                    d.verdict))
     return out
 
 
@@ -414,6 +422,46 @@ def check_loops(loops: Sequence[Loop], node_stamps: Sequence[float], session_of,
         if bad:
             out.worst.append((m, deg, loop.source, loop.target))
     out.worst.sort(reverse=True)
+    return out
+
+
+def online_false_accepts(rows: Sequence[StreamRow], known_false: Sequence[bool],
+                         end_nodes: int) -> Tuple[int, int]:
+    """What the robot saw of the false loops (`known_false`, per candidate) as the run decided
+    online (the stream's online rows; the decision from scratch at the end is the final table's):
+    how many of them were accepted at some moment, and for how many nodes (up to `end_nodes`, the
+    graph's at the end) at least one of them was."""
+    ever, accepted = set(), set()
+    nodes_with, since = 0, 0
+    for r in rows:
+        if r.final or r.candidate >= len(known_false) or not known_false[r.candidate]:
+            continue
+        before = bool(accepted)
+        if r.verdict == "accepted":
+            accepted.add(r.candidate)
+            ever.add(r.candidate)
+        else:
+            accepted.discard(r.candidate)
+        if not before and accepted:
+            since = r.nodes
+        elif before and not accepted:
+            nodes_with += r.nodes - since
+    if accepted:
+        nodes_with += end_nodes - since
+    return len(ever), nodes_with
+
+
+def known_false_loops(loops: Sequence[Optional[Loop]], node_stamps: Sequence[float], session_of, truth,
+                      max_m: float, max_deg: float, involving: int) -> List[bool]:
+    """Per candidate: whether it joins session `involving` to another one and disagrees with the
+    ground truth (check_loops' test); False where unknown."""
+    out = []
+    for loop in loops:
+        if loop is None or max(loop.source, loop.target) >= len(node_stamps):
+            out.append(False)
+            continue
+        check = check_loops([loop], node_stamps, session_of, truth, max_m, max_deg, involving)
+        out.append(check.inter_session_false > 0)
     return out
 
 
@@ -540,7 +588,7 @@ class Tools:
 def run_files(out_dir: str, stem: str) -> Dict[str, str]:
     return {k: os.path.join(out_dir, f"{stem}{v}") for k, v in dict(
         graph=".g2o", decisions=".tsv", trajectory=".traj.txt", session=".session.txt",
-        map=".rrrmap", probe=".probe.txt").items()}
+        map=".rrrmap", probe=".probe.txt", stream=".stream.tsv").items()}
 
 
 def probe(tools: Tools, log: str, out_dir: str, stem: str,
@@ -568,6 +616,8 @@ class SessionRow:
     mapped_nodes: List[int] = field(default_factory=list)  # the session's nodes in mapped space
     loops: Optional[LoopCheck] = None
     proposed: Optional[LoopCheck] = None  # every candidate between the session and an earlier one
+    # false inter-session loops accepted at some moment online, nodes with one (None: no stream)
+    online_false: Optional[Tuple[int, int]] = None
     all_error: Optional[RelationError] = None
     cross_error: Optional[RelationError] = None
     nodes_only_error: Optional[RelationError] = None
@@ -607,11 +657,13 @@ def fmt_row(r: SessionRow) -> str:
         f"{r.loops.inter_session} ({r.loops.inter_session_false})"
     proposed = "–" if r.proposed is None or r.session in (None, 0) else \
         f"{r.proposed.inter_session} ({r.proposed.inter_session_false})"
+    online = "–" if r.online_false is None or r.session in (None, 0) else \
+        f"{r.online_false[0]} ({r.online_false[1]})"
     ratio = r.map_bytes / r.gzipped_log_bytes if r.gzipped_log_bytes else math.nan
     seed = "–" if r.seed is None else str(r.seed)
     return (f"| {r.log} | {r.sessions if r.session is not None else 1} | {seed} | {what} | "
             f"{s.scans} / {r.nodes} | {s.time_s:.1f} | {reloc} | {entry} | {after} | {inside} | {proposed} | "
-            f"{loops} | "
+            f"{online} | {loops} | "
             f"{'–' if math.isnan(r.load_s) else f'{r.load_s:.2f}'} | "
             f"{'–' if math.isnan(r.save_s) else f'{r.save_s:.2f}'} | "
             f"{r.map_bytes / 1e6:.2f} MB ({ratio:.2f}×) | {fmt_error(r.all_error)} | "
@@ -620,7 +672,8 @@ def fmt_row(r: SessionRow) -> str:
 
 HEADER = ("| log | sessions | seed | session | scans / nodes | time (s) | relocalized at the session's "
           "node (s after start) | entered mapped space | nodes from entry to tie | nodes in mapped space "
-          "before the tie | inter-session candidates proposed (false) | inter-session loops "
+          "before the tie | inter-session candidates proposed (false) | false inter-session loops accepted "
+          "online (nodes with one) | inter-session loops "
           "accepted at the end of its run (false) | load (s) | save (s) | map file (× gzipped log) | "
           "relation error, all (relations) | relation error, cross-session (relations) |")
 
@@ -714,7 +767,8 @@ def run_sessions(tools: Tools, data: LogData, cache: str, count: int, seed: int,
     for k in range(count):
         f = files[k]
         args = ["--output", f["graph"], "--decisions", f["decisions"], "--trajectory", f["trajectory"],
-                "--session-trajectory", f["session"], "--save-map", f["map"], "--session-name", f"s{k}"]
+                "--session-trajectory", f["session"], "--save-map", f["map"], "--session-name", f"s{k}",
+                "--decision-stream", f["stream"]]
         if k > 0:
             args += ["--load-map", files[k - 1]["map"]]
         summaries.append(tools.run_slam(parts[k], out, f"s{k}", args))
@@ -736,7 +790,8 @@ def run_sessions(tools: Tools, data: LogData, cache: str, count: int, seed: int,
         end = first_nodes[k] + info.session_nodes[k]
         inside = mapped_space_nodes(positions, first_nodes[k], end, criteria.mapped_radius) if k else []
         entry = inside[0] if inside else None
-        decided = decided_loops(files[k]["graph"], files[k]["decisions"])
+        candidates = candidate_loops(files[k]["graph"], files[k]["decisions"])
+        decided = [(loop, verdict) for loop, verdict in candidates if loop is not None]
         accepted = [loop for loop, verdict in decided if verdict == "accepted"]
         loops = check_loops(accepted, stamps, of_node, truth, criteria.false_m, criteria.false_deg, involving=k)
         proposed = check_loops([loop for loop, _ in decided], stamps, of_node, truth, criteria.false_m,
@@ -745,6 +800,11 @@ def run_sessions(tools: Tools, data: LogData, cache: str, count: int, seed: int,
                          info.session_nodes[k], entry_node=entry, mapped_nodes=inside, loops=loops,
                          proposed=proposed, transform=transforms[k],
                          load_s=summaries[k].load_s if k else math.nan, save_s=summaries[k].save_s)
+        if k and os.path.exists(files[k]["stream"]):  # runs kept from before the stream have none
+            known_false = known_false_loops([loop for loop, _ in candidates], stamps, of_node, truth,
+                                            criteria.false_m, criteria.false_deg, k)
+            row.online_false = online_false_accepts(read_decision_stream(files[k]["stream"]),
+                                                    known_false, info.nodes)
         if data.relations:
             t_stamps, t_poses = read_tum(files[k]["trajectory"])
             loaded = first_nodes[k]  # run k's trajectory: the loaded nodes first, then its scans

@@ -5,12 +5,13 @@ import math
 
 import pytest
 from rrr_graphslam.bench_sessions import (GroundTruth, Loop, RawScan, accepted_loops, decided_loops,
-                                          check_loops,
-                                          session_components,
+                                          check_loops, known_false_loops,
+                                          online_false_accepts, session_components,
                                           cross_relations, mapped_space_entry,
                                           mapped_space_nodes, parse_map_info,
                                           parse_summary, place_scans, random_transforms,
                                           session_of_node, split_lines, write_sessions)
+from rrr_graphslam.decision_stream import StreamRow
 from rrr_graphslam.graph_io import between, compose
 
 
@@ -162,6 +163,30 @@ def test_inter_session_loops_are_scored_against_the_truth():
     only = check_loops(loops, stamps, of, truth_poses.get, 0.5, 10.0, involving=0)
     assert only.inter_session == 4
     assert check_loops(loops, stamps, of, truth_poses.get, 0.5, 10.0, involving=2).inter_session == 0
+
+
+def test_false_inter_session_loops_are_scored_as_the_run_decided_them():
+    stamps = [0.0, 1.0, 2.0, 3.0, 4.0]
+    truth_poses = {t: (t, 0.0, 0.0) for t in stamps}
+    of = session_of_node([0, 3])
+    loops = [Loop(2, 3, (1.0, 0.0, 0.0)),     # 0: inter-session, right
+             Loop(0, 4, (4.0, 0.6, 0.0)),     # 1: inter-session, 0.6 m off
+             None,                            # 2: not in the graph
+             Loop(0, 2, (2.0, 3.0, 0.0)),     # 3: in session 0, off (not this session's)
+             Loop(1, 3, (9.0, 0.0, 0.0))]     # 4: inter-session, off
+    known = known_false_loops(loops, stamps, of, truth_poses.get, 0.5, 10.0, involving=1)
+    assert known == [False, True, False, False, True]
+
+    def row(nodes, candidate, previous, verdict, final=False):
+        return StreamRow(final, nodes, float(nodes), candidate, previous, verdict)
+    rows = [row(10, 1, "pending", "pending"), row(12, 1, "pending", "accepted"),
+            row(13, 0, "pending", "accepted"), row(15, 4, "pending", "accepted"),
+            row(20, 1, "accepted", "rejected"), row(22, 4, "accepted", "rejected"),  # one of them 12-22
+            row(30, 4, "rejected", "accepted"),                                       # again from 30
+            row(40, 4, "accepted", "rejected", final=True)]  # the final decision is not online
+    assert online_false_accepts(rows, known, 45) == (2, 10 + 15)
+    assert online_false_accepts(rows[:6], known, 45) == (2, 10)
+    assert online_false_accepts([], known, 45) == (0, 0)
 
 
 def test_mapped_space_is_the_first_node_near_an_earlier_session():
