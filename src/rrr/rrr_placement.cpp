@@ -96,17 +96,10 @@ std::vector<int> Rrr::takePlacingClusters(std::vector<int>& pending) {
   for (const auto& [untied, clusters] : joining) {
     std::vector<JoiningLink> links;
     for (const auto& [c, link] : clusters) links.push_back(link);
-    // How far apart the session saw a group: over every kept link, not only the first ones.
     const auto stretch = [&](const std::vector<int>& members) {
-      std::vector<int> ends;
-      for (int k : members) {
-        const int c = clusters[static_cast<std::size_t>(k)].first;
-        for (int link : kept_links_[static_cast<std::size_t>(c)]) {
-          const LoopCandidate& l = graph_.candidate(link);
-          ends.push_back(in_map(l.from) ? l.to : l.from);
-        }
-      }
-      return spread(graph_, base_, ends);
+      std::vector<int> of_members;
+      for (int k : members) of_members.push_back(clusters[static_cast<std::size_t>(k)].first);
+      return keptLinksSpread(of_members, base_, [&](int node) { return !in_map(node); });
     };
     PlacementGroup group = placingGroup(base_, links, true, stretch);
     const bool placed = groupPlaces(group, group.spread_m);
@@ -147,6 +140,18 @@ std::vector<int> Rrr::takePlacingClusters(std::vector<int>& pending) {
     }
   }
   return groups;
+}
+
+double Rrr::keptLinksSpread(const std::vector<int>& clusters, const std::vector<core::Pose2>& poses,
+                            const std::function<bool(int)>& in_session) const {
+  std::vector<int> ends;
+  for (int c : clusters) {
+    for (int link : kept_links_[static_cast<std::size_t>(c)]) {
+      const LoopCandidate& l = graph_.candidate(link);
+      ends.push_back(in_session(l.from) ? l.from : l.to);
+    }
+  }
+  return spread(graph_, poses, ends);
 }
 
 PlacementGroup Rrr::placingGroup(

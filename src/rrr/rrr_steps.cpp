@@ -184,17 +184,11 @@ std::vector<core::Pose2> Rrr::placeSessions(const std::vector<core::Pose2>& init
       clusters.push_back(j.cluster);
       links.push_back(from_placed ? JoiningLink{k, c.from, c.to} : JoiningLink{k, c.to, c.from});
     }
-    // Every kept link's end in the session, as takePlacingClusters counts.
     const auto stretch = [&](const std::vector<int>& members) {
-      std::vector<int> ends;
-      for (int k : members) {
-        for (int link :
-             kept_links_[static_cast<std::size_t>(clusters[static_cast<std::size_t>(k)])]) {
-          const LoopCandidate& c = graph_.candidate(link);
-          ends.push_back(of(c.from) == session_to_place ? c.from : c.to);
-        }
-      }
-      return spread(graph_, poses, ends);
+      std::vector<int> of_members;
+      for (int k : members) of_members.push_back(clusters[static_cast<std::size_t>(k)]);
+      return keptLinksSpread(of_members, poses,
+                             [&](int node) { return of(node) == session_to_place; });
     };
     const PlacementGroup group =
         placingGroup(good_map != nullptr ? *good_map : poses, links, good_map != nullptr, stretch);
