@@ -182,6 +182,31 @@ TEST_P(LocalSlamTest, TracksARobotDrivingThroughTheRoomDespiteBiasedOdometry) {
   EXPECT_GE(slam.submaps().numSubmaps(), 3);
 }
 
+// A trajectory's first metres along a corridor of plain walls (its ends beyond the laser's range),
+// the odometry exact: matched against a submap of one or a few scans, a point beyond what they saw
+// scored as suspect as a wall's free side pulls each scan back inside, and the robot stays put.
+double corridorStartTravel(double active_unknown_value) {
+  // Walls 2.2 m apart with a door post every 4 m (the laser sees 8 m).
+  std::vector<testing::Segment> corridor = {{{-50, -1}, {50, -1}}, {{-50, 1.2}, {50, 1.2}}};
+  for (double x = -48.0; x < 50.0; x += 4.0) corridor.push_back({{x, 1.2}, {x, 1.0}});
+  LocalSlamParams params;
+  params.submap.active_unknown_value = active_unknown_value;
+  LocalSlam slam(params);
+  core::Pose2 local = core::Pose2::Zero();
+  for (int k = 0; k < 40; ++k) {  // 0.07 m per scan
+    const core::Pose2 truth(0.07 * k, 0.0, 0.0);
+    local = slam.addScan(castScan(corridor, truth, 8.0), truth).local_pose;
+  }
+  return local.x();
+}
+
+TEST(LocalSlam, ATrajectorysFirstMetresAlongACorridorAreNotShortened) {
+  const double travel = 0.07 * 39;
+  EXPECT_NEAR(corridorStartTravel(SubmapParams{}.active_unknown_value), travel, 0.05 * travel);
+  // Unobserved cells scored as the loop search scores them (0.1): held back.
+  EXPECT_LT(corridorStartTravel(SubmapParams{}.unknown_value), 0.5 * travel);
+}
+
 TEST(LocalSlam, RefusesImplausibleScansAndTracksOnAfterAnOdometryJump) {
   LocalSlamParams params;
   params.submap.scans_per_submap = 10;

@@ -601,16 +601,24 @@ def test_lifelong_trims_covered_submaps_when_the_map_is_saved(tmp_path):
     assert int(after["marginalized_nodes"]) == int(trim["trim_nodes"])
     assert int(after["marginal_edges"]) > 0
     assert int(after["nodes"]) < 2 * int(before["nodes"])
-    # The trimmed submaps' decided cells were remembered; those the second session decides again
-    # (it drove the same way) were forgotten; the file holds what is left.
+    # The trimmed submaps' decided cells were remembered; the file holds them.
     assert int(trim["trim_remembered_patches"]) > 0, second.stdout
-    assert int(trim["trim_forgotten_cells"]) > 0, second.stdout
     assert after["remembered_cells"] == trim["trim_remembered_cells"]
     assert int(after["remembered_patches"]) <= int(trim["trim_remembered_patches"])
-    # The trimmed map is continued like any other.
-    third = run(SLAM_OFFLINE, moved, "--load-map", first_map, "--max-scans", 40, "--refine-resolution", 0,
-                "--quiet", *SMALL_SUBMAPS)
+    # The trimmed map is continued like any other. A third drive the same way trims the second
+    # session's submaps: their patches decide the cells the first session's hold, which are
+    # forgotten, so the memory holds one value per cell.
+    from rrr_graphslam.carmen import write_moved_log
+    moved_again = tmp_path / "moved_again.clf"
+    write_moved_log(ACES_HEAD, str(moved_again), (-20.0, 5.0, 2.0))
+    third = run(SLAM_OFFLINE, moved_again, "--load-map", first_map, "--save-map", first_map, "--lifelong",
+                "--trim-overlap", 0.5, "--keep-recent-submaps", 2, "--refine-resolution", 0, "--quiet",
+                *SMALL_SUBMAPS)
     assert third.returncode == 0, third.stderr
+    trim = dict(line.split(" ", 1) for line in third.stdout.splitlines() if line.startswith("trim_"))
+    assert int(trim["trim_forgotten_cells"]) > 0, third.stdout
+    after = dict(line.split(" ", 1) for line in run(MAP_INFO, first_map).stdout.splitlines())
+    assert after["remembered_cells"] == trim["trim_remembered_cells"]
 
 
 @needs_map_info

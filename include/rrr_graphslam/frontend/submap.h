@@ -30,7 +30,15 @@ struct SubmapParams {
   float max_insertion_range_m = 30.0F;
   float hit_probability = 0.55F;   ///< MRPT's maxOccupancyUpdateCertainty
   float miss_probability = 0.49F;  ///< MRPT's maxFreenessUpdateCertainty is 1 - this
-  float unknown_value = 0.1F;      ///< what never-observed cells score in matching
+  /// What never-observed cells score when a finished submap is matched (loop search, the map
+  /// agreement check): a scan placed in space no scan saw is suspect. Default 0.1.
+  float unknown_value = 0.1F;
+  /// What they score while the submap is active, matched by local SLAM. A young submap (a
+  /// session's first, of a scan or a few) has seen little, and at 0.1 every point beyond what it
+  /// saw pulled the scan back inside: along a corridor the robot was held back and a session's
+  /// first metres came out short. At 0.5, the occupancy prior, such a point is no evidence
+  /// either way. Default 0.5.
+  double active_unknown_value = 0.5;
   int branch_and_bound_depth = 7;  ///< levels of max-grids built when the submap is finished
   /// Branch and bound searches a grid this many times coarser than resolution_m (max-pooled, so
   /// its bounds stay bounds); the least-squares refinement of a match and a final min_score
@@ -70,7 +78,8 @@ class Submap {
   /// Every node inserted, in insertion order (the anchor first).
   const std::vector<Member>& members() const { return members_; }
 
-  /// The grid as matching reads it (rebuilt lazily after insertions while active).
+  /// The grid as matching reads it (rebuilt lazily after insertions while active): never-observed
+  /// cells score active_unknown_value while the submap is active, unknown_value once finished.
   const MatchGrid& matchGrid() const;
   /// The MRPT grid while the submap is active (nullptr once finished: it is released).
   const mrpt::maps::COccupancyGridMap2D* grid() const { return grid_.get(); }
@@ -87,6 +96,7 @@ class Submap {
   std::vector<Member> members_;
   std::unique_ptr<mrpt::maps::COccupancyGridMap2D> grid_;
   mutable MatchGrid match_grid_;
+  bool finishing_ = false;  // finish() builds the finished submap's match grid
   mutable bool match_grid_dirty_ = true;
   std::unique_ptr<FastCorrelativeScanMatcher> matcher_;
 };
