@@ -321,6 +321,7 @@ LaserSlam::Checkpoint LaserSlam::checkpoint() const {
                     {scan_offset_.begin() + first_scan, scan_offset_.end()},
                     {scan_timestamps_.begin() + first_scan, scan_timestamps_.end()},
                     search_state_,
+                    rival_search_state_,
                     stats_,
                     tie_,
                     map_sensor_,
@@ -440,11 +441,20 @@ LaserSlam::Trimmed LaserSlam::trimmed(const Checkpoint& c, const TrimParams& par
                                    [&map](int k) -> const mrpt::obs::CObservation2DRangeScan& {
                                      return *map.nodes.at(static_cast<std::size_t>(k)).scan;
                                    });
-  for (std::size_t i = 0; i < c.search_state.size() && i < trim.submap_index.size(); ++i) {
-    const int to = trim.submap_index[i];
-    if (to < 0) continue;
-    slam->search_state_.at(static_cast<std::size_t>(to)) = {
-        renumbered(c.search_state[i].last_searched), renumbered(c.search_state[i].last_matched)};
+  // Each submap's sampling and pauses, for the search around the session's estimate and around
+  // its rival reading alike, carry over to its new number.
+  auto carry = [&](const std::vector<SubmapSearchState>& from, std::vector<SubmapSearchState>& to) {
+    for (std::size_t i = 0; i < from.size() && i < trim.submap_index.size(); ++i) {
+      const int k = trim.submap_index[i];
+      if (k < 0) continue;
+      to.at(static_cast<std::size_t>(k)) = {renumbered(from[i].last_searched),
+                                            renumbered(from[i].last_matched)};
+    }
+  };
+  carry(c.search_state, slam->search_state_);
+  if (!c.rival_search_state.empty()) {
+    slam->rival_search_state_.resize(slam->search_state_.size());
+    carry(c.rival_search_state, slam->rival_search_state_);
   }
   // The loops between the current session and the earlier ones, in arrival order: those of open
   // clusters all kept (they hold their submaps back); accepted ones of closed clusters may now be

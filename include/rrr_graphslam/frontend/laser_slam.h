@@ -309,6 +309,7 @@ class LaserSlam {
     std::vector<core::Pose2> scan_offset;
     std::vector<double> scan_timestamps;
     std::vector<SubmapSearchState> search_state;
+    std::vector<SubmapSearchState> rival_search_state;  // empty until a rival reading was searched
     LaserSlamStats stats;
     std::optional<Tie> tie;
     std::optional<SensorSetup> map_sensor;
