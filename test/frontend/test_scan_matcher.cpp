@@ -200,11 +200,11 @@ double corridorStartTravel(double active_unknown_value) {
   return local.x();
 }
 
-TEST(LocalSlam, ATrajectorysFirstMetresAlongACorridorAreNotShortened) {
+TEST(LocalSlam, UnobservedCellsAtTheOccupancyPriorLetATrajectoryStartAlongACorridor) {
   const double travel = 0.07 * 39;
-  EXPECT_NEAR(corridorStartTravel(SubmapParams{}.active_unknown_value), travel, 0.05 * travel);
-  // Unobserved cells scored as the loop search scores them (0.1): held back.
-  EXPECT_LT(corridorStartTravel(SubmapParams{}.unknown_value), 0.5 * travel);
+  EXPECT_NEAR(corridorStartTravel(0.5), travel, 0.05 * travel);
+  // Unobserved cells scored as the loop search scores them (0.1, the default): held back.
+  EXPECT_LT(corridorStartTravel(SubmapParams{}.active_unknown_value), 0.5 * travel);
 }
 
 TEST(LocalSlam, RefusesImplausibleScansAndTracksOnAfterAnOdometryJump) {

@@ -64,8 +64,8 @@ void forEachSlamParam(Params& p, F&& f) {
   f(core::ParamInfo{"correlative_rotation_cost", 0.0, 1e6, "... and exp(-this dtheta^2)"},
     local.correlative.rotation_delta_cost_weight);
   f(core::ParamInfo{"scan_unknown_probability", 0.0, 1.0,
-                    "what never-observed cells of the submaps local SLAM matches score (the "
-                    "loop search's finished submaps: 0.1)"},
+                    "what never-observed cells of the submaps local SLAM matches score (0.5, "
+                    "the occupancy prior, frees a start in a corridor)"},
     local.submap.active_unknown_value);
   f(core::ParamInfo{"scan_translation_weight", 0.0, 1e6,
                     "least squares: pull of the translation toward the prediction"},

@@ -35,10 +35,11 @@ struct SubmapParams {
   float unknown_value = 0.1F;
   /// What they score while the submap is active, matched by local SLAM. A young submap (a
   /// session's first, of a scan or a few) has seen little, and at 0.1 every point beyond what it
-  /// saw pulled the scan back inside: along a corridor the robot was held back and a session's
-  /// first metres came out short. At 0.5, the occupancy prior, such a point is no evidence
-  /// either way. Default 0.5.
-  double active_unknown_value = 0.5;
+  /// saw pulls the scan back inside: along a corridor the robot is held back and a session's
+  /// first metres come out short. At 0.5, the occupancy prior, such a point is no evidence either
+  /// way, but in every submap: FR clinic's map then drifts apart (doc/benchmarks.md#sessions).
+  /// Default 0.1, as finished submaps.
+  double active_unknown_value = 0.1;
   int branch_and_bound_depth = 7;  ///< levels of max-grids built when the submap is finished
   /// Branch and bound searches a grid this many times coarser than resolution_m (max-pooled, so
   /// its bounds stay bounds); the least-squares refinement of a match and a final min_score
