@@ -43,9 +43,8 @@ void Submap::insert(const mrpt::obs::CObservation2DRangeScan& scan, const core::
 
 const MatchGrid& Submap::matchGrid() const {
   if (match_grid_dirty_ && grid_) {
-    match_grid_ = MatchGrid::fromOccupancyGrid(
-        *grid_,
-        finishing_ ? params_.unknown_value : static_cast<float>(params_.active_unknown_value));
+    match_grid_ =
+        MatchGrid::fromOccupancyGrid(*grid_, static_cast<float>(params_.active_unknown_value));
     match_grid_dirty_ = false;
   }
   return match_grid_;
@@ -53,9 +52,10 @@ const MatchGrid& Submap::matchGrid() const {
 
 void Submap::finish() {
   if (finished()) return;
-  finishing_ = true;
-  match_grid_dirty_ = true;  // with the finished submap's unknown_value
-  matchGrid();
+  // Frozen with the finished submap's score of never-observed cells (matchGrid() builds the
+  // active one's).
+  match_grid_ = MatchGrid::fromOccupancyGrid(*grid_, params_.unknown_value);
+  match_grid_dirty_ = false;
   matcher_ = std::make_unique<FastCorrelativeScanMatcher>(
       match_grid_.maxPooled(params_.search_grid_factor), params_.branch_and_bound_depth);
   grid_.reset();

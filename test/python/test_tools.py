@@ -570,6 +570,16 @@ def test_damaged_or_incompatible_maps_are_refused_naming_the_file(tmp_path):
                      r"1\.000 deg apart", result.stderr), result.stderr
 
 
+def map_info(path):
+    """rrr_map_info's `key value` lines of the map at `path`."""
+    return dict(line.split(" ", 1) for line in run(MAP_INFO, path).stdout.splitlines())
+
+
+def trim_values(result):
+    """The `trim_` lines a lifelong run of rrr_slam_offline printed, as key -> value."""
+    return dict(line.split(" ", 1) for line in result.stdout.splitlines() if line.startswith("trim_"))
+
+
 def aces_head_twice(tmp_path):
     """The head of ACES mapped and saved, and the same scans from another odometry frame:
     (first map, its rrr_map_info values, the moved log)."""
@@ -578,7 +588,7 @@ def aces_head_twice(tmp_path):
     first = run(SLAM_OFFLINE, ACES_HEAD, "--save-map", first_map, "--refine-resolution", 0, "--quiet",
                 *SMALL_SUBMAPS)
     assert first.returncode == 0, first.stderr
-    before = dict(line.split(" ", 1) for line in run(MAP_INFO, first_map).stdout.splitlines())
+    before = map_info(first_map)
     moved = tmp_path / "moved.clf"
     write_moved_log(ACES_HEAD, str(moved), (30.0, 10.0, -1.0))
     return first_map, before, moved
@@ -593,10 +603,10 @@ def test_lifelong_trims_covered_submaps_when_the_map_is_saved(tmp_path):
                  *SMALL_SUBMAPS)
     assert second.returncode == 0, second.stderr
     assert "lifelong       trimmed" in second.stdout, second.stdout
-    trim = dict(line.split(" ", 1) for line in second.stdout.splitlines() if line.startswith("trim_"))
+    trim = trim_values(second)
     assert int(trim["trim_submaps"]) > 0 and int(trim["trim_nodes"]) > 0, second.stdout
     assert float(trim["trim_kl_delete"]) > 0.0
-    after = dict(line.split(" ", 1) for line in run(MAP_INFO, first_map).stdout.splitlines())
+    after = map_info(first_map)
     assert int(after["trimmed_submaps"]) == int(trim["trim_submaps"])
     assert int(after["marginalized_nodes"]) == int(trim["trim_nodes"])
     assert int(after["marginal_edges"]) > 0
@@ -615,9 +625,9 @@ def test_lifelong_trims_covered_submaps_when_the_map_is_saved(tmp_path):
                 "--trim-overlap", 0.5, "--keep-recent-submaps", 2, "--refine-resolution", 0, "--quiet",
                 *SMALL_SUBMAPS)
     assert third.returncode == 0, third.stderr
-    trim = dict(line.split(" ", 1) for line in third.stdout.splitlines() if line.startswith("trim_"))
+    trim = trim_values(third)
     assert int(trim["trim_forgotten_cells"]) > 0, third.stdout
-    after = dict(line.split(" ", 1) for line in run(MAP_INFO, first_map).stdout.splitlines())
+    after = map_info(first_map)
     assert after["remembered_cells"] == trim["trim_remembered_cells"]
 
 
@@ -632,11 +642,11 @@ def test_lifelong_dense_keeps_the_exact_marginal(tmp_path):
                  "--sparsification", "dense", "--trim-kl", "--trim-overlap", 0.5, "--keep-recent-submaps", 2,
                  "--refine-resolution", 0, "--quiet", *SMALL_SUBMAPS)
     assert second.returncode == 0, second.stderr
-    trim = dict(line.split(" ", 1) for line in second.stdout.splitlines() if line.startswith("trim_"))
+    trim = trim_values(second)
     assert int(trim["trim_submaps"]) > 0 and int(trim["trim_dense_factors_kept"]) > 0, second.stdout
     assert int(trim["trim_marginal_edges"]) == 0
     assert float(trim["trim_kl"]) < 1e-6 < float(trim["trim_kl_clt"]), second.stdout
-    after = dict(line.split(" ", 1) for line in run(MAP_INFO, out_map).stdout.splitlines())
+    after = map_info(out_map)
     assert int(after["dense_factors"]) == int(trim["trim_dense_factors_kept"])
     assert int(after["dense_factor_nodes"]) >= 2 * int(after["dense_factors"])
     assert int(after["marginal_edges"]) == 0
@@ -673,9 +683,9 @@ def test_lifelong_trims_while_the_session_maps(tmp_path):
     assert sum(int(t["submaps_trimmed"]) for t in trims) > 0, second.stdout
     assert re.search(r"^online trims   \d+ \(every 10 nodes once tied\)", second.stdout, re.M), second.stdout
     # Without --trim-kl the KL divergences are not measured, and say so.
-    saved = dict(line.split(" ", 1) for line in second.stdout.splitlines() if line.startswith("trim_"))
+    saved = trim_values(second)
     assert saved["trim_kl_clt"] == "nan" and saved["trim_kl_delete"] == "nan", second.stdout
-    after = dict(line.split(" ", 1) for line in run(MAP_INFO, out_map).stdout.splitlines())
+    after = map_info(out_map)
     assert int(after["trimmed_submaps"]) > 0 and int(after["marginal_edges"]) > 0
     assert int(after["nodes"]) < 2 * int(before["nodes"])
 
@@ -702,10 +712,10 @@ def test_lifelong_trims_an_endless_sessions_own_submaps(tmp_path):
              (line.replace("->", "after").split() for line in trimmed.stdout.splitlines()
               if line.startswith("online_trim "))]
     assert sum(int(t["submaps_trimmed"]) for t in trims) > 0, trimmed.stdout
-    before = dict(line.split(" ", 1) for line in run(MAP_INFO, plain_map).stdout.splitlines())
+    before = map_info(plain_map)
     # While it maps, not only in the map it saves (which --lifelong trims once more).
     assert max(int(t["nodes"]) for t in trims) < 0.6 * int(before["nodes"]), trimmed.stdout
-    after = dict(line.split(" ", 1) for line in run(MAP_INFO, trimmed_map).stdout.splitlines())
+    after = map_info(trimmed_map)
     assert int(after["sessions"]) == 1 and int(after["trimmed_submaps"]) > 0
     assert int(after["nodes"]) < int(before["nodes"]) // 2
     # Every scan keeps its pose, those of the removed nodes too, near where the untrimmed run has

@@ -97,7 +97,6 @@ class Submap {
   std::vector<Member> members_;
   std::unique_ptr<mrpt::maps::COccupancyGridMap2D> grid_;
   mutable MatchGrid match_grid_;
-  bool finishing_ = false;  // finish() builds the finished submap's match grid
   mutable bool match_grid_dirty_ = true;
   std::unique_ptr<FastCorrelativeScanMatcher> matcher_;
 };

@@ -247,13 +247,13 @@ class Rrr {
   /// session: two clusters or more, placement_min_spread_m apart, placement_min_ratio times its
   /// rival's clusters.
   bool groupPlaces(const PlacementGroup& group, double spread_m) const;
-  /// The group of `links` that places their session (largestAgreeingGroup at `poses`; with
-  /// placement_wider_reading, preferWiderReading), its spread_m by `stretch` (m over a set of
-  /// members).
   /// How far apart along a session it saw `clusters`: spread() at `poses` over every kept link's
   /// end in the session (`in_session`), not only the first links'.
   double keptLinksSpread(const std::vector<int>& clusters, const std::vector<core::Pose2>& poses,
                          const std::function<bool(int)>& in_session) const;
+  /// The group of `links` that places their session (largestAgreeingGroup at `poses`; with
+  /// placement_wider_reading, preferWiderReading), its spread_m by `stretch` (m over a set of
+  /// members).
   PlacementGroup placingGroup(const std::vector<core::Pose2>& poses,
                               const std::vector<JoiningLink>& links, bool map_exact,
                               const std::function<double(const std::vector<int>&)>& stretch) const;
