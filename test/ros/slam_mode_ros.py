@@ -54,7 +54,7 @@ class SlamMode(unittest.TestCase):
     def test_every_scan_became_part_of_the_graph(self):
         s = self.status
         self.assertEqual(s.input_mode, "scan")
-        self.assertEqual(s.messages_malformed, 0)
+        self.assertEqual(s.messages_malformed, 0, f"scans dropped: {s}")
         self.assertGreater(s.nodes, 30)
         self.assertTrue(self.finish.success, self.finish.message)
 
