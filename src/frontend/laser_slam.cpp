@@ -251,7 +251,9 @@ void LaserSlam::searchLoops(int node, const PointCloud& scan_points) {
     (s.rival ? rival_search_state_ : search_state_)[static_cast<std::size_t>(s.submap->index())]
         .last_matched = node;
     addCandidate(s.loop->from, s.loop->to, s.loop->measurement, s.loop->information,
-                 s.whole ? LoopSource::kWholeMapSearch : LoopSource::kLocalSearch);
+                 s.whole   ? LoopSource::kWholeMapSearch
+                 : s.rival ? LoopSource::kRivalSearch
+                           : LoopSource::kLocalSearch);
     relocalized = relocalized || to_earlier_session;
   }
   // A cluster is decided once the robot is cluster_gap nodes past its newest link: after a few

@@ -125,6 +125,10 @@ void MapSnapshot::check() const {
       fail("edge " + std::to_string(k) + " has a loop source, which format version " +
            std::to_string(format_version) + " cannot hold");
     }
+    if (e.source == LoopSource::kRivalSearch && format_version < 6) {
+      fail("edge " + std::to_string(k) + " comes from the rival search, which format version " +
+           std::to_string(format_version) + " cannot name");
+    }
     if (!e.measurement.allFinite() || !e.information.allFinite()) {
       fail("edge " + std::to_string(k) + " has a measurement or information that is not finite");
     }

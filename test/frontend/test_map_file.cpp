@@ -9,6 +9,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -265,6 +266,21 @@ TEST(MapFile, VersionThreeKeepsSessionNumbersAndTheMemory) {
   MapSnapshot odd = readMapFile(savedMap());
   odd.edges.front().source = LoopSource::kInjected;  // an odometry edge
   expectRefused(odd, "has a loop source but is no loop candidate");
+
+  // Version 6 names the rival search's loops; version 5 cannot.
+  MapSnapshot rival = readMapFile(savedMap());
+  const auto loop = std::find_if(rival.edges.begin(), rival.edges.end(), [](const auto& e) {
+    return e.kind == MapSnapshot::EdgeKind::kLoopCandidate;
+  });
+  ASSERT_NE(loop, rival.edges.end());
+  loop->source = LoopSource::kRivalSearch;
+  writeMapFile(rival, tempPath("rival_source.rrrmap"));
+  const MapSnapshot read6 = readMapFile(tempPath("rival_source.rrrmap"));
+  EXPECT_EQ(read6.edges[static_cast<std::size_t>(loop - rival.edges.begin())].source,
+            LoopSource::kRivalSearch);
+  EXPECT_EQ(toString(LoopSource::kRivalSearch), "rival-search");
+  rival.format_version = 5;
+  expectRefused(rival, "comes from the rival search, which format version 5 cannot name");
 
   // Broken memory and numbers in a version-3 map.
   MapSnapshot bad = map;

@@ -478,11 +478,12 @@ def test_a_saved_map_is_continued_as_a_new_session_from_another_odometry_frame(t
     for key in ("format_version", "sessions", "nodes", "edges", "loop_edges_accepted",
                 "loop_edges_rejected", "submaps", "scans", "bytes"):
         assert key in keys, key
-    assert keys["format_version"] == "5" and keys["sessions"] == "1"
+    assert keys["format_version"] == "6" and keys["sessions"] == "1"
     # One session: every loop the search around the estimate's.
     assert keys["loop_edges_local_search"] == keys["loop_edges"] != "0"
     assert keys["loop_edges_local_search_accepted"] == keys["loop_edges_accepted"]
     assert keys["loop_edges_whole_map_search"] == keys["loop_edges_unknown_source"] == "0"
+    assert keys["loop_edges_rival_search"] == "0"
     assert keys["remembered_patches"] == "0" and keys["remembered_cells"] == "0"
     assert int(keys["bytes"]) == first_map.stat().st_size
     assert len(read_graph(str(tmp_path / "g.g2o")).poses) == int(keys["nodes"])

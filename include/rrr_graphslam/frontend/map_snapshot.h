@@ -29,8 +29,9 @@ namespace rrr_graphslam::frontend {
 /// continued as the newest version); version 3 the sessions' numbers and the map's memory of
 /// trimmed submaps (map_memory.h; an older map has none, and its sessions are numbered in order);
 /// version 4 each loop candidate's source (older maps: unknown); version 5 the dense factors a
-/// `dense` trim leaves (older maps have none).
-constexpr std::uint32_t kMapFormatVersion = 5;
+/// `dense` trim leaves (older maps have none); version 6 the rival search as a loop source (an
+/// older map's rival-search loops are named local-search).
+constexpr std::uint32_t kMapFormatVersion = 6;
 
 /// The most nodes a dense factor in a map file may hold (its information is a dense 3(n-1)
 /// square: 1.2 GB at this size). A trim whose blanket piece is larger cannot be saved with
@@ -44,15 +45,17 @@ enum class LoopSource : std::uint8_t {
   kWholeMapSearch = 2,  ///< relocalization: the whole submap, every rotation (an untied session)
   kInjected = 3,        ///< a false loop a test or benchmark added (rrr_slam_offline --false-loops)
   kExternal = 4,        ///< given from outside the loop search (LaserSlam::addCandidate)
+  kRivalSearch = 5,     ///< a window around the rival reading of a tied session (version 6 on)
 };
 inline core::Choices<LoopSource> choices(LoopSource /*tag*/) {
   return {{LoopSource::kUnknown, "unknown"},
           {LoopSource::kLocalSearch, "local-search"},
           {LoopSource::kWholeMapSearch, "whole-map-search"},
           {LoopSource::kInjected, "injected"},
-          {LoopSource::kExternal, "external"}};
+          {LoopSource::kExternal, "external"},
+          {LoopSource::kRivalSearch, "rival-search"}};
 }
-/// "unknown", "local-search", "whole-map-search", "injected", "external".
+/// "unknown", "local-search", "whole-map-search", "injected", "external", "rival-search".
 std::string toString(LoopSource source);
 
 /// What a map file holds. Node k has id k; sessions' nodes are consecutive.
