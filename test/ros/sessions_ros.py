@@ -106,7 +106,7 @@ class Sessions(unittest.TestCase):
         self.assertTrue(crossing, "no accepted loop between the sessions was published")
         # The session was placed by relocalization: whole-map searches, then searches around it.
         sources = {d.source for d in crossing}
-        self.assertTrue(sources <= {"local-search", "whole-map-search"}, sources)
+        self.assertTrue(sources <= {"local-search", "whole-map-search", "rival-search"}, sources)
 
         # /initialpose (rviz's 2D Pose Estimate) must be in the map frame; either way the node goes on.
         publisher = rospy.Publisher("/initialpose", PoseWithCovarianceStamped, queue_size=1, latch=True)
