@@ -21,8 +21,21 @@ FastCorrelativeScanMatcher::FastCorrelativeScanMatcher(const MatchGrid& grid, in
                    0.5 * grid.resolution() * Eigen::Vector2d(grid.width(), grid.height())),
       grid_radius_(0.5 * grid.resolution() * std::max(grid.width(), grid.height())) {}
 
+bool FastCorrelativeScanMatcher::Discretization::excluded(int scan, int x, int y, int size) const {
+  if (!excluding || !scans[static_cast<std::size_t>(scan)].excluded_heading) return false;
+  // The disc is convex: the block is inside when its four corners are.
+  const double r2 = excluded_radius * excluded_radius;
+  for (const int cx : {x, x + size - 1}) {
+    for (const int cy : {y, y + size - 1}) {
+      if ((Eigen::Vector2d(cx, cy) - excluded_center).squaredNorm() > r2) return false;
+    }
+  }
+  return true;
+}
+
 FastCorrelativeScanMatcher::Discretization FastCorrelativeScanMatcher::discretize(
-    const core::Pose2& initial, const PointCloud& points, const SearchWindow& window) const {
+    const core::Pose2& initial, const PointCloud& points, const SearchWindow& window,
+    const std::optional<Exclusion>& exclude) const {
   if (!(window.linear_m >= 0.0) || !(window.angular_rad >= 0.0)) {
     throw std::invalid_argument("search window must be non-negative");
   }
@@ -43,7 +56,15 @@ FastCorrelativeScanMatcher::Discretization FastCorrelativeScanMatcher::discretiz
     const Eigen::Matrix2d R = core::rotation(scan.angle);
     scan.cells.reserve(points.size());
     for (const auto& p : points) scan.cells.push_back(grids_.cellOf(t + R * p));
+    scan.excluded_heading =
+        exclude &&
+        std::abs(core::normalizeAngle(scan.angle - exclude->center.z())) <= exclude->angular_rad;
     d.scans.push_back(std::move(scan));
+  }
+  if (exclude) {
+    d.excluding = true;
+    d.excluded_center = (exclude->center.head<2>() - t) / resolution;
+    d.excluded_radius = exclude->linear_m / resolution;
   }
   return d;
 }
@@ -69,13 +90,17 @@ std::optional<FastCorrelativeScanMatcher::Candidate> FastCorrelativeScanMatcher:
   std::sort(candidates.begin(), candidates.end(),
             [](const Candidate& a, const Candidate& b) { return a.score > b.score; });
   if (level == 0) {
-    if (!candidates.empty() && candidates.front().score > min_score) return candidates.front();
+    for (const Candidate& c : candidates) {
+      if (c.score <= min_score) break;
+      if (!d.excluded(c.scan, c.x, c.y, 1)) return c;
+    }
     return std::nullopt;
   }
   std::optional<Candidate> best;
   const int half = 1 << (level - 1);
   for (const Candidate& c : candidates) {
     if (c.score <= min_score) break;  // sorted: no remaining candidate can beat the best
+    if (d.excluded(c.scan, c.x, c.y, 1 << level)) continue;
     std::vector<Candidate> children;
     children.reserve(4);
     for (int dx = 0; dx <= half; dx += half) {
@@ -104,13 +129,12 @@ ScanMatch FastCorrelativeScanMatcher::toMatch(const core::Pose2& initial, const 
           static_cast<double>(c.score) / (255.0 * static_cast<double>(num_points))};
 }
 
-std::optional<ScanMatch> FastCorrelativeScanMatcher::match(const core::Pose2& initial,
-                                                           const PointCloud& points,
-                                                           const SearchWindow& window,
-                                                           double min_score) const {
+std::optional<ScanMatch> FastCorrelativeScanMatcher::match(
+    const core::Pose2& initial, const PointCloud& points, const SearchWindow& window,
+    double min_score, const std::optional<Exclusion>& exclude) const {
   last_scored_ = 0;
   if (points.empty()) return std::nullopt;
-  const Discretization d = discretize(initial, points, window);
+  const Discretization d = discretize(initial, points, window, exclude);
   // The coarsest level's candidates tile the window; each stands for 2^h x 2^h translations.
   const int top = grids_.depth() - 1;
   const int step = 1 << top;
@@ -131,23 +155,23 @@ std::optional<ScanMatch> FastCorrelativeScanMatcher::match(const core::Pose2& in
   return toMatch(initial, d, *best, points.size());
 }
 
-std::optional<ScanMatch> FastCorrelativeScanMatcher::matchFullSubmap(const PointCloud& points,
-                                                                     double min_score) const {
+std::optional<ScanMatch> FastCorrelativeScanMatcher::matchFullSubmap(
+    const PointCloud& points, double min_score, const std::optional<Exclusion>& exclude) const {
   const core::Pose2 center(grid_center_.x(), grid_center_.y(), 0.0);
-  return match(center, points, SearchWindow{grid_radius_, M_PI}, min_score);
+  return match(center, points, SearchWindow{grid_radius_, M_PI}, min_score, exclude);
 }
 
-std::optional<ScanMatch> FastCorrelativeScanMatcher::matchExhaustive(const core::Pose2& initial,
-                                                                     const PointCloud& points,
-                                                                     const SearchWindow& window,
-                                                                     double min_score) const {
+std::optional<ScanMatch> FastCorrelativeScanMatcher::matchExhaustive(
+    const core::Pose2& initial, const PointCloud& points, const SearchWindow& window,
+    double min_score, const std::optional<Exclusion>& exclude) const {
   if (points.empty()) return std::nullopt;
-  const Discretization d = discretize(initial, points, window);
+  const Discretization d = discretize(initial, points, window, exclude);
   std::optional<Candidate> best;
   int best_score = minimumSum(min_score, points.size());
   for (int s = 0; s < static_cast<int>(d.scans.size()); ++s) {
     for (int x = -d.window_cells; x <= d.window_cells; ++x) {
       for (int y = -d.window_cells; y <= d.window_cells; ++y) {
+        if (d.excluded(s, x, y, 1)) continue;
         const int sc = score(d.scans[static_cast<std::size_t>(s)], 0, x, y, best_score);
         if (sc > best_score) {
           best_score = sc;

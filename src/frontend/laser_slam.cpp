@@ -142,7 +142,8 @@ void LaserSlam::searchLoops(int node, const PointCloud& scan_points) {
     bool whole;
     std::optional<LoopMatch> loop;
     double seconds = 0.0;
-    bool rival = false;  // around the rival reading of where the session lies
+    bool rival = false;      // around the rival reading of where the session lies
+    bool ambiguous = false;  // a distinct pose scored nearly as well: not proposed
   };
   std::vector<Search> searches;
   // With a hint, where it puts this node in the map.
@@ -219,8 +220,10 @@ void LaserSlam::searchLoops(int node, const PointCloud& scan_points) {
   for (int k = 0; k < n; ++k) {
     Search& s = searches[static_cast<std::size_t>(k)];
     const auto match_start = std::chrono::steady_clock::now();
-    s.loop = s.whole ? matchNodeToWholeSubmap(*s.submap, node, scan, p)
-                     : matchNodeToSubmap(*s.submap, node, scan, s.initial, p);
+    SubmapSearch found = s.whole ? matchNodeToWholeSubmap(*s.submap, node, scan, p)
+                                 : matchNodeToSubmap(*s.submap, node, scan, s.initial, p);
+    s.loop = std::move(found.loop);
+    s.ambiguous = found.alias.has_value();
     s.seconds = secondsSince(match_start);
   }
   stats_.loop_search_seconds += secondsSince(start);
@@ -228,6 +231,7 @@ void LaserSlam::searchLoops(int node, const PointCloud& scan_points) {
     stats_.loop_search_pair_seconds += s.seconds;
     (s.whole ? stats_.relocalization_searches : stats_.loop_searches) += 1;
     stats_.rival_searches += s.rival ? 1 : 0;
+    stats_.ambiguous_matches += s.ambiguous ? 1 : 0;
   }
   bool relocalized = false;
   std::vector<PlacedSubmap> earlier_submaps;  // placed once, for the first match to check

@@ -62,6 +62,26 @@ std::optional<LoopMatch> toLoop(const Submap& submap, int node, const LoopSearch
   return loop;
 }
 
+// The best match of `branch_and_bound(min_score, exclusion)` as a loop, unless a distinct pose
+// scores nearly as well (ambiguity_ratio).
+template <typename BranchAndBound>
+SubmapSearch searchUnlessAmbiguous(const Submap& submap, int node, const LoopSearchScan& scan,
+                                   const LoopSearchParams& params,
+                                   BranchAndBound branch_and_bound) {
+  const std::optional<ScanMatch> match = branch_and_bound(params.min_score, std::nullopt);
+  if (!match) return {};
+  SubmapSearch out;
+  if (params.ambiguity_ratio < 1.0) {
+    const Exclusion own_place{match->pose, params.ambiguity_exclusion.linear_m,
+                              params.ambiguity_exclusion.angular_rad};
+    out.alias = branch_and_bound(std::max(params.min_score, params.ambiguity_ratio * match->score),
+                                 std::optional<Exclusion>(own_place));
+    if (out.alias) return out;
+  }
+  out.loop = toLoop(submap, node, scan, *match, params);
+  return out;
+}
+
 }  // namespace
 
 LoopSearchScan loopSearchScan(PointCloud points, const LoopSearchParams& params) {
@@ -72,23 +92,23 @@ LoopSearchScan loopSearchScan(PointCloud points, const LoopSearchParams& params)
   return {std::move(points), std::move(search_points)};
 }
 
-std::optional<LoopMatch> matchNodeToSubmap(const Submap& submap, int node,
-                                           const LoopSearchScan& scan, const core::Pose2& initial,
-                                           const LoopSearchParams& params) {
-  if (submap.matcher() == nullptr) return std::nullopt;
-  const auto match =
-      submap.matcher()->match(initial, scan.search_points, params.window, params.min_score);
-  if (!match) return std::nullopt;
-  return toLoop(submap, node, scan, *match, params);
+SubmapSearch matchNodeToSubmap(const Submap& submap, int node, const LoopSearchScan& scan,
+                               const core::Pose2& initial, const LoopSearchParams& params) {
+  if (submap.matcher() == nullptr) return {};
+  return searchUnlessAmbiguous(submap, node, scan, params,
+                               [&](double min_score, const auto& exclude) {
+                                 return submap.matcher()->match(initial, scan.search_points,
+                                                                params.window, min_score, exclude);
+                               });
 }
 
-std::optional<LoopMatch> matchNodeToWholeSubmap(const Submap& submap, int node,
-                                                const LoopSearchScan& scan,
-                                                const LoopSearchParams& params) {
-  if (submap.matcher() == nullptr) return std::nullopt;
-  const auto match = submap.matcher()->matchFullSubmap(scan.search_points, params.min_score);
-  if (!match) return std::nullopt;
-  return toLoop(submap, node, scan, *match, params);
+SubmapSearch matchNodeToWholeSubmap(const Submap& submap, int node, const LoopSearchScan& scan,
+                                    const LoopSearchParams& params) {
+  if (submap.matcher() == nullptr) return {};
+  return searchUnlessAmbiguous(
+      submap, node, scan, params, [&](double min_score, const auto& exclude) {
+        return submap.matcher()->matchFullSubmap(scan.search_points, min_score, exclude);
+      });
 }
 
 }  // namespace rrr_graphslam::frontend

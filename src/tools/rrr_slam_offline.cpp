@@ -249,6 +249,12 @@ int main(int argc, char** argv) {
           "ends in the map's free space)\n",
           stats.contradicted_matches);
     }
+    if (stats.ambiguous_matches > 0) {
+      std::printf(
+          "ambiguous      %d matches not proposed (a distinct pose of their search scored "
+          "nearly as well)\n",
+          stats.ambiguous_matches);
+    }
     if (stats.rival_searches > 0) {
       std::printf("rival search   %lld of them around a second reading of where the session lies\n",
                   stats.rival_searches);

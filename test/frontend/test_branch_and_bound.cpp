@@ -120,6 +120,19 @@ TEST_P(BranchAndBoundVersusExhaustive, SameBestPose) {
       EXPECT_TRUE(fast->pose.isApprox(exhaustive->pose, 1e-12))
           << "depth " << depth << ": " << fast->pose.transpose() << " vs "
           << exhaustive->pose.transpose();
+      // The best pose elsewhere: the same with the best's place left out, and outside it.
+      const Exclusion place{fast->pose, 0.25, 0.1};
+      const auto slow_beyond = matcher.matchExhaustive(initial, points, window, min_score, place);
+      const auto fast_beyond = matcher.match(initial, points, window, min_score, place);
+      ASSERT_EQ(slow_beyond.has_value(), fast_beyond.has_value()) << "depth " << depth;
+      if (!fast_beyond) continue;
+      EXPECT_DOUBLE_EQ(fast_beyond->score, slow_beyond->score) << "depth " << depth;
+      EXPECT_TRUE(fast_beyond->pose.isApprox(slow_beyond->pose, 1e-12)) << "depth " << depth;
+      EXPECT_LE(fast_beyond->score, fast->score);
+      EXPECT_TRUE((fast_beyond->pose.head<2>() - fast->pose.head<2>()).norm() > 0.25 - 1e-9 ||
+                  std::abs(core::normalizeAngle(fast_beyond->pose.z() - fast->pose.z())) >
+                      0.1 - 1e-9)
+          << fast_beyond->pose.transpose();
     }
   }
 }

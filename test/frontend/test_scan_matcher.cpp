@@ -79,7 +79,8 @@ TEST(ScanMatcher, LoopSearchFindsTheScanMetresAway) {
   const PointCloud points = matchingPoints(castScan(room(), truth), scan_params);
   LoopSearchParams params;
   const core::Pose2 guess = truth + core::Pose2(-2.5, 1.5, 0.3);
-  const auto loop = matchNodeToSubmap(submap, 7, loopSearchScan(points, params), guess, params);
+  const auto loop =
+      matchNodeToSubmap(submap, 7, loopSearchScan(points, params), guess, params).loop;
   ASSERT_TRUE(loop.has_value());
   // From the submap's node nearest to the match, (9, 3) (nodes 8-11 were inserted there; the
   // first of them), not from the anchor 5 m away: local SLAM's drift inside the submap between
@@ -108,11 +109,66 @@ TEST(ScanMatcher, LoopSearchFindsTheScanMetresAway) {
 
   // Relocalization: no guess at all.
   const auto relocalized =
-      matchNodeToWholeSubmap(submap, 7, loopSearchScan(points, params), params);
+      matchNodeToWholeSubmap(submap, 7, loopSearchScan(points, params), params).loop;
   ASSERT_TRUE(relocalized.has_value());
   EXPECT_EQ(relocalized->from, 8);
   const core::Pose2 again = core::compose(from_pose, relocalized->measurement);
   EXPECT_LT((again.head<2>() - truth.head<2>()).norm(), 0.03) << again.transpose();
+}
+
+// Two copies of the room side by side, 14 m apart: a scan of one fits the other as well.
+TEST(ScanMatcher, AMatchThatFitsTheRoomNextDoorAsWellIsAmbiguous) {
+  const RangeScanParams scan_params;
+  std::vector<testing::Segment> rooms = room();
+  const Eigen::Vector2d next_door(14.0, 0.0);
+  for (const testing::Segment& s : room()) rooms.push_back({s.a + next_door, s.b + next_door});
+  Submap submap(0, 0, core::Pose2(3.0, 2.0, 0.0), SubmapParams{});
+  int node = 0;
+  for (const core::Pose2& p : {core::Pose2(3.0, 2.0, 0.0), core::Pose2(6.0, 2.5, 0.5),
+                               core::Pose2(9.0, 3.0, 1.0), core::Pose2(6.0, 6.0, -2.0)}) {
+    for (const core::Pose2& q : {p, core::Pose2(p.x() + next_door.x(), p.y(), p.z())}) {
+      for (int k = 0; k < 4; ++k) {
+        submap.insert(toObservation(castScan(rooms, q), scan_params), q, node++);
+      }
+    }
+  }
+  submap.finish();
+  const core::Pose2 truth(5.0, 4.0, 0.3);
+  const LoopSearchParams off;
+  const LoopSearchScan scan =
+      loopSearchScan(matchingPoints(castScan(rooms, truth), scan_params), off);
+  // Between the rooms, a window reaching both.
+  const core::Pose2 between(truth.x() + 7.0, truth.y(), truth.z());
+  LoopSearchParams wide = off;
+  wide.window.linear_m = 9.0;
+  const SubmapSearch found = matchNodeToSubmap(submap, 99, scan, between, wide);
+  ASSERT_TRUE(found.loop.has_value());  // off (ratio 1): one of the two rooms
+  EXPECT_FALSE(found.alias.has_value());
+
+  LoopSearchParams ambiguity = wide;
+  ambiguity.ambiguity_ratio = 0.9;
+  const SubmapSearch ambiguous = matchNodeToSubmap(submap, 99, scan, between, ambiguity);
+  EXPECT_FALSE(ambiguous.loop.has_value());
+  ASSERT_TRUE(ambiguous.alias.has_value());
+  // The alias is the other room's pose: 14 m from the truth or on it.
+  const double from_truth = (ambiguous.alias->pose.head<2>() - truth.head<2>()).norm();
+  const double from_next_door =
+      (ambiguous.alias->pose.head<2>() - truth.head<2>() - next_door).norm();
+  EXPECT_LT(std::min(from_truth, from_next_door), 0.1) << ambiguous.alias->pose.transpose();
+  EXPECT_GT(ambiguous.alias->score, 0.9 * found.loop->score);
+
+  // A window that holds one room only: the match is unique there.
+  const SubmapSearch unique =
+      matchNodeToSubmap(submap, 99, scan, truth + core::Pose2(0.5, -0.4, 0.1), ambiguity);
+  ASSERT_TRUE(unique.loop.has_value());
+  EXPECT_FALSE(unique.alias.has_value());
+  const core::Pose2 at =
+      core::compose(submap.members()[static_cast<std::size_t>(unique.loop->from)].local_pose,
+                    unique.loop->measurement);
+  EXPECT_LT((at.head<2>() - truth.head<2>()).norm(), 0.05) << at.transpose();
+  // The whole-submap search of relocalization sees both rooms.
+  EXPECT_FALSE(matchNodeToWholeSubmap(submap, 99, scan, ambiguity).loop.has_value());
+  EXPECT_TRUE(matchNodeToWholeSubmap(submap, 99, scan, off).loop.has_value());
 }
 
 TEST(TrajectoryRefinement, PullsPerturbedPosesBackOntoTheMap) {

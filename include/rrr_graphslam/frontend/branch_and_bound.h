@@ -30,19 +30,33 @@ struct ScanMatch {
   double score;      ///< in [0, 1]
 };
 
+/// Poses a search leaves out: those within linear_m of `center`'s position and within angular_rad
+/// of its heading (the place a match found before, when the search looks for another place the
+/// scan fits).
+struct Exclusion {
+  core::Pose2 center;
+  double linear_m;
+  double angular_rad;
+};
+
 class FastCorrelativeScanMatcher {
  public:
   /// Precomputes `depth` levels of max-grids (level depth-1 is the coarsest).
   FastCorrelativeScanMatcher(const MatchGrid& grid, int depth);
 
-  /// The best pose within `window` around `initial` (submap frame) scoring above `min_score`.
+  /// The best pose within `window` around `initial` (submap frame) scoring above `min_score`,
+  /// outside `exclude` when given.
   std::optional<ScanMatch> match(const core::Pose2& initial, const PointCloud& points,
-                                 const SearchWindow& window, double min_score) const;
+                                 const SearchWindow& window, double min_score,
+                                 const std::optional<Exclusion>& exclude = std::nullopt) const;
   /// Relocalization: every translation that keeps the scan's origin on the submap, every rotation.
-  std::optional<ScanMatch> matchFullSubmap(const PointCloud& points, double min_score) const;
+  std::optional<ScanMatch> matchFullSubmap(
+      const PointCloud& points, double min_score,
+      const std::optional<Exclusion>& exclude = std::nullopt) const;
   /// The same result by scoring every discrete pose of the window (for tests and benchmarks).
-  std::optional<ScanMatch> matchExhaustive(const core::Pose2& initial, const PointCloud& points,
-                                           const SearchWindow& window, double min_score) const;
+  std::optional<ScanMatch> matchExhaustive(
+      const core::Pose2& initial, const PointCloud& points, const SearchWindow& window,
+      double min_score, const std::optional<Exclusion>& exclude = std::nullopt) const;
 
   const PrecomputationGridStack& grids() const { return grids_; }
   /// Cell size of the grid it searches.
@@ -54,6 +68,7 @@ class FastCorrelativeScanMatcher {
   struct DiscreteScan {
     double angle;                       ///< absolute rotation of the scan
     std::vector<Eigen::Array2i> cells;  ///< points at the initial translation, as cells
+    bool excluded_heading = false;      ///< within the exclusion's angular_rad
   };
   struct Candidate {
     int scan;
@@ -64,10 +79,17 @@ class FastCorrelativeScanMatcher {
   struct Discretization {
     std::vector<DiscreteScan> scans;
     int window_cells;
+    bool excluding = false;
+    Eigen::Vector2d excluded_center;  ///< in cells from the initial translation
+    double excluded_radius = 0.0;     ///< in cells
+    /// Whether every translation of the size x size block of cells at (x, y) of `scan` is
+    /// excluded (a block of 1: one pose).
+    bool excluded(int scan, int x, int y, int size) const;
   };
 
   Discretization discretize(const core::Pose2& initial, const PointCloud& points,
-                            const SearchWindow& window) const;
+                            const SearchWindow& window,
+                            const std::optional<Exclusion>& exclude) const;
   /// Sum of level `level` over the scan's cells shifted by (x, y). Stops as soon as the sum can
   /// no longer exceed `floor` (each cell left adds at most 255) and returns that bound, which is
   /// then <= floor: a candidate below the best so far is discarded without reading every cell.

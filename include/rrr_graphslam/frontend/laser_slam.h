@@ -71,6 +71,9 @@ struct LaserSlamStats {
   /// Matches to earlier sessions not proposed: the session's path they place conflicts with the
   /// map (relocalization_max_conflict).
   int contradicted_matches = 0;
+  /// Matches not proposed: a distinct pose of the same search scored nearly as well
+  /// (LoopSearchParams::ambiguity_ratio).
+  int ambiguous_matches = 0;
   long long rival_searches = 0;  ///< node-submap pairs searched around a rival reading
 };
 

@@ -128,6 +128,15 @@ void forEachSlamParam(Params& p, F&& f) {
                     "once a session is tied, a second reading of where it lies that N of its "
                     "unaccepted loops to the map agree on is searched too (0: off)"},
     loops.rival_min_loops);
+  f(core::ParamInfo{"loop_ambiguity_ratio", 0.0, 1.0,
+                    "a match is not proposed when a distinct pose of its search scores more than "
+                    "this times its score (1: off)"},
+    loops.ambiguity_ratio);
+  f(core::ParamInfo{"loop_ambiguity_distance", 0.0, 1e3,
+                    "m; ... distinct: farther than this from the match, or turned by more than"},
+    loops.ambiguity_exclusion.linear_m);
+  f(core::ParamInfo{"loop_ambiguity_angle", 0.0, M_PI, "rad; ... this"},
+    loops.ambiguity_exclusion.angular_rad);
   f(core::ParamInfo{"loop_search_threads", 1, 256, "threads matching a node against its submaps"},
     loops.threads);
   f(core::ParamInfo{"loop_search_max_range", 0.1, 1e3,

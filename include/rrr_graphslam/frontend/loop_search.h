@@ -69,6 +69,13 @@ struct LoopSearchParams {
   /// RRR's decisions from scratch (its rebatches, the end) place the session by the one seen over
   /// the longer stretch (doc/rrr_extensions.md#the-wider-reading). 0: off; default 5.
   int rival_min_loops = 5;
+  /// A match is not proposed when a distinct pose of the same search (farther than
+  /// ambiguity_exclusion from it) scores more than ambiguity_ratio times its score: the scan alone
+  /// cannot tell the two places apart (a corridor read a few metres along, a room like the next,
+  /// a building read from its other end). 1: off.
+  double ambiguity_ratio = 1.0;
+  /// Poses within this of a match (translation and rotation) are the match's own place.
+  SearchWindow ambiguity_exclusion{1.0, 0.2};
   MapAgreementParams agreement;
   /// Least-squares refinement of a match (weak pull toward the branch-and-bound pose).
   LeastSquaresParams refinement{1.0, 1.0, 1.0, 20, {0.05, 0.05, 0.5 * M_PI / 180}};
@@ -92,15 +99,21 @@ struct LoopSearchScan {
 };
 LoopSearchScan loopSearchScan(PointCloud points, const LoopSearchParams& params);
 
-/// `initial` is the node's guessed pose in the submap frame; nullopt if nothing scores above
+/// What one search of a submap found.
+struct SubmapSearch {
+  std::optional<LoopMatch> loop;  ///< nothing when no pose scored above min_score, or ambiguous
+  /// When the best pose was ambiguous (not proposed): the distinct pose that scored nearly as
+  /// well (LoopSearchParams::ambiguity_ratio).
+  std::optional<ScanMatch> alias;
+};
+
+/// `initial` is the node's guessed pose in the submap frame; no loop if nothing scores above
 /// min_score in the window (or the submap is not finished).
-std::optional<LoopMatch> matchNodeToSubmap(const Submap& submap, int node,
-                                           const LoopSearchScan& scan, const core::Pose2& initial,
-                                           const LoopSearchParams& params);
+SubmapSearch matchNodeToSubmap(const Submap& submap, int node, const LoopSearchScan& scan,
+                               const core::Pose2& initial, const LoopSearchParams& params);
 
 /// Relocalization: the whole submap, every rotation.
-std::optional<LoopMatch> matchNodeToWholeSubmap(const Submap& submap, int node,
-                                                const LoopSearchScan& scan,
-                                                const LoopSearchParams& params);
+SubmapSearch matchNodeToWholeSubmap(const Submap& submap, int node, const LoopSearchScan& scan,
+                                    const LoopSearchParams& params);
 
 }  // namespace rrr_graphslam::frontend
