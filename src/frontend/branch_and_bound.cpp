@@ -86,7 +86,8 @@ int FastCorrelativeScanMatcher::score(const DiscreteScan& scan, int level, int x
 }
 
 std::optional<FastCorrelativeScanMatcher::Candidate> FastCorrelativeScanMatcher::search(
-    const Discretization& d, std::vector<Candidate>& candidates, int level, int min_score) const {
+    const Discretization& d, std::vector<Candidate>& candidates, int level, int min_score,
+    long long& scored) const {
   std::sort(candidates.begin(), candidates.end(),
             [](const Candidate& a, const Candidate& b) { return a.score > b.score; });
   if (level == 0) {
@@ -110,10 +111,10 @@ std::optional<FastCorrelativeScanMatcher::Candidate> FastCorrelativeScanMatcher:
         const DiscreteScan& scan = d.scans[static_cast<std::size_t>(c.scan)];
         children.push_back(
             {c.scan, c.x + dx, c.y + dy, score(scan, level - 1, c.x + dx, c.y + dy, min_score)});
-        ++last_scored_;
+        ++scored;
       }
     }
-    if (auto found = search(d, children, level - 1, min_score)) {
+    if (auto found = search(d, children, level - 1, min_score, scored)) {
       best = found;
       min_score = found->score;
     }
@@ -131,8 +132,8 @@ ScanMatch FastCorrelativeScanMatcher::toMatch(const core::Pose2& initial, const 
 
 std::optional<ScanMatch> FastCorrelativeScanMatcher::match(
     const core::Pose2& initial, const PointCloud& points, const SearchWindow& window,
-    double min_score, const std::optional<Exclusion>& exclude) const {
-  last_scored_ = 0;
+    double min_score, const std::optional<Exclusion>& exclude, long long* scored) const {
+  if (scored) *scored = 0;
   if (points.empty()) return std::nullopt;
   const Discretization d = discretize(initial, points, window, exclude);
   // The coarsest level's candidates tile the window; each stands for 2^h x 2^h translations.
@@ -148,9 +149,10 @@ std::optional<ScanMatch> FastCorrelativeScanMatcher::match(
       }
     }
   }
-  last_scored_ = static_cast<long long>(d.scans.size()) * ((2 * d.window_cells) / step + 1) *
-                 ((2 * d.window_cells) / step + 1);
-  const auto best = search(d, candidates, top, floor);
+  long long count = static_cast<long long>(d.scans.size()) * ((2 * d.window_cells) / step + 1) *
+                   ((2 * d.window_cells) / step + 1);
+  const auto best = search(d, candidates, top, floor, count);
+  if (scored) *scored = count;
   if (!best) return std::nullopt;
   return toMatch(initial, d, *best, points.size());
 }
@@ -163,7 +165,8 @@ std::optional<ScanMatch> FastCorrelativeScanMatcher::matchFullSubmap(
 
 std::optional<ScanMatch> FastCorrelativeScanMatcher::matchExhaustive(
     const core::Pose2& initial, const PointCloud& points, const SearchWindow& window,
-    double min_score, const std::optional<Exclusion>& exclude) const {
+    double min_score, const std::optional<Exclusion>& exclude, long long* scored) const {
+  if (scored) *scored = 0;
   if (points.empty()) return std::nullopt;
   const Discretization d = discretize(initial, points, window, exclude);
   std::optional<Candidate> best;
@@ -180,8 +183,10 @@ std::optional<ScanMatch> FastCorrelativeScanMatcher::matchExhaustive(
       }
     }
   }
-  last_scored_ =
-      static_cast<long long>(d.scans.size()) * (2 * d.window_cells + 1) * (2 * d.window_cells + 1);
+  if (scored) {
+    *scored = static_cast<long long>(d.scans.size()) * (2 * d.window_cells + 1) *
+              (2 * d.window_cells + 1);
+  }
   if (!best) return std::nullopt;
   return toMatch(initial, d, *best, points.size());
 }

@@ -45,24 +45,26 @@ class FastCorrelativeScanMatcher {
   FastCorrelativeScanMatcher(const MatchGrid& grid, int depth);
 
   /// The best pose within `window` around `initial` (submap frame) scoring above `min_score`,
-  /// outside `exclude` when given.
+  /// outside `exclude` when given. `scored`, when given, receives the number of candidates the
+  /// search scored (all levels). The matcher is const and keeps no state of a search: loop search
+  /// threads may match against one submap at once.
   std::optional<ScanMatch> match(const core::Pose2& initial, const PointCloud& points,
                                  const SearchWindow& window, double min_score,
-                                 const std::optional<Exclusion>& exclude = std::nullopt) const;
+                                 const std::optional<Exclusion>& exclude = std::nullopt,
+                                 long long* scored = nullptr) const;
   /// Relocalization: every translation that keeps the scan's origin on the submap, every rotation.
   std::optional<ScanMatch> matchFullSubmap(
       const PointCloud& points, double min_score,
       const std::optional<Exclusion>& exclude = std::nullopt) const;
   /// The same result by scoring every discrete pose of the window (for tests and benchmarks).
-  std::optional<ScanMatch> matchExhaustive(
-      const core::Pose2& initial, const PointCloud& points, const SearchWindow& window,
-      double min_score, const std::optional<Exclusion>& exclude = std::nullopt) const;
+  std::optional<ScanMatch> matchExhaustive(const core::Pose2& initial, const PointCloud& points,
+                                           const SearchWindow& window, double min_score,
+                                           const std::optional<Exclusion>& exclude = std::nullopt,
+                                           long long* scored = nullptr) const;
 
   const PrecomputationGridStack& grids() const { return grids_; }
   /// Cell size of the grid it searches.
   double resolution() const { return grids_.resolution(); }
-  /// Number of candidates scored by the last match() (all levels) or matchExhaustive().
-  long long lastScored() const { return last_scored_; }
 
  private:
   struct DiscreteScan {
@@ -94,15 +96,15 @@ class FastCorrelativeScanMatcher {
   /// no longer exceed `floor` (each cell left adds at most 255) and returns that bound, which is
   /// then <= floor: a candidate below the best so far is discarded without reading every cell.
   int score(const DiscreteScan& scan, int level, int x, int y, int floor) const;
+  /// Branch and bound below `level`; adds the candidates it scores to `scored`.
   std::optional<Candidate> search(const Discretization& d, std::vector<Candidate>& candidates,
-                                  int level, int min_score) const;
+                                  int level, int min_score, long long& scored) const;
   ScanMatch toMatch(const core::Pose2& initial, const Discretization& d, const Candidate& c,
                     std::size_t num_points) const;
 
   PrecomputationGridStack grids_;
   Eigen::Vector2d grid_center_;
   double grid_radius_;
-  mutable long long last_scored_ = 0;
 };
 
 }  // namespace rrr_graphslam::frontend
