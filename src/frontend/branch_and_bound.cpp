@@ -150,7 +150,7 @@ std::optional<ScanMatch> FastCorrelativeScanMatcher::match(
     }
   }
   long long count = static_cast<long long>(d.scans.size()) * ((2 * d.window_cells) / step + 1) *
-                   ((2 * d.window_cells) / step + 1);
+                    ((2 * d.window_cells) / step + 1);
   const auto best = search(d, candidates, top, floor, count);
   if (scored) *scored = count;
   if (!best) return std::nullopt;

@@ -43,8 +43,9 @@ void Submap::insert(const mrpt::obs::CObservation2DRangeScan& scan, const core::
 
 const MatchGrid& Submap::matchGrid() const {
   if (match_grid_dirty_ && grid_) {
-    match_grid_ =
-        MatchGrid::fromOccupancyGrid(*grid_, static_cast<float>(params_.active_unknown_value));
+    const double unknown = num_scans_ < params_.young_submap_scans ? params_.young_unknown_value
+                                                                   : params_.active_unknown_value;
+    match_grid_ = MatchGrid::fromOccupancyGrid(*grid_, static_cast<float>(unknown));
     match_grid_dirty_ = false;
   }
   return match_grid_;

@@ -245,12 +245,12 @@ TEST_P(LocalSlamTest, TracksARobotDrivingThroughTheRoomDespiteBiasedOdometry) {
 // A trajectory's first metres along a corridor of plain walls (its ends beyond the laser's range),
 // the odometry exact: matched against a submap of one or a few scans, a point beyond what they saw
 // scored as suspect as a wall's free side pulls each scan back inside, and the robot stays put.
-double corridorStartTravel(double active_unknown_value) {
+double corridorStartTravel(const SubmapParams& submap) {
   // Walls 2.2 m apart with a door post every 4 m (the laser sees 8 m).
   std::vector<testing::Segment> corridor = {{{-50, -1}, {50, -1}}, {{-50, 1.2}, {50, 1.2}}};
   for (double x = -48.0; x < 50.0; x += 4.0) corridor.push_back({{x, 1.2}, {x, 1.0}});
   LocalSlamParams params;
-  params.submap.active_unknown_value = active_unknown_value;
+  params.submap = submap;
   LocalSlam slam(params);
   core::Pose2 local = core::Pose2::Zero();
   for (int k = 0; k < 40; ++k) {  // 0.07 m per scan
@@ -262,9 +262,19 @@ double corridorStartTravel(double active_unknown_value) {
 
 TEST(LocalSlam, UnobservedCellsAtTheOccupancyPriorLetATrajectoryStartAlongACorridor) {
   const double travel = 0.07 * 39;
-  EXPECT_NEAR(corridorStartTravel(0.5), travel, 0.05 * travel);
-  // Unobserved cells scored as the loop search scores them (0.1, the default): held back.
-  EXPECT_LT(corridorStartTravel(SubmapParams{}.active_unknown_value), 0.5 * travel);
+  SubmapParams prior;
+  prior.active_unknown_value = 0.5;
+  EXPECT_NEAR(corridorStartTravel(prior), travel, 0.05 * travel);
+  // Unobserved cells scored as the loop search scores them (0.1): held back.
+  SubmapParams suspect;
+  suspect.active_unknown_value = 0.1;
+  suspect.young_submap_scans = 0;
+  EXPECT_LT(corridorStartTravel(suspect), 0.5 * travel);
+  // At the prior while the submap is young only.
+  SubmapParams young = suspect;
+  young.young_submap_scans = 10;
+  young.young_unknown_value = 0.5;
+  EXPECT_NEAR(corridorStartTravel(young), travel, 0.05 * travel);
 }
 
 TEST(LocalSlam, RefusesImplausibleScansAndTracksOnAfterAnOdometryJump) {

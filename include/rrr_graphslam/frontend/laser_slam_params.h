@@ -67,6 +67,13 @@ void forEachSlamParam(Params& p, F&& f) {
                     "what never-observed cells of the submaps local SLAM matches score (0.5, "
                     "the occupancy prior, frees a start in a corridor)"},
     local.submap.active_unknown_value);
+  f(core::ParamInfo{"young_submap_scans", 0, 1e6,
+                    "while the submap local SLAM matches holds fewer scans (a session's first), "
+                    "its never-observed cells score young_submap_unknown_probability (0: off)"},
+    local.submap.young_submap_scans);
+  f(core::ParamInfo{"young_submap_unknown_probability", 0.0, 1.0,
+                    "... this (0.5, the occupancy prior: a start in a corridor is not held back)"},
+    local.submap.young_unknown_value);
   f(core::ParamInfo{"scan_translation_weight", 0.0, 1e6,
                     "least squares: pull of the translation toward the prediction"},
     local.least_squares.translation_weight);

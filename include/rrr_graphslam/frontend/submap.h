@@ -40,6 +40,13 @@ struct SubmapParams {
   /// way, but in every submap: FR clinic's map then drifts apart (doc/benchmarks.md#sessions).
   /// Default 0.1, as finished submaps.
   double active_unknown_value = 0.1;
+  /// A young submap's instead: while it holds fewer than young_submap_scans scans, its
+  /// never-observed cells score young_unknown_value (0.5, the occupancy prior: no evidence either
+  /// way), so a session's first scans are not held back where its first submap saw nothing yet;
+  /// from then on active_unknown_value. Local SLAM matches a submap this young only at a session's
+  /// start (later ones are matched from half full on). Default 0: off.
+  int young_submap_scans = 0;
+  double young_unknown_value = 0.5;
   int branch_and_bound_depth = 7;  ///< levels of max-grids built when the submap is finished
   /// Branch and bound searches a grid this many times coarser than resolution_m (max-pooled, so
   /// its bounds stay bounds); the least-squares refinement of a match and a final min_score
@@ -80,7 +87,8 @@ class Submap {
   const std::vector<Member>& members() const { return members_; }
 
   /// The grid as matching reads it (rebuilt lazily after insertions while active): never-observed
-  /// cells score active_unknown_value while the submap is active, unknown_value once finished.
+  /// cells score young_unknown_value while the submap holds fewer than young_submap_scans scans,
+  /// then active_unknown_value while it is active, unknown_value once finished.
   const MatchGrid& matchGrid() const;
   /// The MRPT grid while the submap is active (nullptr once finished: it is released).
   const mrpt::maps::COccupancyGridMap2D* grid() const { return grid_.get(); }
