@@ -414,6 +414,55 @@ TEST(MapTrimming, ARunningSessionTrimsTheEarlierOnesAndGoesOnAsBefore) {
             running->scanTimestamps().size() - static_cast<std::size_t>(shift));
   EXPECT_EQ(next.sessionFirstScan(), running->sessionFirstScan() - static_cast<std::size_t>(shift));
 
+  // Each kept submap's search sampling comes along under its new number, the rival reading's
+  // (searched once a tied session's loops read it elsewhere) like the estimate's.
+  {
+    const LaserSlam::Checkpoint carried = next.checkpoint();
+    EXPECT_TRUE(checkpoint.rival_search_state.empty());  // this session met no rival reading
+    EXPECT_TRUE(carried.rival_search_state.empty());
+    ASSERT_EQ(carried.search_state.size(), after.submaps.size() - carried.local.active.size());
+    int searched = 0;
+    for (const auto& s : carried.search_state) {
+      if (s.last_searched < 0) continue;
+      ++searched;
+      EXPECT_LT(s.last_searched, static_cast<int>(after.nodes.size()));
+      EXPECT_GE(s.last_searched, after.sessions.back().first_node);  // searched by this session
+    }
+    EXPECT_GT(searched, 0);
+    LaserSlam::Checkpoint with_rival = checkpoint;
+    with_rival.rival_search_state = checkpoint.search_state;
+    for (std::size_t i = 0; i < with_rival.rival_search_state.size(); i += 2) {
+      with_rival.rival_search_state[i] = {};  // never searched around the rival reading
+    }
+    const LaserSlam::Trimmed rival =
+        LaserSlam::trimmed(with_rival, params, OverlapRatioTrimming(params.trim_overlap_ratio));
+    ASSERT_NE(rival.slam, nullptr);
+    const LaserSlam::Checkpoint r = rival.slam->checkpoint();
+    ASSERT_EQ(r.rival_search_state.size(), carried.search_state.size());
+    ASSERT_EQ(r.search_state.size(), carried.search_state.size());
+    // Submap by submap: where the rival reading's state was the estimate's, it is carried to the
+    // same numbers; where it was never searched, it stays so.
+    int same = 0;
+    int never = 0;
+    for (std::size_t k = 0; k < r.rival_search_state.size(); ++k) {
+      const auto& got = r.rival_search_state[k];
+      const auto& estimate = r.search_state[k];
+      EXPECT_EQ(estimate.last_searched, carried.search_state[k].last_searched) << k;
+      EXPECT_EQ(estimate.last_matched, carried.search_state[k].last_matched) << k;
+      if (estimate.last_searched < 0) continue;
+      if (got.last_searched == estimate.last_searched &&
+          got.last_matched == estimate.last_matched) {
+        ++same;
+      } else {
+        EXPECT_LT(got.last_searched, 0) << k;  // one of those never searched around the rival
+        EXPECT_LT(got.last_matched, 0) << k;
+        ++never;
+      }
+    }
+    EXPECT_GT(same, 0);
+    EXPECT_GT(never, 0);
+  }
+
   // Both go on with the same scans: local SLAM continues exactly where it was.
   drive(*running, odom_frame, 80, 1000.0, 520);
   drive(next, odom_frame, 80, 1000.0, 520);
