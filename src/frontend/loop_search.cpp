@@ -71,14 +71,15 @@ SubmapSearch searchUnlessAmbiguous(const Submap& submap, int node, const LoopSea
   const std::optional<ScanMatch> match = branch_and_bound(params.min_score, std::nullopt);
   if (!match) return {};
   SubmapSearch out;
-  if (params.ambiguity_ratio < 1.0) {
+  out.loop = toLoop(submap, node, scan, *match, params);
+  // Only a match that would be proposed pays for the second search (and counts as ambiguous).
+  if (out.loop && params.ambiguity_ratio < 1.0) {
     const Exclusion own_place{match->pose, params.ambiguity_exclusion.linear_m,
                               params.ambiguity_exclusion.angular_rad};
     out.alias = branch_and_bound(std::max(params.min_score, params.ambiguity_ratio * match->score),
                                  std::optional<Exclusion>(own_place));
-    if (out.alias) return out;
+    if (out.alias) out.loop.reset();
   }
-  out.loop = toLoop(submap, node, scan, *match, params);
   return out;
 }
 

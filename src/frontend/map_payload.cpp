@@ -283,7 +283,8 @@ MapSnapshot decodeMapPayload(const std::vector<std::uint8_t>& bytes, std::uint32
     e.reason = in.text();
     if (version >= 4) {
       const auto source = in.get<std::uint8_t>();
-      if (source > (version >= 6 ? 5 : 4)) {
+      const auto newest = version >= 6 ? LoopSource::kRivalSearch : LoopSource::kExternal;
+      if (source > static_cast<std::uint8_t>(newest)) {
         throw std::invalid_argument("loop source " + std::to_string(source) + " is unknown");
       }
       e.source = static_cast<LoopSource>(source);

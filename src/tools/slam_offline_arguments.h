@@ -401,6 +401,7 @@ inline Arguments parseArguments(int argc, char** argv) {
   }
   if (args.session_name.empty()) args.session_name = args.log.substr(args.log.rfind('/') + 1);
   try {
+    frontend::validate(p);  // the ranges, and the rules between parameters
     rrr::validate(p.rrr);
   } catch (const std::invalid_argument& e) {
     cli.fail(e.what());

@@ -64,6 +64,41 @@ TEST(LaserSlamParams, ValidateNamesTheParameterAndItsRange) {
   EXPECT_THROW(validate(p), std::invalid_argument);
 }
 
+TEST(LaserSlamParams, RulesBetweenParametersNameThem) {
+  // A young submap is a session's first only while later submaps, matched from half full on,
+  // hold more scans than young_submap_scans.
+  LaserSlamParams p;
+  p.local.submap.scans_per_submap = 10;
+  p.local.submap.young_submap_scans = 5;
+  EXPECT_NO_THROW(validate(p));
+  p.local.submap.young_submap_scans = 6;
+  try {
+    validate(p);
+    FAIL() << "young_submap_scans 6 accepted with scans_per_submap 10";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("young_submap_scans = 6"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("scans_per_submap = 10"), std::string::npos) << e.what();
+  }
+  p.local.submap.scans_per_submap = 11;  // later submaps are matched from 6 scans on
+  EXPECT_NO_THROW(validate(p));
+
+  // The ambiguity search's own place must hold the match's peak: two search cells at least.
+  p = LaserSlamParams{};
+  p.loops.ambiguity_exclusion.linear_m = 0.05;
+  EXPECT_NO_THROW(validate(p));  // the gate is off (ambiguity_ratio 1)
+  p.loops.ambiguity_ratio = 0.9;
+  try {
+    validate(p);
+    FAIL() << "an ambiguity distance of one search cell accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_EQ(std::string(e.what()).rfind("loop_ambiguity_distance = 0.05 m", 0), 0u) << e.what();
+  }
+  p.loops.ambiguity_exclusion.linear_m = 0.2;
+  EXPECT_NO_THROW(validate(p));
+  p.loops.ambiguity_exclusion.angular_rad = 0.0;
+  EXPECT_THROW(validate(p), std::invalid_argument);
+}
+
 TEST(LaserSlamParams, SubmapInsertionRangeFollowsTheScanRange) {
   LaserSlamParams p;
   forEachSlamParam(p, [](const core::ParamInfo& info, auto& value) {

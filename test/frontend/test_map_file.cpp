@@ -26,6 +26,7 @@
 #include "rrr_graphslam/core/input_error.h"
 #include "rrr_graphslam/frontend/laser_slam.h"
 #include "rrr_graphslam/frontend/map_file.h"
+#include "rrr_graphslam/frontend/map_payload.h"
 #include "synthetic_room.h"
 
 namespace rrr_graphslam::frontend {
@@ -279,6 +280,19 @@ TEST(MapFile, VersionThreeKeepsSessionNumbersAndTheMemory) {
   EXPECT_EQ(read6.edges[static_cast<std::size_t>(loop - rival.edges.begin())].source,
             LoopSource::kRivalSearch);
   EXPECT_EQ(toString(LoopSource::kRivalSearch), "rival-search");
+  // A version-5 file holding one (written by hand: the writer refuses it) is refused when read.
+  const std::string payload = encodeMapPayload(rival);
+  try {
+    decodeMapPayload(std::vector<std::uint8_t>(payload.begin(), payload.end()), 5);
+    ADD_FAILURE() << "a rival-search loop read from a version-5 payload";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("loop source 5 is unknown"), std::string::npos)
+        << e.what();
+  }
+  EXPECT_EQ(decodeMapPayload(std::vector<std::uint8_t>(payload.begin(), payload.end()), 6)
+                .edges[static_cast<std::size_t>(loop - rival.edges.begin())]
+                .source,
+            LoopSource::kRivalSearch);
   rival.format_version = 5;
   expectRefused(rival, "comes from the rival search, which format version 5 cannot name");
 

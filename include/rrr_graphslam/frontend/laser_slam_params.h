@@ -142,7 +142,7 @@ void forEachSlamParam(Params& p, F&& f) {
   f(core::ParamInfo{"loop_ambiguity_distance", 0.0, 1e3,
                     "m; ... distinct: farther than this from the match, or turned by more than"},
     loops.ambiguity_exclusion.linear_m);
-  f(core::ParamInfo{"loop_ambiguity_angle", 0.0, M_PI, "rad; ... this"},
+  f(core::ParamInfo{"loop_ambiguity_angle", 0.01, M_PI, "rad; ... this"},
     loops.ambiguity_exclusion.angular_rad);
   f(core::ParamInfo{"loop_search_threads", 1, 256, "threads matching a node against its submaps"},
     loops.threads);
