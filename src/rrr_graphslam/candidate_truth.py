@@ -143,3 +143,55 @@ def node_references(node_ids: Sequence[int], node_stamps: Sequence[float], truth
         out[node] = None if i is None else NodeReference(
             compose(truth.pose_of_scan(i), to_robot), truth.bridge(i))
     return out
+
+
+@dataclass
+class TurnDrift:
+    """How far the front end's own chain of nodes (local SLAM's steps, the odometry edges) turns
+    away from the reference: over pairs of nodes at corrected scans (bridge 0) `min_steps` to
+    `max_steps` node steps apart, the random-walk standard deviation per step that explains their
+    heading errors, sqrt(mean(error^2 / steps)) (rad). The reference's own heading error is in it:
+    an upper bound. It is what the third entry of scan_odometry_stddev states."""
+    per_step_rad: float
+    pairs: int
+    worst_deg: float  # the largest heading error of a pair
+
+
+def turn_drift(edges: Sequence[Edge], reference: Mapping[int, Optional[NodeReference]],
+               min_steps: int = 100, max_steps: int = 1000) -> Optional[TurnDrift]:
+    """TurnDrift of the chain of first edges between consecutive node ids (the odometry a g2o file
+    lists before the loops); a node without one starts a new chain. None without a pair."""
+    step: Dict[int, float] = {}
+    for e in edges:
+        if e.target == e.source + 1 and e.source not in step:
+            step[e.source] = e.measurement[2]
+    anchored = sorted(n for n, r in reference.items() if r is not None and r.bridge == 0.0)
+    if not anchored:
+        return None
+    # Heading of the chain at each node (unwrapped), and the chain it belongs to.
+    heading, chain = {}, {}
+    first, last = anchored[0], anchored[-1]
+    h, c = 0.0, 0
+    for n in range(first, last + 1):
+        heading[n], chain[n] = h, c
+        if n in step:
+            h += step[n]
+        else:
+            c += 1
+    total, pairs, worst = 0.0, 0, 0.0
+    for i, a in enumerate(anchored):
+        for b in anchored[i + 1:]:
+            steps = b - a
+            if steps < min_steps:
+                continue
+            if steps >= max_steps or chain[a] != chain[b]:
+                break
+            turned = heading[b] - heading[a]
+            truth = reference[b].pose[2] - reference[a].pose[2]
+            error = math.remainder(turned - truth, 2.0 * math.pi)
+            total += error * error / steps
+            pairs += 1
+            worst = max(worst, abs(error))
+    if pairs == 0:
+        return None
+    return TurnDrift(math.sqrt(total / pairs), pairs, math.degrees(worst))

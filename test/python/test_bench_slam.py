@@ -160,6 +160,8 @@ def test_the_candidates_are_labelled_by_the_corrected_log_not_by_the_map(
         "0.500 / 0.500; worst false accepted 0.60 m / 0.0°"
     assert clinic["by the reference: true / false"] == "–"
     assert fr079["ATE vs corrected"] == "–"  # no scan check without rrr_align_scans
+    # Six nodes: no pair of nodes 100 steps apart to measure local SLAM's drift by.
+    assert fr079["local SLAM's turn drift (rad per node step)"] == "–"
     # The verifiers table: the labelled log only, each verifier scored on the same labels.
     labels = (tmp_path / "cache" / "fr079" / "candidates.labels").read_text()
     assert labels == "0 3 1\n1 5 1\n2 5 0\n"

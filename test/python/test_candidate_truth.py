@@ -6,7 +6,7 @@ import pytest
 from rrr_graphslam.bench_sessions import GroundTruth, RawScan
 from rrr_graphslam.candidate_truth import (MAX_BRIDGE_M, NodeReference, candidate_labels,
                                            node_references, reference_chi2, score_candidates,
-                                           write_labels)
+                                           turn_drift, write_labels)
 from rrr_graphslam.evaluation import read_decisions, read_truth
 from rrr_graphslam.graph_io import Edge, between, compose
 
@@ -94,3 +94,29 @@ def test_the_labels_file_scores_other_decisions_as_the_evaluation_reads_it(tmp_p
                                     "0\t2\t0\trejected\n1\t7\t1\taccepted\n")
     decisions = read_decisions(str(tmp_path / "d.tsv"))
     assert read_truth(str(tmp_path / "c.labels"), decisions) == [True, False, None]
+
+
+def test_turn_drift_recovers_a_random_walks_step_deviation_and_stops_at_a_gap():
+    import random
+    rng = random.Random(3)
+    sigma, n = 0.002, 3000
+    truth, odometry, heading = {}, [], 0.0
+    for k in range(n):
+        truth[k] = NodeReference((0.0, 0.0, math.remainder(heading, 2 * math.pi)),
+                                 0.0 if k % 7 == 0 else 0.3)  # every 7th node at a corrected scan
+        turn = 0.05 * math.sin(k / 40.0)
+        heading += turn
+        odometry.append(Edge(k, k + 1, (0.1, 0.0, turn + rng.gauss(0.0, sigma)), TIGHT, 0))
+    drift = turn_drift(odometry, truth)
+    assert drift.per_step_rad == pytest.approx(sigma, rel=0.15)
+    assert drift.pairs > 1000
+    # A loop between consecutive ids listed after the odometry is not a step.
+    with_loop = odometry + [Edge(10, 11, (0.0, 0.0, 1.0), TIGHT, 0)]
+    assert turn_drift(with_loop, truth).per_step_rad == drift.per_step_rad
+    # Exact steps: no drift. Without the step 1499 -> 1500 the chain breaks: pairs only on one side.
+    exact = [Edge(e.source, e.target, (0.1, 0.0, 0.05 * math.sin(e.source / 40.0)), TIGHT, 0)
+             for e in odometry]
+    assert turn_drift(exact, truth).per_step_rad == pytest.approx(0.0, abs=1e-9)
+    gap = [e for e in odometry if e.source != 1499]
+    assert turn_drift(gap, truth).pairs < drift.pairs
+    assert turn_drift(odometry, truth, min_steps=5000) is None
