@@ -10,17 +10,6 @@ void validate(const LaserSlamParams& params) {
     core::checkRange(info, value);
   });
   const SubmapParams& submap = params.local.submap;
-  // Local SLAM matches the older of its two submaps; from the second submap on, that one holds
-  // scans_per_submap - scans_per_submap / 2 scans when it becomes the matched one. A larger
-  // young_submap_scans would put every submap at the young prior, not only a session's first.
-  const int matched_from = submap.scans_per_submap - submap.scans_per_submap / 2;
-  if (submap.young_submap_scans > matched_from) {
-    std::ostringstream s;
-    s << "young_submap_scans = " << submap.young_submap_scans << " exceeds the " << matched_from
-      << " scans every later submap holds when local SLAM starts matching it "
-      << "(scans_per_submap = " << submap.scans_per_submap << "): it would apply to every submap";
-    throw std::invalid_argument(s.str());
-  }
   // The ambiguity search leaves out the match's own place; one smaller than two cells of the
   // branch-and-bound grid leaves the match's own peak in and calls every match ambiguous.
   const double search_cell = submap.resolution_m * submap.search_grid_factor;

@@ -63,7 +63,7 @@ void Submap::finish() {
 }
 
 ActiveSubmaps::ActiveSubmaps(const SubmapParams& params, int first_index)
-    : params_(params), next_index_(first_index) {
+    : params_(params), first_index_(first_index), next_index_(first_index) {
   if (params.scans_per_submap < 2) throw std::invalid_argument("scans_per_submap must be >= 2");
   if (!(params.resolution_m > 0.0)) throw std::invalid_argument("resolution must be positive");
 }
@@ -72,7 +72,9 @@ std::shared_ptr<Submap> ActiveSubmaps::insert(const mrpt::obs::CObservation2DRan
                                               const core::Pose2& local_pose, int node) {
   if (start_next_) {
     start_next_ = false;
-    active_.push_back(std::make_shared<Submap>(next_index_++, node, local_pose, params_));
+    active_.push_back(
+        std::make_shared<Submap>(next_index_, node, local_pose, paramsOf(next_index_)));
+    ++next_index_;
   }
   for (auto& submap : active_) submap->insert(scan, local_pose, node);
   std::shared_ptr<Submap> finished;
@@ -101,8 +103,9 @@ void ActiveSubmaps::rebuild(const std::vector<Contents>& contents, int node_shif
   std::vector<std::shared_ptr<Submap>> rebuilt;
   for (const Contents& c : contents) {
     if (c.members.empty()) throw std::invalid_argument("an active submap without insertions");
-    auto submap = std::make_shared<Submap>(
-        c.index - submap_shift, c.members.front().node - node_shift, c.anchor_pose, params_);
+    auto submap =
+        std::make_shared<Submap>(c.index - submap_shift, c.members.front().node - node_shift,
+                                 c.anchor_pose, paramsOf(c.index));
     for (const Submap::Member& m : c.members) {
       const int node = m.node - node_shift;
       submap->insert(scan_of(node), m.local_pose, node);
@@ -111,6 +114,13 @@ void ActiveSubmaps::rebuild(const std::vector<Contents>& contents, int node_shif
   }
   active_ = std::move(rebuilt);
   next_index_ -= submap_shift;
+  first_index_ -= submap_shift;  // trimming removes submaps before the active ones only
+}
+
+SubmapParams ActiveSubmaps::paramsOf(int index) const {
+  SubmapParams p = params_;
+  if (index != first_index_) p.young_submap_scans = 0;
+  return p;
 }
 
 }  // namespace rrr_graphslam::frontend

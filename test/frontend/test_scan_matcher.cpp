@@ -407,5 +407,36 @@ TEST(ActiveSubmaps, TwoActiveHalfOverlappingSubmapsOfFixedSize) {
   }
 }
 
+TEST(ActiveSubmaps, OnlyTheSessionsFirstSubmapIsYoung) {
+  SubmapParams params;
+  params.scans_per_submap = 4;
+  params.young_submap_scans = 20;  // more than any submap here ever holds
+  params.young_unknown_value = 0.5;
+  params.active_unknown_value = 0.1;
+  ActiveSubmaps submaps(params, 7);  // a session whose first submap is the map's 8th
+  const auto scan = toObservation(castScan(room(), core::Pose2(3, 3, 0)), RangeScanParams{});
+  std::vector<std::pair<int, float>> matched;  // submap index, its unknown cells' score
+  for (int node = 0; node < 10; ++node) {
+    submaps.insert(scan, core::Pose2(3, 3, 0), node);
+    const auto m = submaps.matchingSubmap();
+    matched.emplace_back(m->index(), m->matchGrid().unknown());
+  }
+  for (const auto& [index, unknown] : matched) {
+    EXPECT_FLOAT_EQ(unknown, index == 7 ? 0.5F : 0.1F) << "submap " << index;
+  }
+  EXPECT_EQ(matched.front().first, 7);
+  EXPECT_GE(matched.back().first, 9);
+  // Rebuilt after trimming (two earlier sessions' submaps gone): the same rule, renumbered.
+  ActiveSubmaps first(params, 7);
+  first.insert(scan, core::Pose2(3, 3, 0), 0);
+  first.rebuild(first.contents(), 0, 2,
+                [&](int) -> const mrpt::obs::CObservation2DRangeScan& { return scan; });
+  ASSERT_EQ(first.matchingSubmap()->index(), 5);
+  EXPECT_FLOAT_EQ(first.matchingSubmap()->matchGrid().unknown(), 0.5F);
+  for (int node = 1; node < 4; ++node) first.insert(scan, core::Pose2(3, 3, 0), node);
+  ASSERT_EQ(first.matchingSubmap()->index(), 6);
+  EXPECT_FLOAT_EQ(first.matchingSubmap()->matchGrid().unknown(), 0.1F);
+}
+
 }  // namespace
 }  // namespace rrr_graphslam::frontend

@@ -40,11 +40,11 @@ struct SubmapParams {
   /// way, but in every submap: FR clinic's map then drifts apart (doc/benchmarks.md#sessions).
   /// Default 0.1, as finished submaps.
   double active_unknown_value = 0.1;
-  /// A young submap's instead: while it holds fewer than young_submap_scans scans, its
+  /// A session's first submap's instead: while it holds fewer than young_submap_scans scans, its
   /// never-observed cells score young_unknown_value (0.5, the occupancy prior: no evidence either
   /// way), so a session's first scans are not held back where its first submap saw nothing yet;
-  /// from then on active_unknown_value. Local SLAM matches a submap this young only at a session's
-  /// start (later ones are matched from half full on). Default 0: off.
+  /// from then on active_unknown_value. Later submaps never (ActiveSubmaps gives the rule to the
+  /// first submap it starts only). Default 0: off.
   int young_submap_scans = 0;
   double young_unknown_value = 0.5;
   int branch_and_bound_depth = 7;  ///< levels of max-grids built when the submap is finished
@@ -114,7 +114,8 @@ class Submap {
 /// the newer one is half full, so consecutive submaps overlap by half.
 class ActiveSubmaps {
  public:
-  /// Submaps are numbered from `first_index`.
+  /// Submaps are numbered from `first_index`; that one, the session's first, is the only one
+  /// young_submap_scans applies to.
   explicit ActiveSubmaps(const SubmapParams& params, int first_index = 0);
 
   /// Inserts; returns the submap finished by this insertion, if any.
@@ -146,8 +147,12 @@ class ActiveSubmaps {
                const ScanOf& scan_of);
 
  private:
+  // The parameters of submap `index`: young_submap_scans for the session's first only.
+  SubmapParams paramsOf(int index) const;
+
   SubmapParams params_;
   std::vector<std::shared_ptr<Submap>> active_;
+  int first_index_ = 0;
   int next_index_ = 0;
   bool start_next_ = true;
 };
