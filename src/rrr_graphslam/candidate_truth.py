@@ -17,13 +17,14 @@ which trajectory bridges (the map's or the raw odometry: 5 of ACES's 194 labels 
 Intel's 3166). RRR's verdicts on the labelled candidates give its precision and recall on real
 candidates, which the map it built cannot tell."""
 
+import bisect
 import math
 from dataclasses import dataclass, field
 from typing import Dict, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
-from .graph_io import Edge, Pose, between, compose, information_matrix
+from .graph_io import Edge, Pose, between, compose, information_matrix, normalize_angle
 from .outliers import gate
 
 # Standard deviation of a reference relative pose between two corrected scans: x, y (m), heading
@@ -179,16 +180,14 @@ def turn_drift(edges: Sequence[Edge], reference: Mapping[int, Optional[NodeRefer
         else:
             c += 1
     total, pairs, worst = 0.0, 0, 0.0
-    for i, a in enumerate(anchored):
-        for b in anchored[i + 1:]:
+    for a in anchored:
+        for b in anchored[bisect.bisect_left(anchored, a + min_steps):]:
             steps = b - a
-            if steps < min_steps:
-                continue
             if steps >= max_steps or chain[a] != chain[b]:
                 break
             turned = heading[b] - heading[a]
             truth = reference[b].pose[2] - reference[a].pose[2]
-            error = math.remainder(turned - truth, 2.0 * math.pi)
+            error = normalize_angle(turned - truth)
             total += error * error / steps
             pairs += 1
             worst = max(worst, abs(error))
