@@ -129,7 +129,9 @@ void LaserSlam::searchLoops(int node, const PointCloud& scan_points) {
   // (relocalization); around its map pose too once accepted loops place it.
   const bool relocalizing = sessions_.size() > 1 && !tied();
   const bool placed_now = relocalizing && placed();
-  const bool resting = relocalizing && node < relocalization_paused_until_;
+  // After a few matches to the map, the earlier sessions' submaps rest (below), also when those
+  // matches tied the session: no candidate joining the session to the map comes within the gap.
+  const bool resting = sessions_.size() > 1 && node < relocalization_paused_until_;
   const bool relocalize_now =
       relocalizing && !resting &&
       (node - sessions_.back().first_node) % p.relocalization_every_n_nodes == 0;
@@ -154,38 +156,43 @@ void LaserSlam::searchLoops(int node, const PointCloud& scan_points) {
                            core::between(node_local_poses_[static_cast<std::size_t>(hint_node)],
                                          node_local_poses_[static_cast<std::size_t>(node)]));
   }
+  // A search of `submap` around where `pose` (a map pose) puts this node, if the submap's anchor
+  // lies within reach of it.
+  const auto around = [&](const Submap& submap, const core::Pose2& pose,
+                          bool rival) -> std::optional<Search> {
+    const core::Pose2& anchor = map[static_cast<std::size_t>(submap.anchorNode())];
+    if ((anchor.head<2>() - pose.head<2>()).norm() > p.max_constraint_distance_m) {
+      return std::nullopt;
+    }
+    Search s{&submap, core::compose(submap.anchorPose(), core::between(anchor, pose)), false};
+    s.rival = rival;
+    return s;
+  };
+  // Cartographer's per-submap sampling, and a pause after a match: the next few nodes would tell
+  // RRR the same thing about this submap.
+  const auto due = [&](SubmapSearchState& state) {
+    if (node - state.last_searched < p.search_every_n_nodes) return false;
+    if (node - state.last_matched < p.pause_after_match_nodes) return false;
+    state.last_searched = node;
+    return true;
+  };
   for (const auto& submap : finished_) {
     const bool earlier_session = submap->index() < session_first_submap_;
-    if (relocalizing && earlier_session && resting) continue;
+    if (earlier_session && resting) continue;
     if (relocalizing && earlier_session && relocalize_now) {
       if (!hinted) {
-        searches.push_back({submap.get(), core::Pose2::Zero(), true, {}, 0.0});
-        continue;
+        searches.push_back({submap.get(), core::Pose2::Zero(), true});
+      } else if (auto s = around(*submap, *hinted, false)) {
+        searches.push_back(*s);
       }
-      const core::Pose2& anchor = map[static_cast<std::size_t>(submap->anchorNode())];
-      if ((anchor.head<2>() - hinted->head<2>()).norm() > p.max_constraint_distance_m) continue;
-      searches.push_back({submap.get(),
-                          core::compose(submap->anchorPose(), core::between(anchor, *hinted)),
-                          false,
-                          {},
-                          0.0});
       continue;
     }
     if (relocalizing && earlier_session && !placed_now) continue;
     if (node - submap->lastNode() < p.min_node_separation) continue;
-    const core::Pose2& anchor = map[static_cast<std::size_t>(submap->anchorNode())];
-    if ((anchor.head<2>() - node_pose.head<2>()).norm() > p.max_constraint_distance_m) continue;
-    SubmapSearchState& state = search_state_[static_cast<std::size_t>(submap->index())];
-    // Cartographer's per-submap sampling, and a pause after a match: the next few nodes would
-    // tell RRR the same thing about this submap.
-    if (node - state.last_searched < p.search_every_n_nodes) continue;
-    if (node - state.last_matched < p.pause_after_match_nodes) continue;
-    state.last_searched = node;
-    searches.push_back({submap.get(),
-                        core::compose(submap->anchorPose(), core::between(anchor, node_pose)),
-                        false,
-                        {},
-                        0.0});
+    auto s = around(*submap, node_pose, false);
+    if (s && due(search_state_[static_cast<std::size_t>(submap->index())])) {
+      searches.push_back(*s);
+    }
   }
   // Once tied, the rival reading too (rivalReading): the earlier sessions' submaps near where it
   // puts this node, with their own sampling and pauses.
@@ -194,22 +201,14 @@ void LaserSlam::searchLoops(int node, const PointCloud& scan_points) {
   if (sessions_.size() > 1 && !relocalizing && !tied_by_marginals_ && p.rival_min_loops > 0) {
     rival = rivalReading(node, map);
   }
-  if (rival) {
+  if (rival && !resting) {
     rival_search_state_.resize(search_state_.size());
     for (const auto& submap : finished_) {
       if (submap->index() >= session_first_submap_) continue;
-      const core::Pose2& anchor = map[static_cast<std::size_t>(submap->anchorNode())];
-      if ((anchor.head<2>() - rival->head<2>()).norm() > p.max_constraint_distance_m) continue;
-      SubmapSearchState& state = rival_search_state_[static_cast<std::size_t>(submap->index())];
-      if (node - state.last_searched < p.search_every_n_nodes) continue;
-      if (node - state.last_matched < p.pause_after_match_nodes) continue;
-      state.last_searched = node;
-      searches.push_back({submap.get(),
-                          core::compose(submap->anchorPose(), core::between(anchor, *rival)),
-                          false,
-                          {},
-                          0.0,
-                          true});
+      auto s = around(*submap, *rival, true);
+      if (s && due(rival_search_state_[static_cast<std::size_t>(submap->index())])) {
+        searches.push_back(*s);
+      }
     }
   }
   if (searches.empty()) return;
@@ -260,13 +259,15 @@ void LaserSlam::searchLoops(int node, const PointCloud& scan_points) {
                            : LoopSource::kLocalSearch);
     relocalized = relocalized || to_earlier_session;
   }
-  // A cluster is decided once the robot is cluster_gap nodes past its newest link: after a few
-  // nodes matched the map, its search rests that long, so RRR decides them (places the session,
-  // or rejects them and the search goes on), and the next matches, farther along, make a cluster
-  // of their own that can confirm or contradict them.
+  // After a few nodes matched the map its search rests for longer than cluster_gap, so that the
+  // next matches, farther along, make a cluster of their own that can confirm or contradict
+  // these. Nothing can join their clusters then, so RRR decides them now (places the session, or
+  // rejects them and the search goes on) rather than once the robot is cluster_gap nodes past
+  // them: the same clusters, decided sooner.
   if (relocalized && ++relocalization_matches_ >= p.relocalization_matches) {
     relocalization_matches_ = 0;
     relocalization_paused_until_ = node + params_.rrr.rrr.cluster_gap + 1;
+    rrr_->closeJoining(static_cast<rrr::OnlineRrr::NodeId>(sessions_.back().first_node));
   }
 }
 

@@ -27,8 +27,13 @@ bool IncrementalRrr::addCandidate(int candidate) {
   return closed;
 }
 
-bool IncrementalRrr::advanceTo(int node) {
-  const std::vector<std::vector<int>> closed = open_.advanceTo(node);
+bool IncrementalRrr::advanceTo(int node) { return decideClosed(open_.advanceTo(node)); }
+
+bool IncrementalRrr::closeJoining(int session_first) {
+  return decideClosed(open_.closeJoining(session_first));
+}
+
+bool IncrementalRrr::decideClosed(const std::vector<std::vector<int>>& closed) {
   if (closed.empty()) return false;
   for (const std::vector<int>& members : closed) rrr_.addCluster(members);
   const bool rebatch = open_.currentNode() >= next_rebatch_;

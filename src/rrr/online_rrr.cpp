@@ -201,6 +201,12 @@ void OnlineRrr::admitWaitingCandidates() {
   waiting_.swap(still_waiting);
 }
 
+void OnlineRrr::closeJoining(NodeId session_first) {
+  const int k = indexOf(session_first);
+  if (k < 0) throw std::invalid_argument(id("session_first", session_first) + " is unknown");
+  if (decider_->closeJoining(k)) collectChanges();
+}
+
 void OnlineRrr::finish() {
   decider_->finish();
   decider_->endRun();  // what still waits (RRR: an unplaced session) stays unjoined

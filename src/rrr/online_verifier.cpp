@@ -31,8 +31,13 @@ bool OnlineVerifier::addCandidate(int candidate) {
   return closed;
 }
 
-bool OnlineVerifier::advanceTo(int node) {
-  const std::vector<std::vector<int>> closed = open_.advanceTo(node);
+bool OnlineVerifier::advanceTo(int node) { return closeAndDecide(open_.advanceTo(node)); }
+
+bool OnlineVerifier::closeJoining(int session_first) {
+  return closeAndDecide(open_.closeJoining(session_first));
+}
+
+bool OnlineVerifier::closeAndDecide(const std::vector<std::vector<int>>& closed) {
   if (closed.empty()) return false;
   close(closed);
   if (!defer_) decideClosed();

@@ -61,4 +61,22 @@ std::vector<std::vector<int>> OpenClusters::closeAll() {
   return closed;
 }
 
+std::vector<std::vector<int>> OpenClusters::closeJoining(int session_first) {
+  const auto joins = [&](int m) {
+    const LoopCandidate& c = graph_.candidate(m);
+    return oldestEnd(c) < session_first && newestEnd(c) >= session_first;
+  };
+  std::vector<std::vector<int>> closed;
+  std::vector<Cluster> still_open;
+  for (Cluster& open : open_) {
+    if (std::any_of(open.members.begin(), open.members.end(), joins)) {
+      closed.push_back(std::move(open.members));
+    } else {
+      still_open.push_back(std::move(open));
+    }
+  }
+  open_.swap(still_open);
+  return closed;
+}
+
 }  // namespace rrr_graphslam::rrr

@@ -640,6 +640,65 @@ TEST(Rrr, IncrementalDecidesLateCandidatesAtOnce) {
   EXPECT_NE(incremental.rrr().verdict(latest), Verdict::kPending);
 }
 
+// A front end that will propose nothing joining a session to the map for longer than the gap
+// (its relocalization search resting) closes those clusters at once: they are decided sooner,
+// clusters within the session stay open, and the clusters are the batch ones.
+TEST(Rrr, ClustersJoiningASessionCloseWhenAsked) {
+  core::PoseGraph g;
+  const Eigen::Matrix3d odo = Eigen::Vector3d(400.0, 400.0, 2500.0).asDiagonal();
+  const Eigen::Matrix3d loop = Eigen::Vector3d(100.0, 100.0, 400.0).asDiagonal();
+  const int a = 40, b = 60;  // session A, then B (in another frame), both around the square
+  const core::Pose2 frame_b(5, -3, 0.7);
+  for (int k = 0; k < a + b; ++k) {
+    const bool in_a = k < a;
+    g.addNode(k, in_a ? squarePose(k) : core::compose(frame_b, squarePose(k - a)));
+    if (k > 0 && k != a) {
+      const int along = in_a ? k : k - a;
+      g.addEdge(k - 1, k, core::between(squarePose(along - 1), squarePose(along)), odo,
+                core::EdgeKind::kOdometry);
+    }
+  }
+  // B's nodes 45..49 are where A's 5..9 are (joining), B's 50..53 where its own 10..13 were.
+  for (int k = 45; k < 50; ++k) {
+    g.addEdge(a + k, k - 40, core::Pose2::Zero(), loop, core::EdgeKind::kLoopCandidate);
+  }
+  for (int k = 50; k < 54; ++k) {
+    g.addEdge(a + k, a + k - 40, core::Pose2::Zero(), loop, core::EdgeKind::kLoopCandidate);
+  }
+  const int gap = 5;
+  std::vector<Verdict> batch_verdicts;
+  std::vector<int> batch_clusters;
+  {
+    VerificationGraph graph(g, {});
+    RrrParams params;
+    params.cluster_gap = gap;
+    runBatchRrr(graph, params, batch_verdicts, batch_clusters);
+  }
+  VerificationGraph graph(g, {});
+  ASSERT_EQ(graph.numCandidates(), 9);
+  IncrementalRrr incremental(graph, {}, gap);
+  for (int k = 0; k < 5; ++k) incremental.addCandidate(k);  // B's nodes 45..49
+  EXPECT_FALSE(incremental.closeJoining(a + 50)) << "no open cluster joins a session from 90 on";
+  for (int k = 5; k < 9; ++k) incremental.addCandidate(k);  // B's nodes 50..53: the robot at 93
+  EXPECT_EQ(incremental.numOpenClusters(), 2);
+  EXPECT_EQ(incremental.rrr().verdict(0), Verdict::kPending);
+  EXPECT_TRUE(incremental.closeJoining(a));
+  EXPECT_EQ(incremental.numOpenClusters(), 1);
+  for (int k = 0; k < 5; ++k) EXPECT_EQ(incremental.rrr().verdict(k), Verdict::kAccepted) << k;
+  for (int k = 5; k < 9; ++k) EXPECT_EQ(incremental.rrr().verdict(k), Verdict::kPending) << k;
+  incremental.advanceTo(a + b - 1);
+  incremental.finish();
+  for (int k = 0; k < 9; ++k) {
+    EXPECT_EQ(incremental.rrr().verdict(k), batch_verdicts[static_cast<std::size_t>(k)]) << k;
+    for (int j = 0; j < 9; ++j) {
+      EXPECT_EQ(incremental.rrr().clusterOf(k) == incremental.rrr().clusterOf(j),
+                batch_clusters[static_cast<std::size_t>(k)] ==
+                    batch_clusters[static_cast<std::size_t>(j)])
+          << k << " " << j;
+    }
+  }
+}
+
 // Three sessions driving the same square: B in its own frame with loops to A, C without any.
 TEST(Rrr, SessionsJoinOnlyThroughAcceptedLinks) {
   core::PoseGraph g;

@@ -124,7 +124,7 @@ void forEachSlamParam(Params& p, F&& f) {
                     "until a session is tied to the loaded map, every N-th node searches it whole"},
     loops.relocalization_every_n_nodes);
   f(core::ParamInfo{"relocalization_matches", 1, 1e6,
-                    "after N nodes matched the loaded map, its search rests until RRR decides"},
+                    "after N nodes matched the loaded map, RRR decides them and its search rests"},
     loops.relocalization_matches);
   f(core::ParamInfo{"relocalization_confirm_distance", 0.0, 1e6,
                     "m; RRR ties a session to the map by agreeing loops this far apart along it"},

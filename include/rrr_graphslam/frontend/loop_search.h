@@ -41,8 +41,9 @@ struct LoopSearchParams {
   /// While a session is not tied to the map it continues, every N-th of its nodes is matched
   /// against every submap of the earlier sessions, whole; default 5.
   int relocalization_every_n_nodes = 5;
-  /// While a session is not tied: after this many nodes matched the earlier sessions, their
-  /// search rests for cluster_gap nodes so that RRR decides their cluster; default 3.
+  /// While a session is not tied: after this many nodes matched the earlier sessions, RRR decides
+  /// their cluster at once and their search rests for cluster_gap + 1 nodes, so that the next
+  /// matches make a cluster of their own; default 3.
   int relocalization_matches = 3;
   /// A session counts as tied to the map once its accepted loops to the earlier sessions lie at
   /// least this far apart along its own path (m): one place alone can match the wrong corridor of

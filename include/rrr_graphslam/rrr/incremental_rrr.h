@@ -33,6 +33,10 @@ class IncrementalRrr {
   /// in a graph of several sessions, when it passed a multiple of
   /// RrrParams::incremental_rebatch_every since the last time).
   bool advanceTo(int node);
+  /// Closes and decides the open clusters joining the session that starts at `session_first` to
+  /// the earlier ones, for a caller that proposes no candidate joining them for more than the gap
+  /// (OpenClusters::closeJoining); returns as advanceTo.
+  bool closeJoining(int session_first);
   /// After the last candidate: closes every open cluster and decides all of them from scratch.
   /// Clusters waiting for their session to be placed still wait (Rrr::rejectUnplaced ends that).
   void finish();
@@ -57,6 +61,8 @@ class IncrementalRrr {
   /// The next decision from scratch: at the next multiple of incremental_rebatch_every past the
   /// current node.
   void scheduleNextRebatch();
+  /// Adds the closed clusters to RRR and decides (unless deferred); false if none.
+  bool decideClosed(const std::vector<std::vector<int>>& closed);
 
   VerificationGraph& graph_;
   Rrr rrr_;

@@ -26,6 +26,10 @@ class OnlineDecider {
   virtual bool addCandidate(int candidate) = 0;
   /// The robot reached node `node`; returns as addCandidate.
   virtual bool advanceTo(int node) = 0;
+  /// The open clusters joining the session that starts at node `session_first` to the earlier
+  /// ones closed and decided now, for a caller that proposes no candidate joining them for more
+  /// than the cluster gap (OpenClusters::closeJoining); returns as addCandidate.
+  virtual bool closeJoining(int session_first) = 0;
   /// After the last candidate: every open cluster closed and all of them decided from scratch.
   virtual void finish() = 0;
   /// The run ends: what still waits to be decided is rejected (RRR: clusters of a session never

@@ -137,6 +137,12 @@ class OnlineRrr {
   /// only to throw this graph away (a reset, a shutdown). nullptr (default): never cancelled.
   void setCancelFlag(const std::atomic<bool>* flag) { graph_.optimizer().setCancelFlag(flag); }
 
+  /// Closes and decides now the open clusters joining the session whose first node is
+  /// `session_first` to the earlier sessions. Only for a caller that proposes no candidate
+  /// joining them for more than cluster_gap nodes from now (a relocalization search that rests):
+  /// the clusters stay those cluster_gap would have closed, decided cluster_gap nodes sooner.
+  /// Throws std::invalid_argument for an unknown node.
+  void closeJoining(NodeId session_first);
   /// Closes every open cluster and decides all clusters from scratch (end of a run).
   void finish();
   /// Decides the closed clusters again from scratch; open clusters stay open.

@@ -27,6 +27,7 @@ class OnlineVerifier final : public OnlineDecider {
 
   bool addCandidate(int candidate) override;
   bool advanceTo(int node) override;
+  bool closeJoining(int session_first) override;
   void finish() override;
   void endRun() override {}
   void finishReplayKeepingOpen() override { decideClosed(); }
@@ -44,6 +45,8 @@ class OnlineVerifier final : public OnlineDecider {
  private:
   /// Numbers the clusters that closed and adds their candidates to the decided ones.
   void close(const std::vector<std::vector<int>>& clusters);
+  /// close(), then the decision unless deferred; false if nothing closed.
+  bool closeAndDecide(const std::vector<std::vector<int>>& closed);
   /// The verifier on the odometry, the marginal constraints and the closed clusters' candidates.
   void decideClosed();
 

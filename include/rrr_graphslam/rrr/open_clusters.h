@@ -26,6 +26,12 @@ class OpenClusters {
   std::vector<std::vector<int>> advanceTo(int node);
   /// Closes every open cluster (the end of a run), in the order they were opened.
   std::vector<std::vector<int>> closeAll();
+  /// Closes now, in the order they were opened, the open clusters that join the session starting
+  /// at node `session_first` to the nodes before it (a member with one end on each side). For a
+  /// caller that will propose no candidate joining them for more than the gap (the front end's
+  /// relocalization search resting after a few matches): no later candidate could join these
+  /// clusters, so closing them early leaves the clusters the batch ones, only decided sooner.
+  std::vector<std::vector<int>> closeJoining(int session_first);
 
   int size() const { return static_cast<int>(open_.size()); }
   int currentNode() const { return current_node_; }
