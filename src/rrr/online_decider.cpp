@@ -14,9 +14,7 @@ class IncrementalRrrDecider final : public OnlineDecider {
 
   bool addCandidate(int candidate) override { return incremental_.addCandidate(candidate); }
   bool advanceTo(int node) override { return incremental_.advanceTo(node); }
-  bool closeJoining(int session_first) override {
-    return incremental_.closeJoining(session_first);
-  }
+  bool closeJoining(int session_first) override { return incremental_.closeJoining(session_first); }
   void finish() override { incremental_.finish(); }
   void endRun() override { incremental_.rrr().rejectUnplaced(); }
   void finishReplayKeepingOpen() override { incremental_.finishReplayKeepingOpen(); }
