@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <stdexcept>
 
 #include <mrpt/poses/CPose3D.h>
@@ -132,19 +133,33 @@ void LaserSlam::searchLoops(int node, const PointCloud& scan_points) {
   // After a few matches to the map, the earlier sessions' submaps rest (below), also when those
   // matches tied the session: no candidate joining the session to the map comes within the gap.
   const bool resting = sessions_.size() > 1 && node < relocalization_paused_until_;
-  const bool relocalize_now =
-      relocalizing && !resting &&
+  const bool on_schedule =
       (node - sessions_.back().first_node) % p.relocalization_every_n_nodes == 0;
+  const bool relocalize_now = relocalizing && !resting && on_schedule;
+  // With two earlier sessions or more, some may lie in parts of the map (mapParts) other than
+  // the map's own, the first node's: once this session is tied, those are searched whole on the
+  // same schedule, with rests of their own, and never around a map pose (their frames are
+  // unrelated to the map's).
+  const std::vector<std::size_t> part =
+      sessions_.size() > 2 ? mapParts() : std::vector<std::size_t>{};
+  const auto part_of = [&](const Submap& submap) {
+    return part.empty() ? 0 : part[static_cast<std::size_t>(submap.anchorNode())];
+  };
+  const auto apart = [&](const Submap& submap) {
+    return !part.empty() && part_of(submap) != part[0];
+  };
+  const bool join_now = !relocalizing && on_schedule && node >= apart_paused_until_;
 
   // Which submaps to search, and from where (in node order, so the result does not depend on
   // the threads).
   struct Search {
     const Submap* submap;
     core::Pose2 initial;
-    bool whole;
-    std::optional<LoopMatch> loop;
+    bool whole = false;
+    std::optional<LoopMatch> loop{};
     double seconds = 0.0;
     bool rival = false;      // around the rival reading of where the session lies
+    bool apart = false;      // whole, in a part of the map this session is not joined to
     bool ambiguous = false;  // a distinct pose scored nearly as well: not proposed
   };
   std::vector<Search> searches;
@@ -188,6 +203,14 @@ void LaserSlam::searchLoops(int node, const PointCloud& scan_points) {
       continue;
     }
     if (relocalizing && earlier_session && !placed_now) continue;
+    if (earlier_session && apart(*submap)) {
+      if (!relocalizing && join_now) {
+        Search s{submap.get(), core::Pose2::Zero(), true};
+        s.apart = true;
+        searches.push_back(s);
+      }
+      continue;
+    }
     if (node - submap->lastNode() < p.min_node_separation) continue;
     auto s = around(*submap, node_pose, false);
     if (s && due(search_state_[static_cast<std::size_t>(submap->index())])) {
@@ -199,12 +222,12 @@ void LaserSlam::searchLoops(int node, const PointCloud& scan_points) {
   std::optional<core::Pose2> rival;
   // Not once trimming folded the tie into marginal constraints: RRR cannot place it anew.
   if (sessions_.size() > 1 && !relocalizing && !tied_by_marginals_ && p.rival_min_loops > 0) {
-    rival = rivalReading(node, map);
+    rival = rivalReading(node, map, part);
   }
   if (rival && !resting) {
     rival_search_state_.resize(search_state_.size());
     for (const auto& submap : finished_) {
-      if (submap->index() >= session_first_submap_) continue;
+      if (submap->index() >= session_first_submap_ || apart(*submap)) continue;
       auto s = around(*submap, *rival, true);
       if (s && due(rival_search_state_[static_cast<std::size_t>(submap->index())])) {
         searches.push_back(*s);
@@ -233,19 +256,25 @@ void LaserSlam::searchLoops(int node, const PointCloud& scan_points) {
     stats_.ambiguous_matches += s.ambiguous ? 1 : 0;
   }
   bool relocalized = false;
-  std::vector<PlacedSubmap> earlier_submaps;  // placed once, for the first match to check
+  bool joined_apart = false;
+  // The earlier sessions' submaps of each part, placed once, for the first match to check.
+  std::map<std::size_t, std::vector<PlacedSubmap>> earlier_submaps;
   for (const Search& s : searches) {
     if (!s.loop) continue;
     const bool to_earlier_session = relocalizing && s.submap->index() < session_first_submap_;
-    if ((to_earlier_session || s.rival) && p.relocalization_max_conflict < 1.0) {
-      if (earlier_submaps.empty()) {
+    if ((to_earlier_session || s.rival || s.apart) && p.relocalization_max_conflict < 1.0) {
+      // The match places the session in the frame of the part it matched: it is checked against
+      // the free space of that part's submaps.
+      std::vector<PlacedSubmap>& placed = earlier_submaps[part_of(*s.submap)];
+      if (placed.empty()) {
         for (const auto& submap : finished_) {
-          if (submap->index() >= session_first_submap_) continue;
-          earlier_submaps.push_back(
+          if (submap->index() >= session_first_submap_ || part_of(*submap) != part_of(*s.submap))
+            continue;
+          placed.push_back(
               placeSubmap(*submap, map[static_cast<std::size_t>(submap->anchorNode())]));
         }
       }
-      const MapAgreement agreement = sessionAgreement(*s.loop, map, earlier_submaps);
+      const MapAgreement agreement = sessionAgreement(*s.loop, map, placed);
       if (agreement.contradicts(p.agreement, p.relocalization_max_conflict)) {
         ++stats_.contradicted_matches;
         continue;
@@ -258,6 +287,7 @@ void LaserSlam::searchLoops(int node, const PointCloud& scan_points) {
                  : s.rival ? LoopSource::kRivalSearch
                            : LoopSource::kLocalSearch);
     relocalized = relocalized || to_earlier_session;
+    joined_apart = joined_apart || s.apart;
   }
   // After a few nodes matched the map its search rests for longer than cluster_gap, so that the
   // next matches, farther along, make a cluster of their own that can confirm or contradict
@@ -269,12 +299,18 @@ void LaserSlam::searchLoops(int node, const PointCloud& scan_points) {
     relocalization_paused_until_ = node + params_.rrr.rrr.cluster_gap + 1;
     rrr_->closeJoining(static_cast<rrr::OnlineRrr::NodeId>(sessions_.back().first_node));
   }
+  // The same rhythm for the parts not joined, so that their matches make clusters along the
+  // session that RRR can place the part by (decided when the gap closes them).
+  if (joined_apart && ++apart_matches_ >= p.relocalization_matches) {
+    apart_matches_ = 0;
+    apart_paused_until_ = node + params_.rrr.rrr.cluster_gap + 1;
+  }
 }
 
 void LaserSlam::keepSessionPoints(int node, const PointCloud& points) {
   const LoopSearchParams& p = params_.loops;
   if (sessions_.size() < 2 || p.relocalization_max_conflict >= 1.0 ||
-      (tied() && p.rival_min_loops == 0)) {
+      (tied() && p.rival_min_loops == 0 && sessions_.size() < 3)) {
     session_points_.clear();
     return;
   }
@@ -310,8 +346,8 @@ MapAgreement LaserSlam::sessionAgreement(const LoopMatch& loop,
   return mapAgreement(map, points, params_.loops.agreement);
 }
 
-std::optional<core::Pose2> LaserSlam::rivalReading(int node,
-                                                   const std::vector<core::Pose2>& map) const {
+std::optional<core::Pose2> LaserSlam::rivalReading(int node, const std::vector<core::Pose2>& map,
+                                                   const std::vector<std::size_t>& part) const {
   const auto at = [&](int n) -> const core::Pose2& { return map[static_cast<std::size_t>(n)]; };
   const core::Pose2& here = at(node);
   const ReadingAgreement within;
@@ -326,6 +362,9 @@ std::optional<core::Pose2> LaserSlam::rivalReading(int node,
       continue;
     }
     const rrr::LoopCandidate& l = rrr_->candidate(c.candidate);
+    const int earlier = l.to == c.session_node ? l.from : l.to;
+    // A loop to a part of the map not joined to it reads the session in that part's frame.
+    if (!part.empty() && part[static_cast<std::size_t>(earlier)] != part[0]) continue;
     const core::Pose2 placed = l.to == c.session_node
                                    ? core::compose(at(l.from), l.measurement)
                                    : core::compose(at(l.to), core::inverse(l.measurement));
@@ -353,6 +392,14 @@ void LaserSlam::noteCrossing(int candidate) {
   if (std::min(c.from, c.to) < first && std::max(c.from, c.to) >= first) {
     crossing_.push_back({candidate, std::max(c.from, c.to)});
   }
+}
+
+std::vector<std::size_t> LaserSlam::mapParts() const {
+  std::vector<int> accepted;
+  for (int k = 0; k < rrr_->numCandidates(); ++k) {
+    if (rrr_->verdict(k) == rrr::Verdict::kAccepted) accepted.push_back(k);
+  }
+  return rrr_->verificationGraph().componentsJoinedBy(accepted);
 }
 
 LoopSource LaserSlam::candidateSource(int candidate) const {

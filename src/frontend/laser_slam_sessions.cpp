@@ -327,6 +327,8 @@ LaserSlam::Checkpoint LaserSlam::checkpoint() const {
                     map_sensor_,
                     relocalization_matches_,
                     relocalization_paused_until_,
+                    apart_matches_,
+                    apart_paused_until_,
                     session_points_,
                     {node_travel_.begin() + sessions_.back().first_node, node_travel_.end()}};
 }
@@ -484,6 +486,8 @@ LaserSlam::Trimmed LaserSlam::trimmed(const Checkpoint& c, const TrimParams& par
   slam->map_sensor_ = c.map_sensor;
   slam->relocalization_matches_ = c.relocalization_matches;
   slam->relocalization_paused_until_ = renumbered(c.relocalization_paused_until);
+  slam->apart_matches_ = c.apart_matches;
+  slam->apart_paused_until_ = renumbered(c.apart_paused_until);
   slam->session_points_.clear();
   for (const KeptPoints& points : c.session_points) {
     if (node_index[static_cast<std::size_t>(points.node)] < 0) continue;

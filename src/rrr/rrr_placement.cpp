@@ -5,7 +5,6 @@
 #include <cstdio>
 #include <map>
 
-#include "rrr_graphslam/core/union_find.h"
 #include "rrr_graphslam/rrr/rrr.h"
 #include "rrr_graphslam/rrr/session_placement.h"
 
@@ -32,20 +31,7 @@ std::string rivalNote(const PlacementGroup& group, double min_ratio) {
 }  // namespace
 
 std::vector<std::size_t> Rrr::joinedSessions() const {
-  const std::vector<int> session = graph_.trustedComponents();
-  const auto sessions = static_cast<std::size_t>(
-      session.empty() ? 0 : *std::max_element(session.begin(), session.end()) + 1);
-  auto of = [&](int node) {
-    return static_cast<std::size_t>(session[static_cast<std::size_t>(node)]);
-  };
-  core::UnionFind joined(sessions);
-  for (int k : acceptedCandidates()) {
-    const LoopCandidate& c = graph_.candidate(k);
-    joined.unite(of(c.from), of(c.to));
-  }
-  std::vector<std::size_t> out(session.size());
-  for (std::size_t n = 0; n < session.size(); ++n) out[n] = joined.find(of(static_cast<int>(n)));
-  return out;
+  return graph_.componentsJoinedBy(acceptedCandidates());
 }
 
 std::vector<int> Rrr::takePlacingClusters(std::vector<int>& pending) {

@@ -92,6 +92,19 @@ int VerificationGraph::numComponents(const std::vector<int>& component) {
   return component.empty() ? 0 : *std::max_element(component.begin(), component.end()) + 1;
 }
 
+std::vector<std::size_t> VerificationGraph::componentsJoinedBy(
+    const std::vector<int>& candidates) const {
+  const std::vector<int> component = trustedComponents();
+  const auto of = [&](int node) {
+    return static_cast<std::size_t>(component[static_cast<std::size_t>(node)]);
+  };
+  core::UnionFind joined(static_cast<std::size_t>(numComponents(component)));
+  for (int k : candidates) joined.unite(of(candidate(k).from), of(candidate(k).to));
+  std::vector<std::size_t> out(component.size());
+  for (int n = 0; n < numNodes(); ++n) out[static_cast<std::size_t>(n)] = joined.find(of(n));
+  return out;
+}
+
 std::vector<int> VerificationGraph::trustedComponents() const {
   core::UnionFind joined(static_cast<std::size_t>(chain_.numSessions()));
   for (const MarginalLink& m : marginal_) {

@@ -593,6 +593,35 @@ TEST(MapFile, LoopsAtOnePlaceWaitUntilLoopsFarEnoughApartTieTheSession) {
   EXPECT_GE(tied->acceptedCrossingSpread(), 3.0);
 }
 
+TEST(MapFile, APartOfTheMapThatNeverTiedIsJoinedByALaterSession) {
+  const MapSnapshot map = readMapFile(savedMap());
+  // The second session, told it starts 40 m away from the map, finds no loop to it: the map keeps
+  // it as a part of its own, in its own odometry frame.
+  auto second = LaserSlam::fromMap(map, smallMaps(), "second");
+  second->setInitialPose(core::Pose2(40.0, 0.0, 0.0));
+  drive(*second, core::Pose2(100.0, -50.0, 2.0), 60, 1000.0);
+  second->finish();
+  ASSERT_FALSE(second->tied());
+  const MapSnapshot two = second->snapshot();
+  // The third is told where it starts, so until it is tied it searches the first session's
+  // submaps around there only; tied, it goes on searching the part it is not joined to, whole.
+  auto third = LaserSlam::fromMap(two, smallMaps(), "third");
+  third->setInitialPose(truthAt(0));
+  drive(*third, core::Pose2(-40.0, 30.0, -1.0), 120, 2000.0);
+  ASSERT_TRUE(third->tied());
+  EXPECT_GT(third->stats().relocalization_searches, 0);
+  third->finish();
+  // The second session's nodes now lie where the robot was, in the room's frame.
+  const auto poses = third->rrr().mapPoses();
+  const auto& stamps = third->nodeTimestamps();
+  const auto first = static_cast<std::size_t>(two.sessions[1].first_node);
+  ASSERT_LT(first, two.nodes.size());
+  for (std::size_t k = first; k < two.nodes.size(); ++k) {
+    const int scan = static_cast<int>(std::lround((stamps[k] - 1000.0) / 0.1));
+    EXPECT_LT((poses[k].head<2>() - truthAt(scan).head<2>()).norm(), 0.1) << "node " << k;
+  }
+}
+
 TEST(MapFile, LocalizationTracksTheRobotAndLeavesTheMapAsItIs) {
   const MapSnapshot map = readMapFile(savedMap());
   auto slam = LaserSlam::fromMap(map, smallMaps(), "localize", SessionMode::kLocalization);

@@ -21,7 +21,10 @@
 // decision keep loops that place the session without tying it, its nodes are also searched
 // around where they place it. Once tied, a rival reading that rival_min_loops unaccepted loops
 // agree on is searched as well (rivalReading), so RRR's later decisions from scratch can still
-// place the session by whichever reading gathers more loops.
+// place the session by whichever reading gathers more loops. Parts of the map a tied session is
+// not joined to (an earlier session that never tied, and nothing tied to it since) go on being
+// searched whole on the same schedule: where the session passes where such a part was, RRR joins
+// it to the map through a group of agreeing loops, as it places a session.
 
 #include <deque>
 #include <memory>
@@ -243,7 +246,13 @@ class LaserSlam {
   /// Where the largest group of the current session's unaccepted loops to the earlier sessions
   /// puts `node` (rival_reading.h), if at least rival_min_loops of them agree there, leaving out
   /// those within the search window around where `map` has the node (its own search's).
-  std::optional<core::Pose2> rivalReading(int node, const std::vector<core::Pose2>& map) const;
+  /// `part`: mapParts(), or empty when every earlier node is in the map's part.
+  std::optional<core::Pose2> rivalReading(int node, const std::vector<core::Pose2>& map,
+                                          const std::vector<std::size_t>& part) const;
+  /// Per node, the part of the map it lies in (sessions that trusted constraints and accepted
+  /// loops join, rrr::VerificationGraph::componentsJoinedBy); map poses of different parts are in
+  /// unrelated frames.
+  std::vector<std::size_t> mapParts() const;
 
   LaserSlamParams params_;
   SessionMode mode_ = SessionMode::kMapping;
@@ -281,6 +290,8 @@ class LaserSlam {
   std::optional<SensorSetup> map_sensor_;  // of the loaded map's scans, until a scan was checked
   int relocalization_matches_ = 0;         // nodes that matched the earlier sessions since the rest
   int relocalization_paused_until_ = 0;    // no whole-map search before this node
+  int apart_matches_ = 0;                  // the same, for parts of the map not joined (mapParts)
+  int apart_paused_until_ = 0;
   struct Crossing {
     int candidate;     // between this session and an earlier one
     int session_node;  // its end in this session
@@ -318,6 +329,8 @@ class LaserSlam {
     std::optional<SensorSetup> map_sensor;
     int relocalization_matches = 0;
     int relocalization_paused_until = 0;
+    int apart_matches = 0;
+    int apart_paused_until = 0;
     std::deque<KeptPoints> session_points;
     std::vector<double> session_travel;  // node_travel_ of the current session's nodes
   };

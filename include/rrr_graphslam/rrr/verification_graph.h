@@ -77,6 +77,10 @@ class VerificationGraph {
   int numTrustedComponents() const { return numComponents(trustedComponents()); }
   /// The number of components in a trustedComponents() labelling.
   static int numComponents(const std::vector<int>& component);
+  /// Per node, the part of the map it lies in: the trusted components that `candidates` (the
+  /// accepted ones, say) join together, as one id; two nodes share it when a path of trusted
+  /// constraints and those candidates joins them.
+  std::vector<std::size_t> componentsJoinedBy(const std::vector<int>& candidates) const;
   /// chi2 of the trusted constraints alone (odometry and marginal constraints, no candidate) at
   /// their own minimum: zero for odometry (a forest), positive once marginal constraints close
   /// cycles with it (they carry loops that bent the chain). RRR's joint tests measure what the
