@@ -136,17 +136,18 @@ void LaserSlam::searchLoops(int node, const PointCloud& scan_points) {
   const bool on_schedule =
       (node - sessions_.back().first_node) % p.relocalization_every_n_nodes == 0;
   const bool relocalize_now = relocalizing && !resting && on_schedule;
-  // With two earlier sessions or more, some may lie in parts of the map (mapParts) other than
-  // the map's own, the first node's: once this session is tied, those are searched whole on the
-  // same schedule, with rests of their own, and never around a map pose (their frames are
-  // unrelated to the map's).
+  // With two earlier sessions or more, some may lie in parts of the map (mapParts) this session
+  // is not joined to: once it is tied, those are searched whole on the same schedule, with rests
+  // apart from the relocalization's (one for all such parts), and never around a map pose (their
+  // frames are unrelated to this session's).
   const std::vector<std::size_t> part =
       sessions_.size() > 2 ? mapParts() : std::vector<std::size_t>{};
   const auto part_of = [&](const Submap& submap) {
     return part.empty() ? 0 : part[static_cast<std::size_t>(submap.anchorNode())];
   };
+  // Not in this node's part: the map's once the session is placed or tied.
   const auto apart = [&](const Submap& submap) {
-    return !part.empty() && part_of(submap) != part[0];
+    return !part.empty() && part_of(submap) != part[static_cast<std::size_t>(node)];
   };
   const bool join_now = !relocalizing && on_schedule && node >= apart_paused_until_;
 
@@ -364,7 +365,10 @@ std::optional<core::Pose2> LaserSlam::rivalReading(int node, const std::vector<c
     const rrr::LoopCandidate& l = rrr_->candidate(c.candidate);
     const int earlier = l.to == c.session_node ? l.from : l.to;
     // A loop to a part of the map not joined to it reads the session in that part's frame.
-    if (!part.empty() && part[static_cast<std::size_t>(earlier)] != part[0]) continue;
+    if (!part.empty() &&
+        part[static_cast<std::size_t>(earlier)] != part[static_cast<std::size_t>(node)]) {
+      continue;
+    }
     const core::Pose2 placed = l.to == c.session_node
                                    ? core::compose(at(l.from), l.measurement)
                                    : core::compose(at(l.to), core::inverse(l.measurement));

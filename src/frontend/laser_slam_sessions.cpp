@@ -486,6 +486,13 @@ LaserSlam::Trimmed LaserSlam::trimmed(const Checkpoint& c, const TrimParams& par
   slam->map_sensor_ = c.map_sensor;
   slam->relocalization_matches_ = c.relocalization_matches;
   slam->relocalization_paused_until_ = renumbered(c.relocalization_paused_until);
+  // During a relocalization rest the clusters joining the session to the map were closed when it
+  // began (searchLoops); the replay above reopened them by the gap rule.
+  if (slam->sessions_.size() > 1 &&
+      slam->relocalization_paused_until_ > static_cast<int>(map.nodes.size()) - 1) {
+    slam->rrr_->closeJoining(
+        static_cast<rrr::OnlineRrr::NodeId>(slam->sessions_.back().first_node));
+  }
   slam->apart_matches_ = c.apart_matches;
   slam->apart_paused_until_ = renumbered(c.apart_paused_until);
   slam->session_points_.clear();

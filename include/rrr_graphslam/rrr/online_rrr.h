@@ -140,8 +140,10 @@ class OnlineRrr {
   /// Closes and decides now the open clusters joining the session whose first node is
   /// `session_first` to the earlier sessions. Only for a caller that proposes no candidate
   /// joining them for more than cluster_gap nodes from now (a relocalization search that rests):
-  /// the clusters stay those cluster_gap would have closed, decided cluster_gap nodes sooner.
-  /// Throws std::invalid_argument for an unknown node.
+  /// the clusters stay those cluster_gap would have closed, decided up to cluster_gap + 1 nodes
+  /// sooner. A candidate given by another source meanwhile (addCandidate) that would have joined
+  /// one of them opens a cluster of its own instead. Throws std::invalid_argument for an unknown
+  /// node.
   void closeJoining(NodeId session_first);
   /// Closes every open cluster and decides all clusters from scratch (end of a run).
   void finish();

@@ -30,7 +30,8 @@ class OpenClusters {
   /// at node `session_first` to the nodes before it (a member with one end on each side). For a
   /// caller that will propose no candidate joining them for more than the gap (the front end's
   /// relocalization search resting after a few matches): no later candidate could join these
-  /// clusters, so closing them early leaves the clusters the batch ones, only decided sooner.
+  /// clusters, so closing them early leaves the clusters the batch ones, only decided sooner (a
+  /// candidate that would have joined one after all opens a cluster of its own).
   std::vector<std::vector<int>> closeJoining(int session_first);
 
   int size() const { return static_cast<int>(open_.size()); }
