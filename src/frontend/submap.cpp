@@ -1,5 +1,6 @@
 #include "rrr_graphslam/frontend/submap.h"
 
+#include <algorithm>
 #include <stdexcept>
 
 #include <mrpt/poses/CPose3D.h>
@@ -43,8 +44,11 @@ void Submap::insert(const mrpt::obs::CObservation2DRangeScan& scan, const core::
 
 const MatchGrid& Submap::matchGrid() const {
   if (match_grid_dirty_ && grid_) {
-    const double unknown = num_scans_ < params_.young_submap_scans ? params_.young_unknown_value
-                                                                   : params_.active_unknown_value;
+    // Young while it holds fewer than young_submap_scans scans, and at most until the next submap
+    // starts (half full): a submap of a few scans is young for half of them, not all.
+    const int young = std::min(params_.young_submap_scans, params_.scans_per_submap / 2);
+    const double unknown =
+        num_scans_ < young ? params_.young_unknown_value : params_.active_unknown_value;
     match_grid_ = MatchGrid::fromOccupancyGrid(*grid_, static_cast<float>(unknown));
     match_grid_dirty_ = false;
   }

@@ -3,6 +3,8 @@
 
 #include <gtest/gtest.h>
 
+#include <tuple>
+
 #include <Eigen/LU>
 
 #include "rrr_graphslam/frontend/icp_refinement.h"
@@ -409,23 +411,26 @@ TEST(ActiveSubmaps, TwoActiveHalfOverlappingSubmapsOfFixedSize) {
 
 TEST(ActiveSubmaps, OnlyTheSessionsFirstSubmapIsYoung) {
   SubmapParams params;
-  params.scans_per_submap = 4;
-  params.young_submap_scans = 20;  // more than any submap here ever holds
+  params.scans_per_submap = 8;
+  params.young_submap_scans = 20;  // more than any submap here ever holds: young while half full
   params.young_unknown_value = 0.5;
   params.active_unknown_value = 0.1;
   ActiveSubmaps submaps(params, 7);  // a session whose first submap is the map's 8th
   const auto scan = toObservation(castScan(room(), core::Pose2(3, 3, 0)), RangeScanParams{});
-  std::vector<std::pair<int, float>> matched;  // submap index, its unknown cells' score
-  for (int node = 0; node < 10; ++node) {
+  std::vector<std::tuple<int, int, float>> matched;  // submap index, its scans, unknowns' score
+  for (int node = 0; node < 20; ++node) {
     submaps.insert(scan, core::Pose2(3, 3, 0), node);
     const auto m = submaps.matchingSubmap();
-    matched.emplace_back(m->index(), m->matchGrid().unknown());
+    matched.emplace_back(m->index(), m->numScans(), m->matchGrid().unknown());
   }
-  for (const auto& [index, unknown] : matched) {
-    EXPECT_FLOAT_EQ(unknown, index == 7 ? 0.5F : 0.1F) << "submap " << index;
+  int young = 0;
+  for (const auto& [index, scans, unknown] : matched) {
+    EXPECT_FLOAT_EQ(unknown, index == 7 && scans < 4 ? 0.5F : 0.1F) << "submap " << index;
+    young += unknown == 0.5F;
   }
-  EXPECT_EQ(matched.front().first, 7);
-  EXPECT_GE(matched.back().first, 9);
+  EXPECT_EQ(young, 3);
+  EXPECT_EQ(std::get<0>(matched.front()), 7);
+  EXPECT_GE(std::get<0>(matched.back()), 9);
   // Rebuilt after trimming (two earlier sessions' submaps gone): the same rule, renumbered.
   ActiveSubmaps first(params, 7);
   first.insert(scan, core::Pose2(3, 3, 0), 0);
@@ -433,7 +438,7 @@ TEST(ActiveSubmaps, OnlyTheSessionsFirstSubmapIsYoung) {
                 [&](int) -> const mrpt::obs::CObservation2DRangeScan& { return scan; });
   ASSERT_EQ(first.matchingSubmap()->index(), 5);
   EXPECT_FLOAT_EQ(first.matchingSubmap()->matchGrid().unknown(), 0.5F);
-  for (int node = 1; node < 4; ++node) first.insert(scan, core::Pose2(3, 3, 0), node);
+  for (int node = 1; node < 8; ++node) first.insert(scan, core::Pose2(3, 3, 0), node);
   ASSERT_EQ(first.matchingSubmap()->index(), 6);
   EXPECT_FLOAT_EQ(first.matchingSubmap()->matchGrid().unknown(), 0.1F);
 }

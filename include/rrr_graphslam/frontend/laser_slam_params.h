@@ -73,8 +73,9 @@ void forEachSlamParam(Params& p, F&& f) {
                     "the occupancy prior, frees a start in a corridor)"},
     local.submap.active_unknown_value);
   f(core::ParamInfo{"young_submap_scans", 0, 1e6,
-                    "while a session's first submap holds fewer scans, "
-                    "its never-observed cells score young_submap_unknown_probability (0: off)"},
+                    "while a session's first submap holds fewer scans (and less than half of "
+                    "scans_per_submap), its never-observed cells score "
+                    "young_submap_unknown_probability (0: off)"},
     local.submap.young_submap_scans);
   f(core::ParamInfo{"young_submap_unknown_probability", 0.0, 1.0,
                     "... this (0.5, the occupancy prior: a start in a corridor is not held back)"},

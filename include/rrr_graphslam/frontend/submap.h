@@ -40,11 +40,12 @@ struct SubmapParams {
   /// way, but in every submap: FR clinic's map then drifts apart (doc/benchmarks.md#sessions).
   /// Default 0.1, as finished submaps.
   double active_unknown_value = 0.1;
-  /// A session's first submap's instead: while it holds fewer than young_submap_scans scans, its
-  /// never-observed cells score young_unknown_value (0.5, the occupancy prior: no evidence either
-  /// way), so a session's first scans are not held back where its first submap saw nothing yet;
-  /// from then on active_unknown_value. Later submaps never (ActiveSubmaps gives the rule to the
-  /// first submap it starts only). Default 0: off.
+  /// A session's first submap's instead: while it holds fewer than young_submap_scans scans (and
+  /// fewer than half of scans_per_submap, when the next submap starts), its never-observed cells
+  /// score young_unknown_value (0.5, the occupancy prior: no evidence either way), so a session's
+  /// first scans are not held back where its first submap saw nothing yet; from then on
+  /// active_unknown_value. Later submaps never (ActiveSubmaps gives the rule to the first submap
+  /// it starts only). Default 0: off.
   int young_submap_scans = 0;
   double young_unknown_value = 0.5;
   int branch_and_bound_depth = 7;  ///< levels of max-grids built when the submap is finished
@@ -87,7 +88,7 @@ class Submap {
   const std::vector<Member>& members() const { return members_; }
 
   /// The grid as matching reads it (rebuilt lazily after insertions while active): never-observed
-  /// cells score young_unknown_value while the submap holds fewer than young_submap_scans scans,
+  /// cells score young_unknown_value while the submap is young (SubmapParams::young_submap_scans),
   /// then active_unknown_value while it is active, unknown_value once finished.
   const MatchGrid& matchGrid() const;
   /// The MRPT grid while the submap is active (nullptr once finished: it is released).
