@@ -140,8 +140,10 @@ void LaserSlam::searchLoops(int node, const PointCloud& scan_points) {
   // is not joined to: once it is tied, those are searched whole on the same schedule, with rests
   // apart from the relocalization's (one for all such parts), and never around a map pose (their
   // frames are unrelated to this session's).
+  // (Not needed on the nodes of a relocalization that search no earlier session.)
+  const bool searches_earlier = !relocalizing || placed_now || relocalize_now;
   const std::vector<std::size_t> part =
-      sessions_.size() > 2 ? mapParts() : std::vector<std::size_t>{};
+      sessions_.size() > 2 && searches_earlier ? mapParts() : std::vector<std::size_t>{};
   const auto part_of = [&](const Submap& submap) {
     return part.empty() ? 0 : part[static_cast<std::size_t>(submap.anchorNode())];
   };

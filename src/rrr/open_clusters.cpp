@@ -41,24 +41,11 @@ bool OpenClusters::add(int candidate) {
 
 std::vector<std::vector<int>> OpenClusters::advanceTo(int node) {
   current_node_ = std::max(current_node_, node);
-  std::vector<std::vector<int>> closed;
-  std::vector<Cluster> still_open;
-  for (Cluster& open : open_) {
-    if (current_node_ > open.newest + gap_) {
-      closed.push_back(std::move(open.members));
-    } else {
-      still_open.push_back(std::move(open));
-    }
-  }
-  open_.swap(still_open);
-  return closed;
+  return closeIf([&](const Cluster& open) { return current_node_ > open.newest + gap_; });
 }
 
 std::vector<std::vector<int>> OpenClusters::closeAll() {
-  std::vector<std::vector<int>> closed;
-  for (Cluster& open : open_) closed.push_back(std::move(open.members));
-  open_.clear();
-  return closed;
+  return closeIf([](const Cluster&) { return true; });
 }
 
 std::vector<std::vector<int>> OpenClusters::closeJoining(int session_first) {
@@ -66,10 +53,17 @@ std::vector<std::vector<int>> OpenClusters::closeJoining(int session_first) {
     const LoopCandidate& c = graph_.candidate(m);
     return oldestEnd(c) < session_first && newestEnd(c) >= session_first;
   };
+  return closeIf([&](const Cluster& open) {
+    return std::any_of(open.members.begin(), open.members.end(), joins);
+  });
+}
+
+std::vector<std::vector<int>> OpenClusters::closeIf(
+    const std::function<bool(const Cluster&)>& closes) {
   std::vector<std::vector<int>> closed;
   std::vector<Cluster> still_open;
   for (Cluster& open : open_) {
-    if (std::any_of(open.members.begin(), open.members.end(), joins)) {
+    if (closes(open)) {
       closed.push_back(std::move(open.members));
     } else {
       still_open.push_back(std::move(open));

@@ -6,6 +6,7 @@
 // it, so the closed clusters equal the batch clustering of the same candidates. Shared by every
 // online decision (IncrementalRrr, OnlineVerifier): it only groups, it decides nothing.
 
+#include <functional>
 #include <vector>
 
 #include "rrr_graphslam/rrr/verification_graph.h"
@@ -43,6 +44,8 @@ class OpenClusters {
     std::vector<int> members;
     int newest = -1;  // largest node index among the members' ends
   };
+  /// Closes the open clusters `closes` picks, in the order they were opened.
+  std::vector<std::vector<int>> closeIf(const std::function<bool(const Cluster&)>& closes);
 
   const VerificationGraph& graph_;
   int gap_;
