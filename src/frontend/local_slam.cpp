@@ -93,6 +93,17 @@ LocalSlamResult LocalSlam::addScan(const RangeScan& scan, const core::Pose2& odo
   const core::Pose2 prediction =
       first ? odom_pose : core::compose(last_local_, core::between(last_odom_, odom_pose));
   started_ = true;
+  if (!first && !start_judged_) {
+    // The session's second scan: did it start from rest?
+    start_judged_ = true;
+    const double seconds = scan.timestamp - last_stamp_;
+    const double speed = seconds > 0.0
+                             ? (odom_pose.head<2>() - last_odom_.head<2>()).norm() / seconds
+                             : 0.0;  // no interval to judge by: as from rest
+    if (speed <= params_.young_submap_start_speed && params_.young_submap_start_speed > 0.0) {
+      submaps_.endYouth();
+    }
+  }
   result.local_pose = prediction;
   result.points = matchingPoints(scan, params_.scan);
 

@@ -55,6 +55,12 @@ const MatchGrid& Submap::matchGrid() const {
   return match_grid_;
 }
 
+void Submap::endYouth() {
+  if (params_.young_submap_scans == 0) return;
+  params_.young_submap_scans = 0;
+  match_grid_dirty_ = !finished();
+}
+
 void Submap::finish() {
   if (finished()) return;
   // Frozen with the finished submap's score of never-observed cells (matchGrid() builds the
@@ -121,9 +127,16 @@ void ActiveSubmaps::rebuild(const std::vector<Contents>& contents, int node_shif
   first_index_ -= submap_shift;  // trimming removes submaps before the active ones only
 }
 
+void ActiveSubmaps::endYouth() {
+  young_ = false;
+  for (auto& submap : active_) {
+    if (submap->index() == first_index_) submap->endYouth();
+  }
+}
+
 SubmapParams ActiveSubmaps::paramsOf(int index) const {
   SubmapParams p = params_;
-  if (index != first_index_) p.young_submap_scans = 0;
+  if (index != first_index_ || !young_) p.young_submap_scans = 0;
   return p;
 }
 

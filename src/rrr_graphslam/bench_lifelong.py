@@ -608,7 +608,8 @@ class Tools:
         print("  " + " ".join(os.path.basename(c) if k < 2 else c for k, c in enumerate(cmd)), file=sys.stderr)
         start = time.monotonic()
         result = subprocess.run(cmd, capture_output=True, text=True)
-        seconds = time.monotonic() - start
+        # As kept, so that a table of these runs and one of the kept runs (--reuse) print alike.
+        seconds = round(time.monotonic() - start, 3)
         if result.returncode != 0:
             raise RuntimeError(f"{' '.join(cmd)} failed:\n{result.stderr}")
         write_text_atomically(wall, f"{seconds:.3f}\n")

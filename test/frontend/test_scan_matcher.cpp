@@ -255,9 +255,11 @@ double corridorStartTravel(const SubmapParams& submap) {
   params.submap = submap;
   LocalSlam slam(params);
   core::Pose2 local = core::Pose2::Zero();
-  for (int k = 0; k < 40; ++k) {  // 0.07 m per scan
+  for (int k = 0; k < 40; ++k) {  // 0.07 m per scan, 0.1 s apart: at speed from the first
     const core::Pose2 truth(0.07 * k, 0.0, 0.0);
-    local = slam.addScan(castScan(corridor, truth, 8.0), truth).local_pose;
+    RangeScan scan = castScan(corridor, truth, 8.0);
+    scan.timestamp = 0.1 * k;
+    local = slam.addScan(scan, truth).local_pose;
   }
   return local.x();
 }
@@ -277,6 +279,55 @@ TEST(LocalSlam, UnobservedCellsAtTheOccupancyPriorLetATrajectoryStartAlongACorri
   young.young_submap_scans = 10;
   young.young_unknown_value = 0.5;
   EXPECT_NEAR(corridorStartTravel(young), travel, 0.05 * travel);
+}
+
+// What never-observed cells of the submap local SLAM matched the session's third scan against
+// score: the occupancy prior (0.5) while the first submap is young, 0.1 otherwise. The robot
+// stands for `standing` scans, then drives at `speed` m/s; scans 0.1 s apart (all at time 0
+// without `stamped`).
+float thirdScanUnknownScore(double start_speed, int standing, double speed, bool stamped = true) {
+  LocalSlamParams params;
+  params.young_submap_start_speed = start_speed;
+  params.submap.young_submap_scans = 20;
+  params.submap.young_unknown_value = 0.5;
+  params.submap.active_unknown_value = 0.1;
+  LocalSlam slam(params, 0, 4);  // a session continuing a map of four submaps
+  for (int k = 0; k < 3; ++k) {
+    const core::Pose2 truth(3.0 + 0.1 * speed * std::max(0, k - standing), 3.0, 0.0);
+    RangeScan scan = castScan(room(), truth);
+    scan.timestamp = stamped ? 100.0 + 0.1 * k : 0.0;
+    slam.addScan(scan, truth);
+  }
+  return slam.submaps().matchingSubmap()->matchGrid().unknown();
+}
+
+TEST(LocalSlam, ASessionsFirstSubmapIsYoungOnlyWhenTheSessionStartsAtSpeed) {
+  EXPECT_FLOAT_EQ(thirdScanUnknownScore(0.05, 0, 0.5), 0.5F);   // at speed from the first scan
+  EXPECT_FLOAT_EQ(thirdScanUnknownScore(0.05, 1, 0.5), 0.1F);   // from rest, then at speed
+  EXPECT_FLOAT_EQ(thirdScanUnknownScore(0.05, 0, 0.04), 0.1F);  // creeping: as from rest
+  EXPECT_FLOAT_EQ(thirdScanUnknownScore(0.05, 0, 0.5, false), 0.1F);  // no interval to judge by
+  EXPECT_FLOAT_EQ(thirdScanUnknownScore(0.0, 3, 0.0), 0.5F);  // 0: every session's first submap
+  // A checkpoint taken after the judgement keeps it: resumed, the first submap is rebuilt as it
+  // was (young or not).
+  for (const double standing : {0, 1}) {
+    LocalSlamParams params;
+    LocalSlam slam(params);
+    for (int k = 0; k < 2; ++k) {
+      const core::Pose2 truth(3.0 + 0.05 * std::max(0.0, k - standing), 3.0, 0.0);
+      RangeScan scan = castScan(room(), truth);
+      scan.timestamp = 0.1 * k;
+      slam.addScan(scan, truth);
+    }
+    ASSERT_EQ(slam.numNodes(), 1);  // 0.05 m: the second scan is no node
+    const float before = slam.submaps().matchingSubmap()->matchGrid().unknown();
+    const auto first = toObservation(castScan(room(), core::Pose2(3.0, 3.0, 0.0)), params.scan);
+    const LocalSlam resumed =
+        LocalSlam::resume(slam.checkpoint(), 0, 0,
+                          [&](int) -> const mrpt::obs::CObservation2DRangeScan& { return first; });
+    EXPECT_FLOAT_EQ(resumed.submaps().matchingSubmap()->matchGrid().unknown(), before);
+    EXPECT_FLOAT_EQ(before, standing == 0 ? params.submap.young_unknown_value
+                                          : params.submap.active_unknown_value);
+  }
 }
 
 TEST(LocalSlam, RefusesImplausibleScansAndTracksOnAfterAnOdometryJump) {

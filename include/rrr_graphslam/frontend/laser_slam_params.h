@@ -80,6 +80,11 @@ void forEachSlamParam(Params& p, F&& f) {
   f(core::ParamInfo{"young_submap_unknown_probability", 0.0, 1.0,
                     "... this (0.5, the occupancy prior: a start in a corridor is not held back)"},
     local.submap.young_unknown_value);
+  f(core::ParamInfo{"young_submap_start_speed", 0.0, 1e6,
+                    "the first submap is young only when its session starts while the robot "
+                    "drives faster than this (m/s, odometry between the first two scans; 0: "
+                    "always)"},
+    local.young_submap_start_speed);
   f(core::ParamInfo{"scan_translation_weight", 0.0, 1e6,
                     "least squares: pull of the translation toward the prediction"},
     local.least_squares.translation_weight);

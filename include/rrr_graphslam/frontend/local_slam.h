@@ -45,6 +45,14 @@ struct LocalSlamParams {
   /// odometry is re-anchored at it: the scans after it are tracked from there as if the robot had
   /// stood still across the jump (a wheel slip, an odometry reset). Default 5 m.
   double max_odometry_jump_m = 5.0;
+  /// A session's first submap is young (SubmapParams::young_submap_scans) only when the session
+  /// starts while the robot drives: its odometry moved faster than this (m/s) between the
+  /// session's first two scans (no interval between their stamps: as from rest). Starts from rest
+  /// (every log's own start) gain nothing from a young submap and lose a little; sessions that
+  /// start at speed (a node restarted while the robot drives, a log split anywhere) are held back
+  /// without it (doc/benchmarks.md#sessions-that-start-while-the-robot-drives). Default 0.05 m/s;
+  /// 0: every session's first submap is young.
+  double young_submap_start_speed = 0.05;
 };
 
 /// Why LocalSlam (and LaserSlam) refused a scan; the message names the value and the limit.
@@ -122,6 +130,7 @@ class LocalSlam {
   std::optional<Motion> last_motion_;
   double last_stamp_ = 0.0;
   int next_node_ = 0;
+  bool start_judged_ = false;  // whether the session started at speed was decided
 };
 
 struct LocalSlam::Checkpoint {

@@ -45,8 +45,9 @@ struct SubmapParams {
   /// score young_unknown_value (0.5, the occupancy prior: no evidence either way), so a session's
   /// first scans are not held back where its first submap saw nothing yet; from then on
   /// active_unknown_value. Later submaps never (ActiveSubmaps gives the rule to the first submap
-  /// it starts only). Default 0: off.
-  int young_submap_scans = 0;
+  /// it starts only), nor a first submap whose session started from rest (LocalSlam's
+  /// young_submap_start_speed). Default 20; 0: off.
+  int young_submap_scans = 20;
   double young_unknown_value = 0.5;
   int branch_and_bound_depth = 7;  ///< levels of max-grids built when the submap is finished
   /// Branch and bound searches a grid this many times coarser than resolution_m (max-pooled, so
@@ -78,6 +79,8 @@ class Submap {
               int node);
   /// Freezes the grid: builds the match grid and the branch-and-bound max-grids.
   void finish();
+  /// Never young from now on (young_submap_scans 0): its session started from rest.
+  void endYouth();
 
   /// A node inserted into the submap, with its local-SLAM pose (the submap frame).
   struct Member {
@@ -129,6 +132,8 @@ class ActiveSubmaps {
   const std::vector<std::shared_ptr<Submap>>& active() const { return active_; }
   /// Index the next submap will take (the number started so far, plus the first index).
   int numSubmaps() const { return next_index_; }
+  /// The session's first submap is not young (Submap::endYouth), nor will it be if rebuilt.
+  void endYouth();
 
   /// What an active submap is made of: the insertions that rebuild it exactly.
   struct Contents {
@@ -156,6 +161,7 @@ class ActiveSubmaps {
   int first_index_ = 0;
   int next_index_ = 0;
   bool start_next_ = true;
+  bool young_ = true;  // the first submap may be young (endYouth was not called)
 };
 
 }  // namespace rrr_graphslam::frontend
