@@ -86,6 +86,23 @@ LocalSlam::WindowMatch LocalSlam::searchWindows(const MatchGrid& grid, const Poi
   return {by_velocity.pose, *velocity, true};
 }
 
+void LocalSlam::judgeStart(double stamp, const core::Pose2& odom_pose, bool first) {
+  if (params_.young_submap_start_speed <= 0.0) {  // every session's first submap is young
+    start_judged_ = true;
+    submaps_.startYouth();
+    return;
+  }
+  if (first) return;
+  // An interval the stamps make meaningless (none, backwards, a gap in the log) judges nothing:
+  // the next one does, and until then the first submap is matched as from rest.
+  constexpr double kMaxJudgedIntervalSeconds = 1.0;
+  const double seconds = stamp - last_stamp_;
+  if (!(seconds > 0.0 && seconds <= kMaxJudgedIntervalSeconds)) return;
+  start_judged_ = true;
+  const double travel = (odom_pose.head<2>() - last_odom_.head<2>()).norm();
+  if (travel > params_.young_submap_start_speed * seconds) submaps_.startYouth();
+}
+
 LocalSlamResult LocalSlam::addScan(const RangeScan& scan, const core::Pose2& odom_pose) {
   checkPlausible(scan, odom_pose);
   LocalSlamResult result;
@@ -93,17 +110,7 @@ LocalSlamResult LocalSlam::addScan(const RangeScan& scan, const core::Pose2& odo
   const core::Pose2 prediction =
       first ? odom_pose : core::compose(last_local_, core::between(last_odom_, odom_pose));
   started_ = true;
-  if (!first && !start_judged_) {
-    // The session's second scan: did it start from rest?
-    start_judged_ = true;
-    const double seconds = scan.timestamp - last_stamp_;
-    const double speed = seconds > 0.0
-                             ? (odom_pose.head<2>() - last_odom_.head<2>()).norm() / seconds
-                             : 0.0;  // no interval to judge by: as from rest
-    if (speed <= params_.young_submap_start_speed && params_.young_submap_start_speed > 0.0) {
-      submaps_.endYouth();
-    }
-  }
+  if (!start_judged_) judgeStart(scan.timestamp, odom_pose, first);
   result.local_pose = prediction;
   result.points = matchingPoints(scan, params_.scan);
 

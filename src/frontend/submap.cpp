@@ -55,9 +55,9 @@ const MatchGrid& Submap::matchGrid() const {
   return match_grid_;
 }
 
-void Submap::endYouth() {
-  if (params_.young_submap_scans == 0) return;
-  params_.young_submap_scans = 0;
+void Submap::setYoungScans(int scans) {
+  if (params_.young_submap_scans == scans) return;
+  params_.young_submap_scans = scans;
   match_grid_dirty_ = !finished();
 }
 
@@ -127,10 +127,10 @@ void ActiveSubmaps::rebuild(const std::vector<Contents>& contents, int node_shif
   first_index_ -= submap_shift;  // trimming removes submaps before the active ones only
 }
 
-void ActiveSubmaps::endYouth() {
-  young_ = false;
+void ActiveSubmaps::startYouth() {
+  young_ = true;
   for (auto& submap : active_) {
-    if (submap->index() == first_index_) submap->endYouth();
+    if (submap->index() == first_index_) submap->setYoungScans(params_.young_submap_scans);
   }
 }
 

@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 
+#include <optional>
 #include <tuple>
 
 #include <Eigen/LU>
@@ -281,21 +282,28 @@ TEST(LocalSlam, UnobservedCellsAtTheOccupancyPriorLetATrajectoryStartAlongACorri
   EXPECT_NEAR(corridorStartTravel(young), travel, 0.05 * travel);
 }
 
-// What never-observed cells of the submap local SLAM matched the session's third scan against
-// score: the occupancy prior (0.5) while the first submap is young, 0.1 otherwise. The robot
-// stands for `standing` scans, then drives at `speed` m/s; scans 0.1 s apart (all at time 0
-// without `stamped`).
-float thirdScanUnknownScore(double start_speed, int standing, double speed, bool stamped = true) {
+LocalSlamParams youngStartParams(double start_speed) {
   LocalSlamParams params;
   params.young_submap_start_speed = start_speed;
+  params.motion_filter = core::KeyframeParams{0.1, 2.0 * M_PI / 180};
   params.submap.young_submap_scans = 20;
   params.submap.young_unknown_value = 0.5;
   params.submap.active_unknown_value = 0.1;
-  LocalSlam slam(params, 0, 4);  // a session continuing a map of four submaps
+  return params;
+}
+
+// What never-observed cells of the first submap score after the session's third scan: the
+// occupancy prior (0.5) while it is young, 0.1 otherwise. The robot stands for `standing` scans,
+// then drives at `speed` m/s; scans `interval` s apart, the second at the first's stamp if
+// `same_stamp` (a logger's duplicate).
+float thirdScanUnknownScore(double start_speed, int standing, double speed, double interval = 0.1,
+                            bool same_stamp = false) {
+  LocalSlam slam(youngStartParams(start_speed), 0, 4);  // continuing a map of four submaps
   for (int k = 0; k < 3; ++k) {
-    const core::Pose2 truth(3.0 + 0.1 * speed * std::max(0, k - standing), 3.0, 0.0);
+    const double t = interval * std::max(0, k - (same_stamp ? 1 : 0));
+    const core::Pose2 truth(3.0 + speed * std::max(0.0, t - interval * standing), 3.0, 0.0);
     RangeScan scan = castScan(room(), truth);
-    scan.timestamp = stamped ? 100.0 + 0.1 * k : 0.0;
+    scan.timestamp = 100.0 + t;
     slam.addScan(scan, truth);
   }
   return slam.submaps().matchingSubmap()->matchGrid().unknown();
@@ -305,28 +313,42 @@ TEST(LocalSlam, ASessionsFirstSubmapIsYoungOnlyWhenTheSessionStartsAtSpeed) {
   EXPECT_FLOAT_EQ(thirdScanUnknownScore(0.05, 0, 0.5), 0.5F);   // at speed from the first scan
   EXPECT_FLOAT_EQ(thirdScanUnknownScore(0.05, 1, 0.5), 0.1F);   // from rest, then at speed
   EXPECT_FLOAT_EQ(thirdScanUnknownScore(0.05, 0, 0.04), 0.1F);  // creeping: as from rest
-  EXPECT_FLOAT_EQ(thirdScanUnknownScore(0.05, 0, 0.5, false), 0.1F);  // no interval to judge by
+  // 0.25 m in 0.5 s is 0.5 m/s: at the threshold is from rest, just above is at speed.
+  EXPECT_FLOAT_EQ(thirdScanUnknownScore(0.5, 0, 0.5, 0.5), 0.1F);
+  EXPECT_FLOAT_EQ(thirdScanUnknownScore(0.49, 0, 0.5, 0.5), 0.5F);
+  // A duplicate stamp judges nothing; the next interval does.
+  EXPECT_FLOAT_EQ(thirdScanUnknownScore(0.05, 0, 0.5, 0.1, true), 0.5F);
+  EXPECT_FLOAT_EQ(thirdScanUnknownScore(0.05, 1, 0.5, 0.1, true), 0.1F);
+  // Stamps that give no interval (all alike), or a gap of the log: as from rest.
+  EXPECT_FLOAT_EQ(thirdScanUnknownScore(0.05, 0, 0.5, 0.0), 0.1F);
+  EXPECT_FLOAT_EQ(thirdScanUnknownScore(0.05, 0, 0.5, 2.0), 0.1F);
   EXPECT_FLOAT_EQ(thirdScanUnknownScore(0.0, 3, 0.0), 0.5F);  // 0: every session's first submap
-  // A checkpoint taken after the judgement keeps it: resumed, the first submap is rebuilt as it
-  // was (young or not).
-  for (const double standing : {0, 1}) {
-    LocalSlamParams params;
+  // A checkpoint, taken after the judgement or before it, resumes as it was.
+  for (const int standing : {0, 1}) {
+    const LocalSlamParams params = youngStartParams(0.05);
     LocalSlam slam(params);
+    std::optional<LocalSlam::Checkpoint> unjudged;
     for (int k = 0; k < 2; ++k) {
-      const core::Pose2 truth(3.0 + 0.05 * std::max(0.0, k - standing), 3.0, 0.0);
+      const core::Pose2 truth(3.0 + 0.05 * std::max(0, k - standing), 3.0, 0.0);
       RangeScan scan = castScan(room(), truth);
       scan.timestamp = 0.1 * k;
+      if (k == 1) unjudged = slam.checkpoint();
       slam.addScan(scan, truth);
+      ASSERT_EQ(slam.numNodes(), 1);  // 0.05 m: the second scan is no node
     }
-    ASSERT_EQ(slam.numNodes(), 1);  // 0.05 m: the second scan is no node
-    const float before = slam.submaps().matchingSubmap()->matchGrid().unknown();
+    const float judged = slam.submaps().matchingSubmap()->matchGrid().unknown();
+    EXPECT_FLOAT_EQ(judged, standing == 0 ? 0.5F : 0.1F);
     const auto first = toObservation(castScan(room(), core::Pose2(3.0, 3.0, 0.0)), params.scan);
-    const LocalSlam resumed =
-        LocalSlam::resume(slam.checkpoint(), 0, 0,
-                          [&](int) -> const mrpt::obs::CObservation2DRangeScan& { return first; });
-    EXPECT_FLOAT_EQ(resumed.submaps().matchingSubmap()->matchGrid().unknown(), before);
-    EXPECT_FLOAT_EQ(before, standing == 0 ? params.submap.young_unknown_value
-                                          : params.submap.active_unknown_value);
+    const auto scan_of = [&](int) -> const mrpt::obs::CObservation2DRangeScan& { return first; };
+    const LocalSlam resumed = LocalSlam::resume(slam.checkpoint(), 0, 0, scan_of);
+    EXPECT_FLOAT_EQ(resumed.submaps().matchingSubmap()->matchGrid().unknown(), judged);
+    LocalSlam replayed = LocalSlam::resume(*unjudged, 0, 0, scan_of);
+    EXPECT_FLOAT_EQ(replayed.submaps().matchingSubmap()->matchGrid().unknown(), 0.1F);
+    const core::Pose2 truth(3.0 + 0.05 * (1 - standing), 3.0, 0.0);
+    RangeScan scan = castScan(room(), truth);
+    scan.timestamp = 0.1;
+    replayed.addScan(scan, truth);
+    EXPECT_FLOAT_EQ(replayed.submaps().matchingSubmap()->matchGrid().unknown(), judged);
   }
 }
 
@@ -467,6 +489,7 @@ TEST(ActiveSubmaps, OnlyTheSessionsFirstSubmapIsYoung) {
   params.young_unknown_value = 0.5;
   params.active_unknown_value = 0.1;
   ActiveSubmaps submaps(params, 7);  // a session whose first submap is the map's 8th
+  submaps.startYouth();
   const auto scan = toObservation(castScan(room(), core::Pose2(3, 3, 0)), RangeScanParams{});
   std::vector<std::tuple<int, int, float>> matched;  // submap index, its scans, unknowns' score
   for (int node = 0; node < 20; ++node) {
@@ -484,6 +507,7 @@ TEST(ActiveSubmaps, OnlyTheSessionsFirstSubmapIsYoung) {
   EXPECT_GE(std::get<0>(matched.back()), 9);
   // Rebuilt after trimming (two earlier sessions' submaps gone): the same rule, renumbered.
   ActiveSubmaps first(params, 7);
+  first.startYouth();
   first.insert(scan, core::Pose2(3, 3, 0), 0);
   first.rebuild(first.contents(), 0, 2,
                 [&](int) -> const mrpt::obs::CObservation2DRangeScan& { return scan; });

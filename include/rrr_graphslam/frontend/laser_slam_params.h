@@ -82,8 +82,8 @@ void forEachSlamParam(Params& p, F&& f) {
     local.submap.young_unknown_value);
   f(core::ParamInfo{"young_submap_start_speed", 0.0, 1e6,
                     "the first submap is young only when its session starts while the robot "
-                    "drives faster than this (m/s, odometry between the first two scans; 0: "
-                    "always)"},
+                    "drives faster than this (m/s, odometry over its first interval between scans "
+                    "of up to 1 s; 0: always)"},
     local.young_submap_start_speed);
   f(core::ParamInfo{"scan_translation_weight", 0.0, 1e6,
                     "least squares: pull of the translation toward the prediction"},

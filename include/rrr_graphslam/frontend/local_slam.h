@@ -46,8 +46,8 @@ struct LocalSlamParams {
   /// stood still across the jump (a wheel slip, an odometry reset). Default 5 m.
   double max_odometry_jump_m = 5.0;
   /// A session's first submap is young (SubmapParams::young_submap_scans) only when the session
-  /// starts while the robot drives: its odometry moved faster than this (m/s) between the
-  /// session's first two scans (no interval between their stamps: as from rest). Starts from rest
+  /// starts while the robot drives: its odometry moved faster than this (m/s) over the session's
+  /// first interval between scans of 0-1 s (no such interval: as from rest). Starts from rest
   /// (every log's own start) gain nothing from a young submap and lose a little; sessions that
   /// start at speed (a node restarted while the robot drives, a log split anywhere) are held back
   /// without it (doc/benchmarks.md#sessions-that-start-while-the-robot-drives). Default 0.05 m/s;
@@ -103,6 +103,9 @@ class LocalSlam {
 
  private:
   void checkPlausible(const RangeScan& scan, const core::Pose2& odom_pose);
+  /// Whether the session started at speed (young_submap_start_speed), judged on the first
+  /// interval that can be: the first submap is young from then on if so.
+  void judgeStart(double stamp, const core::Pose2& odom_pose, bool first);
   /// The last step (matched, or the odometry's when that scan could not be matched) repeated
   /// over this scan's interval, when both intervals are known and within 2x of each other.
   std::optional<core::Pose2> velocityPrediction(double stamp) const;
@@ -130,7 +133,7 @@ class LocalSlam {
   std::optional<Motion> last_motion_;
   double last_stamp_ = 0.0;
   int next_node_ = 0;
-  bool start_judged_ = false;  // whether the session started at speed was decided
+  bool start_judged_ = false;  // judgeStart decided
 };
 
 struct LocalSlam::Checkpoint {

@@ -45,8 +45,8 @@ struct SubmapParams {
   /// score young_unknown_value (0.5, the occupancy prior: no evidence either way), so a session's
   /// first scans are not held back where its first submap saw nothing yet; from then on
   /// active_unknown_value. Later submaps never (ActiveSubmaps gives the rule to the first submap
-  /// it starts only), nor a first submap whose session started from rest (LocalSlam's
-  /// young_submap_start_speed). Default 20; 0: off.
+  /// it starts only), and only once ActiveSubmaps::startYouth said so (LocalSlam does when the
+  /// session starts at speed: young_submap_start_speed). Default 20; 0: off.
   int young_submap_scans = 20;
   double young_unknown_value = 0.5;
   int branch_and_bound_depth = 7;  ///< levels of max-grids built when the submap is finished
@@ -79,8 +79,8 @@ class Submap {
               int node);
   /// Freezes the grid: builds the match grid and the branch-and-bound max-grids.
   void finish();
-  /// Never young from now on (young_submap_scans 0): its session started from rest.
-  void endYouth();
+  /// Young while it holds fewer than `scans` scans from now on (SubmapParams::young_submap_scans).
+  void setYoungScans(int scans);
 
   /// A node inserted into the submap, with its local-SLAM pose (the submap frame).
   struct Member {
@@ -119,7 +119,7 @@ class Submap {
 class ActiveSubmaps {
  public:
   /// Submaps are numbered from `first_index`; that one, the session's first, is the only one
-  /// young_submap_scans applies to.
+  /// young_submap_scans applies to (after startYouth).
   explicit ActiveSubmaps(const SubmapParams& params, int first_index = 0);
 
   /// Inserts; returns the submap finished by this insertion, if any.
@@ -132,8 +132,9 @@ class ActiveSubmaps {
   const std::vector<std::shared_ptr<Submap>>& active() const { return active_; }
   /// Index the next submap will take (the number started so far, plus the first index).
   int numSubmaps() const { return next_index_; }
-  /// The session's first submap is not young (Submap::endYouth), nor will it be if rebuilt.
-  void endYouth();
+  /// The session's first submap is young (SubmapParams::young_submap_scans), from now on and if
+  /// rebuilt; before this call no submap is.
+  void startYouth();
 
   /// What an active submap is made of: the insertions that rebuild it exactly.
   struct Contents {
@@ -161,7 +162,7 @@ class ActiveSubmaps {
   int first_index_ = 0;
   int next_index_ = 0;
   bool start_next_ = true;
-  bool young_ = true;  // the first submap may be young (endYouth was not called)
+  bool young_ = false;  // the first submap is young (startYouth was called)
 };
 
 }  // namespace rrr_graphslam::frontend
