@@ -207,7 +207,7 @@ void LaserSlam::searchLoops(int node, const PointCloud& scan_points) {
     }
     if (relocalizing && earlier_session && !placed_now) continue;
     if (earlier_session && apart(*submap)) {
-      if (!relocalizing && join_now) {
+      if (join_now) {
         Search s{submap.get(), core::Pose2::Zero(), true};
         s.apart = true;
         searches.push_back(s);

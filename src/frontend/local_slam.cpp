@@ -10,7 +10,12 @@ LocalSlam::LocalSlam(const LocalSlamParams& params, int first_node, int first_su
     : params_(params),
       submaps_(params.submap, first_submap),
       motion_filter_(params.motion_filter),
-      next_node_(first_node) {}
+      next_node_(first_node) {
+  if (params_.young_submap_start_speed <= 0.0) {  // every session's first submap is young
+    start_judged_ = true;
+    submaps_.startYouth();
+  }
+}
 
 namespace {
 
@@ -86,13 +91,7 @@ LocalSlam::WindowMatch LocalSlam::searchWindows(const MatchGrid& grid, const Poi
   return {by_velocity.pose, *velocity, true};
 }
 
-void LocalSlam::judgeStart(double stamp, const core::Pose2& odom_pose, bool first) {
-  if (params_.young_submap_start_speed <= 0.0) {  // every session's first submap is young
-    start_judged_ = true;
-    submaps_.startYouth();
-    return;
-  }
-  if (first) return;
+void LocalSlam::judgeStart(double stamp, const core::Pose2& odom_pose) {
   // An interval the stamps make meaningless (none, backwards, a gap in the log) judges nothing:
   // the next one does, and until then the first submap is matched as from rest.
   constexpr double kMaxJudgedIntervalSeconds = 1.0;
@@ -110,7 +109,7 @@ LocalSlamResult LocalSlam::addScan(const RangeScan& scan, const core::Pose2& odo
   const core::Pose2 prediction =
       first ? odom_pose : core::compose(last_local_, core::between(last_odom_, odom_pose));
   started_ = true;
-  if (!start_judged_) judgeStart(scan.timestamp, odom_pose, first);
+  if (!first && !start_judged_) judgeStart(scan.timestamp, odom_pose);
   result.local_pose = prediction;
   result.points = matchingPoints(scan, params_.scan);
 

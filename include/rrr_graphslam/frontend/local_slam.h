@@ -104,8 +104,8 @@ class LocalSlam {
  private:
   void checkPlausible(const RangeScan& scan, const core::Pose2& odom_pose);
   /// Whether the session started at speed (young_submap_start_speed), judged on the first
-  /// interval that can be: the first submap is young from then on if so.
-  void judgeStart(double stamp, const core::Pose2& odom_pose, bool first);
+  /// interval since the previous scan that can be: the first submap is young from then on if so.
+  void judgeStart(double stamp, const core::Pose2& odom_pose);
   /// The last step (matched, or the odometry's when that scan could not be matched) repeated
   /// over this scan's interval, when both intervals are known and within 2x of each other.
   std::optional<core::Pose2> velocityPrediction(double stamp) const;
