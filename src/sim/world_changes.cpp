@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <sstream>
+#include <stdexcept>
 
 #include "rrr_graphslam/core/input_error.h"
 #include "rrr_graphslam/sim/yaml_fields.h"
@@ -128,7 +129,16 @@ void validateChanges(const ChangeSet& changes, const World& world) {
   }
 }
 
-std::size_t applyChange(World& world, const WorldChange& change) {
+std::size_t applyChange(World& world, const WorldChange& change, const World& drawn) {
+  if (drawn.width != world.width || drawn.height != world.height) {
+    throw std::invalid_argument("applyChange: the drawn world's grid differs from the world's");
+  }
+  if (change.kind == WorldChange::Kind::kDoor && !change.adds) {
+    // An open door leaves the world as its file draws it: the posts of a door drawn from wall to
+    // wall stand in the walls, which opening it must not breach.
+    return forEachCoveredCell(world, change,
+                              [&](int cx, int cy) { world.set(cx, cy, drawn.at(cx, cy)); });
+  }
   const Cell value = change.adds ? Cell::kOccupied : Cell::kFree;
   return forEachCoveredCell(world, change, [&](int cx, int cy) { world.set(cx, cy, value); });
 }
@@ -142,7 +152,7 @@ World worldOfSession(const World& base, const ChangeSet& changes, int session) {
     return a->session < b->session;
   });
   World world = base;
-  for (const WorldChange* c : due) applyChange(world, *c);
+  for (const WorldChange* c : due) applyChange(world, *c, base);
   return world;
 }
 

@@ -76,7 +76,8 @@ TEST(GridPlanner, AClosedDoorSplitsTheRooms) {
   door.kind = WorldChange::Kind::kDoor;
   door.from_m = {4.1, 2.9};
   door.to_m = {4.1, 4.3};
-  applyChange(w, door);
+  const World drawn = w;
+  applyChange(w, door, drawn);
   const ClearanceMap map(w);
   const GridPlanner planner(map, PlannerParams{});
   const Eigen::Vector2i start = w.cellOf({0.0, 0.5});

@@ -140,7 +140,7 @@ TEST(SessionSimulator, FollowsAGivenRouteInItsOwnWorld) {
   WorldChange block;
   block.center_m = {8.0, 5.0};
   block.size_m = {3.0, 3.0};
-  applyChange(walled, block);
+  applyChange(walled, block, base);
   EXPECT_THROW(simulateSession(walled, 0, p, 1, &pillar), core::InputError);
 }
 

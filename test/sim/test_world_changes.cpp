@@ -55,7 +55,7 @@ TEST(WorldChanges, ApplyFromTheirSessionOn) {
   std::size_t changed = 0;
   for (std::size_t i = 0; i < base.cells.size(); ++i) changed += w1.cells[i] != base.cells[i];
   World scratch = base;
-  EXPECT_EQ(changed, applyChange(scratch, set.changes[0]));
+  EXPECT_EQ(changed, applyChange(scratch, set.changes[0], base));
   EXPECT_NEAR(static_cast<double>(changed) * 0.01, 0.6 * 0.4, 0.06);
 }
 
@@ -66,7 +66,8 @@ TEST(WorldChanges, ADiagonalDoorStopsEveryBeam) {
   door.from_m = {0.5, 0.5};
   door.to_m = {3.5, 3.5};
   door.thickness_m = 0.01;  // thinner than a cell: still 4-connected
-  applyChange(w, door);
+  const World drawn = w;
+  applyChange(w, door, drawn);
   // No 4-connected step crosses the diagonal from one side to the other.
   for (int cy = 10; cy < 30; ++cy) {
     for (int cx = 10; cx < 30; ++cx) {
@@ -78,6 +79,30 @@ TEST(WorldChanges, ADiagonalDoorStopsEveryBeam) {
       }
     }
   }
+}
+
+TEST(WorldChanges, AnOpenedDoorLeavesTheWallsItsPostsStandIn) {
+  // The doorway of twoRooms spans y 3.0-4.2 in the wall at x 4.0-4.2; the door is drawn from
+  // wall to wall, its posts 0.3 m inside the wall on either side.
+  const ChangeSet set = readChanges(writeTemp("door.yaml",
+                                              "changes:\n"
+                                              "  - {session: 1, kind: door, action: close, "
+                                              "from: [4.1, 2.7], to: [4.1, 4.5]}\n"
+                                              "  - {session: 2, kind: door, action: open, "
+                                              "from: [4.1, 2.7], to: [4.1, 4.5]}\n"));
+  const World base = testing::twoRooms();
+  EXPECT_EQ(cellAt(base, 4.1, 2.8), Cell::kOccupied);
+  EXPECT_EQ(cellAt(base, 4.1, 4.4), Cell::kOccupied);
+  const World closed = worldOfSession(base, set, 1);
+  for (const double y : {3.05, 3.6, 4.15}) EXPECT_EQ(cellAt(closed, 4.1, y), Cell::kOccupied) << y;
+  const World opened = worldOfSession(base, set, 2);
+  EXPECT_TRUE(opened.cells == base.cells);  // the doorway free again, the walls beside it whole
+  // A box removed over the same cells cuts the wall: that is how a new doorway is drawn.
+  const ChangeSet cut = readChanges(
+      writeTemp("cut.yaml",
+                "changes:\n  - {session: 1, kind: box, action: remove, center: [4.1, 2.8], "
+                "size: [0.4, 0.4]}\n"));
+  EXPECT_EQ(cellAt(worldOfSession(base, cut, 1), 4.1, 2.8), Cell::kFree);
 }
 
 struct BadChange {
@@ -171,6 +196,21 @@ TEST(WorldChanges, TheBundledChangeSetsFitTheBundledWorld) {
     const auto path = planner.plan(w.cellOf({9.0, -18.8}), w.cellOf({0.0, -18.65}));
     EXPECT_EQ(path.has_value(), session != 2) << "session " << session;
   }
+  // Once the south door has opened again (session 3) its cells are as the world file draws them:
+  // the corridor's walls at its posts stay whole.
+  const World reopened = worldOfSession(base, doors, 3);
+  std::size_t walls = 0, doorway = 0;
+  for (int cy = 0; cy < base.height; ++cy) {
+    for (int cx = 0; cx < base.width; ++cx) {
+      const Eigen::Vector2d p = base.centerOf(cx, cy);
+      if (std::abs(p.x() - 7.5) > 0.3 || p.y() < -20.5 || p.y() > -17.2) continue;
+      EXPECT_EQ(reopened.at(cx, cy), base.at(cx, cy)) << p.transpose();
+      walls += base.at(cx, cy) == Cell::kOccupied;
+      doorway += base.at(cx, cy) == Cell::kFree;
+    }
+  }
+  EXPECT_GT(walls, 0U);
+  EXPECT_GT(doorway, 0U);
 }
 
 }  // namespace

@@ -9,7 +9,8 @@
 // A change listed for session k holds in the world of session k and of every later session;
 // changes apply in session order, and in file order within a session. A box is a rectangle
 // (centre, size along its own axes, yaw) whose cells become occupied (add) or free (remove); a
-// door is a segment whose cells become occupied (close) or free (open).
+// door is a segment whose cells become occupied (close) or what the world file draws there
+// (open: a door drawn from wall to wall leaves the walls whole).
 
 #include <cstddef>
 #include <string>
@@ -25,7 +26,7 @@ struct WorldChange {
   enum class Kind { kBox, kDoor };
   int session = 0;  ///< first session whose world has the change (sessions count from 0)
   Kind kind = Kind::kBox;
-  bool adds = true;  ///< box add / door close (cells become occupied); else they become free
+  bool adds = true;  ///< box add / door close (cells become occupied); else removed / opened
   Eigen::Vector2d center_m = Eigen::Vector2d::Zero();  ///< box centre, world frame
   Eigen::Vector2d size_m = Eigen::Vector2d::Zero();    ///< box extent along its own x and y
   double yaw_rad = 0.0;                                ///< box orientation (default 0)
@@ -49,8 +50,9 @@ ChangeSet readChanges(const std::string& path);
 /// coordinates in another frame or unit).
 void validateChanges(const ChangeSet& changes, const World& world);
 
-/// Applies one change; returns the number of cells it covers.
-std::size_t applyChange(World& world, const WorldChange& change);
+/// Applies one change to `world`; `drawn` is the world as its file draws it, whose cells an
+/// opened door takes back. Returns the number of cells the change covers.
+std::size_t applyChange(World& world, const WorldChange& change, const World& drawn);
 
 /// The world of `session`: `base` with every change of sessions 0..session applied.
 World worldOfSession(const World& base, const ChangeSet& changes, int session);
