@@ -6,9 +6,25 @@
 #include <unordered_map>
 #include <utility>
 
+#include "rrr_graphslam/core/se2.h"
 #include "rrr_graphslam/core/union_find.h"
 
 namespace rrr_graphslam::core {
+namespace {
+
+// CPose2D(x, y, phi) wraps phi as fmod(phi + pi, 2 pi) - pi, which rounds even an angle already
+// in range (0.1 is kept as 0.10000000000000009) and sends the double just below -pi to +pi and +pi
+// to -pi: a pose read back from a written file would differ from the one written. The angle is
+// wrapped here exactly (std::remainder, into (-pi, pi]) and set without MRPT's wrap.
+mrpt::poses::CPose2D toMrpt(const Pose2& pose) {
+  mrpt::poses::CPose2D out;
+  out.x(pose.x());
+  out.y(pose.y());
+  out.phi(normalizeAngle(pose.z()));
+  return out;
+}
+
+}  // namespace
 
 PoseGraph::PoseGraph(const PoseGraph& other) { copyFrom(other); }
 
@@ -40,7 +56,7 @@ EdgeKind PoseGraph::defaultKind(NodeId from, NodeId to) {
 
 void PoseGraph::addNode(NodeId id, const Pose2& pose) {
   if (hasNode(id)) throw std::invalid_argument("duplicate node id " + std::to_string(id));
-  network_.nodes[id] = mrpt::poses::CPose2D(pose.x(), pose.y(), pose.z());
+  network_.nodes[id] = toMrpt(pose);
 }
 
 Pose2 PoseGraph::pose(NodeId id) const {
@@ -52,7 +68,7 @@ Pose2 PoseGraph::pose(NodeId id) const {
 void PoseGraph::setPose(NodeId id, const Pose2& pose) {
   const auto it = network_.nodes.find(id);
   if (it == network_.nodes.end()) throw std::out_of_range("unknown node id " + std::to_string(id));
-  it->second = mrpt::poses::CPose2D(pose.x(), pose.y(), pose.z());
+  it->second = toMrpt(pose);
 }
 
 std::size_t PoseGraph::addEdge(NodeId from, NodeId to, const Pose2& measurement,
@@ -65,8 +81,7 @@ std::size_t PoseGraph::addEdge(NodeId from, NodeId to, const Pose2& measurement,
   for (int r = 0; r < 3; ++r) {
     for (int c = 0; c < 3; ++c) info(r, c) = information(r, c);
   }
-  Network::edge_t edge(mrpt::poses::CPose2D(measurement.x(), measurement.y(), measurement.z()),
-                       info);
+  Network::edge_t edge(toMrpt(measurement), info);
   // std::multimap inserts equal keys at the upper bound, so duplicates keep their order.
   const auto it = network_.edges.emplace(std::make_pair(from, to), edge);
   edges_.push_back(Edge{from, to, kind, it});

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <mrpt/graphs/CNetworkOfPoses.h>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -91,6 +92,37 @@ TEST(GraphIo, RoundTripInBothFormatsIsExact) {
   }
   EXPECT_EQ(formatFromPath("a.graph.gz"), GraphFormat::kToro);
   EXPECT_EQ(formatFromPath("a.g2o"), GraphFormat::kG2o);
+}
+
+// A graph keeps every angle as given (wrapped exactly into (-pi, pi]), so angles at the wrap
+// point read back bit for bit: MRPT's CPose2D(x, y, phi) kept 0.1 as 0.10000000000000009 and sent
+// the double just below -pi to +pi, which a written file then read back as -pi (a fuzz finding,
+// test/fuzz/regressions/graph_io/vertex_angle_just_below_minus_pi.g2o).
+TEST(GraphIo, AnglesAtTheWrapPointRoundTripBitForBit) {
+  const double below_minus_pi = std::nextafter(-M_PI, -4.0);
+  const double angles[] = {0.1, M_PI, -M_PI, below_minus_pi, std::nextafter(M_PI, 4.0), 7.0};
+  PoseGraph graph;
+  PoseGraph::NodeId id = 0;
+  for (double angle : angles) graph.addNode(id++, Pose2(0.5, -0.25, angle));
+  for (PoseGraph::NodeId k = 1; k < id; ++k) {
+    graph.addEdge(k - 1, k, Pose2(1.0, 0.0, angles[k]), Eigen::Matrix3d::Identity(),
+                  EdgeKind::kOdometry);
+  }
+  EXPECT_EQ(graph.pose(0).z(), 0.1);
+  EXPECT_EQ(graph.pose(1).z(), M_PI);
+  EXPECT_EQ(graph.pose(2).z(), M_PI);  // -pi is pi in (-pi, pi]
+  EXPECT_EQ(graph.pose(3).z(), normalizeAngle(below_minus_pi));
+  EXPECT_LT(graph.pose(3).z(), M_PI);
+  for (PoseGraph::NodeId k = 0; k < id; ++k) {
+    EXPECT_GT(graph.pose(k).z(), -M_PI);
+    EXPECT_LE(graph.pose(k).z(), M_PI);
+  }
+  TempDir dir;
+  for (const char* name : {"out.g2o", "out.graph"}) {
+    const std::string path = dir.file(name);
+    writePoseGraph(graph, path);
+    expectSameGraph(graph, readPoseGraph(path), 0.0);
+  }
 }
 
 // Dense factors travel in g2o files as RRR_DENSE_SE2 lines, exactly; TORO refuses them.
