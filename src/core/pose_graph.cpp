@@ -12,10 +12,11 @@
 namespace rrr_graphslam::core {
 namespace {
 
-// CPose2D(x, y, phi) wraps phi as fmod(phi + pi, 2 pi) - pi, which rounds even an angle already
-// in range (0.1 is kept as 0.10000000000000009) and sends the double just below -pi to +pi and +pi
-// to -pi: a pose read back from a written file would differ from the one written. The angle is
-// wrapped here exactly (std::remainder, into (-pi, pi]) and set without MRPT's wrap.
+// CPose2D(x, y, phi) wraps phi as wrapTo2Pi(phi + pi) - pi, which rounds even an angle already
+// in range (0.1 is kept as 0.10000000000000009), maps +pi to -pi, and sends the double just below
+// -pi to +pi (phi + pi is -4.4e-16; adding 2 pi rounds to 2 pi): a pose read back from a written
+// file would differ from the one written. The angle is wrapped here exactly (std::remainder, into
+// (-pi, pi]) and set without MRPT's wrap.
 mrpt::poses::CPose2D toMrpt(const Pose2& pose) {
   mrpt::poses::CPose2D out;
   out.x(pose.x());

@@ -196,10 +196,7 @@ def cxx_read(path, folder):
 
 
 def same_angle(a, b):
-    """Equal angles in the same range, but for pi: the C++ graph stores -pi where the file and
-    Python have pi (mrpt::poses::CPose2D wraps to [-pi, pi), core::normalizeAngle to (-pi, pi])."""
-    if abs(abs(a) - math.pi) <= 1e-12 and abs(abs(b) - math.pi) <= 1e-12:
-        return True
+    """Equal angles: both sides wrap into (-pi, pi] (core::normalizeAngle, graph_io.py)."""
     return close(a, b)
 
 
@@ -297,12 +294,13 @@ def test_every_bundled_graph_is_covered():
 
 def test_the_comparison_notices_a_difference(tmp_path):
     """The checks themselves: a changed pose, measurement, information entry, edge order or
-    message fails them; pi and -pi are the same angle."""
+    message fails them, and so does -pi for pi (both readers wrap into (-pi, pi])."""
     path = write(tmp_path, "g.g2o", EDGE_CASES["toro"][0])
     good = python_read(path)
     _, poses, edges = good
     assert_agree(good, good)
-    assert_agree(("ok", {**poses, 2: (2.0, 0.0, -math.pi)}, edges), ("ok", {**poses, 2: (2.0, 0.0, math.pi)}, edges))
+    with pytest.raises(AssertionError):
+        assert_agree(("ok", {**poses, 2: (2.0, 0.0, -math.pi)}, edges), ("ok", {**poses, 2: (2.0, 0.0, math.pi)}, edges))
     a, b, z, info = edges[1]
     for changed in (("ok", {**poses, 1: (1.0 + 1e-9, 0.0, 0.0)}, edges),
                     ("ok", poses, edges[:1] + [(a, b, (z[0], z[1], z[2] + 1e-9), info)] + edges[2:]),
