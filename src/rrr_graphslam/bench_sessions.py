@@ -430,7 +430,9 @@ def online_false_accepts(rows: Sequence[StreamRow], known_false: Sequence[bool],
     """What the robot saw of the false loops (`known_false`, per candidate) as the run decided
     online (the stream's online rows; the decision from scratch at the end is the final table's):
     how many of them were accepted at some moment, and for how many nodes (up to `end_nodes`, the
-    graph's at the end) at least one of them was."""
+    graph's at the end) at least one of them was. That union is what a robot's map carried;
+    decision_stream.score_stream times each false candidate on its own instead (a sum over
+    candidates, for the per-link targets), and counts the final decision's changes too."""
     ever, accepted = set(), set()
     nodes_with, since = 0, 0
     for r in rows:
