@@ -129,15 +129,16 @@ void validateChanges(const ChangeSet& changes, const World& world) {
   }
 }
 
-std::size_t applyChange(World& world, const WorldChange& change, const World& drawn) {
-  if (drawn.width != world.width || drawn.height != world.height) {
-    throw std::invalid_argument("applyChange: the drawn world's grid differs from the world's");
+std::size_t applyChange(World& world, const WorldChange& change, const World& beneath) {
+  if (beneath.width != world.width || beneath.height != world.height ||
+      beneath.resolution_m != world.resolution_m || beneath.origin_m != world.origin_m) {
+    throw std::invalid_argument("applyChange: the world beneath the doors has another grid");
   }
   if (change.kind == WorldChange::Kind::kDoor && !change.adds) {
-    // An open door leaves the world as its file draws it: the posts of a door drawn from wall to
-    // wall stand in the walls, which opening it must not breach.
+    // An open door gives back what lies beneath it: the posts of a door drawn from wall to wall
+    // stand in the walls, which opening it must not breach, and an opening cut by a box stays cut.
     return forEachCoveredCell(world, change,
-                              [&](int cx, int cy) { world.set(cx, cy, drawn.at(cx, cy)); });
+                              [&](int cx, int cy) { world.set(cx, cy, beneath.at(cx, cy)); });
   }
   const Cell value = change.adds ? Cell::kOccupied : Cell::kFree;
   return forEachCoveredCell(world, change, [&](int cx, int cy) { world.set(cx, cy, value); });
@@ -151,8 +152,13 @@ World worldOfSession(const World& base, const ChangeSet& changes, int session) {
   std::stable_sort(due.begin(), due.end(), [](const WorldChange* a, const WorldChange* b) {
     return a->session < b->session;
   });
+  // Two layers: every change, and beneath the doors, the boxes alone.
   World world = base;
-  for (const WorldChange* c : due) applyChange(world, *c, base);
+  World beneath = base;
+  for (const WorldChange* c : due) {
+    applyChange(world, *c, beneath);
+    if (c->kind == WorldChange::Kind::kBox) applyChange(beneath, *c, beneath);
+  }
   return world;
 }
 

@@ -3,6 +3,8 @@
 
 #include <gtest/gtest.h>
 
+#include <stdexcept>
+
 #include "rrr_graphslam/core/input_error.h"
 #include "rrr_graphslam/sim/clearance_map.h"
 #include "rrr_graphslam/sim/grid_planner.h"
@@ -97,12 +99,48 @@ TEST(WorldChanges, AnOpenedDoorLeavesTheWallsItsPostsStandIn) {
   for (const double y : {3.05, 3.6, 4.15}) EXPECT_EQ(cellAt(closed, 4.1, y), Cell::kOccupied) << y;
   const World opened = worldOfSession(base, set, 2);
   EXPECT_TRUE(opened.cells == base.cells);  // the doorway free again, the walls beside it whole
-  // A box removed over the same cells cuts the wall: that is how a new doorway is drawn.
-  const ChangeSet cut = readChanges(
-      writeTemp("cut.yaml",
-                "changes:\n  - {session: 1, kind: box, action: remove, center: [4.1, 2.8], "
-                "size: [0.4, 0.4]}\n"));
-  EXPECT_EQ(cellAt(worldOfSession(base, cut, 1), 4.1, 2.8), Cell::kFree);
+}
+
+// An opened door gives back what lies beneath the doors: the boxes' changes before it count.
+TEST(WorldChanges, AnOpenedDoorKeepsTheBoxesBeneathIt) {
+  const World base = testing::twoRooms();
+  ASSERT_EQ(cellAt(base, 4.1, 1.5), Cell::kOccupied);  // the wall below the doorway
+  // A doorway cut by a box in session 1, a door closed in it in 2 and opened in 3: cut again.
+  const ChangeSet cut = readChanges(writeTemp("cut.yaml",
+                                              "changes:\n"
+                                              "  - {session: 1, kind: box, action: remove, "
+                                              "center: [4.1, 1.5], size: [0.4, 0.6]}\n"
+                                              "  - {session: 2, kind: door, action: close, "
+                                              "from: [4.1, 1.0], to: [4.1, 2.0]}\n"
+                                              "  - {session: 3, kind: door, action: open, "
+                                              "from: [4.1, 1.0], to: [4.1, 2.0]}\n"));
+  validateChanges(cut, base);
+  EXPECT_EQ(cellAt(worldOfSession(base, cut, 1), 4.1, 1.5), Cell::kFree);
+  EXPECT_EQ(cellAt(worldOfSession(base, cut, 2), 4.1, 1.5), Cell::kOccupied);
+  EXPECT_TRUE(worldOfSession(base, cut, 3).cells == worldOfSession(base, cut, 1).cells);
+  // A box set down in the doorway in session 1 stays when a door over it closes and opens.
+  const ChangeSet box = readChanges(writeTemp("box.yaml",
+                                              "changes:\n"
+                                              "  - {session: 1, kind: box, action: add, "
+                                              "center: [4.1, 3.6], size: [0.2, 0.2]}\n"
+                                              "  - {session: 2, kind: door, action: close, "
+                                              "from: [4.1, 2.7], to: [4.1, 4.5]}\n"
+                                              "  - {session: 3, kind: door, action: open, "
+                                              "from: [4.1, 2.7], to: [4.1, 4.5]}\n"));
+  const World reopened = worldOfSession(base, box, 3);
+  EXPECT_EQ(cellAt(reopened, 4.1, 3.6), Cell::kOccupied);
+  EXPECT_EQ(cellAt(reopened, 4.1, 3.1), Cell::kFree);
+  EXPECT_TRUE(reopened.cells == worldOfSession(base, box, 1).cells);
+  // Opening a door that no change closed changes nothing (a wall stays a wall).
+  const ChangeSet never_closed = readChanges(
+      writeTemp("open.yaml",
+                "changes:\n  - {session: 1, kind: door, action: open, from: [4.1, 1.0], "
+                "to: [4.1, 2.0]}\n"));
+  EXPECT_TRUE(worldOfSession(base, never_closed, 1).cells == base.cells);
+  // The world beneath must share the grid.
+  World other(base.width, base.height, base.resolution_m * 2, base.origin_m);
+  World scratch = base;
+  EXPECT_THROW(applyChange(scratch, never_closed.changes[0], other), std::invalid_argument);
 }
 
 struct BadChange {

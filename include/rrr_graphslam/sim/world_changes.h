@@ -9,8 +9,10 @@
 // A change listed for session k holds in the world of session k and of every later session;
 // changes apply in session order, and in file order within a session. A box is a rectangle
 // (centre, size along its own axes, yaw) whose cells become occupied (add) or free (remove); a
-// door is a segment whose cells become occupied (close) or what the world file draws there
-// (open: a door drawn from wall to wall leaves the walls whole).
+// door is a segment whose cells become occupied (close) or what lies beneath the doors there
+// (open): the world file's drawing with the box changes so far, so a door drawn from wall to wall
+// leaves the walls whole, a doorway cut by a box stays cut and a box under the door stays. An
+// open door that no change closed therefore changes nothing: to cut an opening, remove a box.
 
 #include <cstddef>
 #include <string>
@@ -50,9 +52,11 @@ ChangeSet readChanges(const std::string& path);
 /// coordinates in another frame or unit).
 void validateChanges(const ChangeSet& changes, const World& world);
 
-/// Applies one change to `world`; `drawn` is the world as its file draws it, whose cells an
-/// opened door takes back. Returns the number of cells the change covers.
-std::size_t applyChange(World& world, const WorldChange& change, const World& drawn);
+/// Applies one change to `world`; `beneath` is the world beneath the doors (the world file's
+/// drawing with the box changes so far, as worldOfSession keeps it), whose cells an opened door
+/// takes back. Returns the number of cells the change covers. std::invalid_argument if the two
+/// grids differ.
+std::size_t applyChange(World& world, const WorldChange& change, const World& beneath);
 
 /// The world of `session`: `base` with every change of sessions 0..session applied.
 World worldOfSession(const World& base, const ChangeSet& changes, int session);
