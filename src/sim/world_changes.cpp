@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <sstream>
 #include <stdexcept>
 
@@ -111,6 +112,7 @@ ChangeSet readChanges(const std::string& path) {
   for (const YamlEntry& e : root.entries("changes", "change")) {
     WorldChange c = readChange(e);
     c.label = "change " + std::to_string(set.changes.size() + 1);
+    c.path = path;
     set.changes.push_back(c);
   }
   return set;
@@ -144,7 +146,13 @@ std::size_t applyChange(World& world, const WorldChange& change, const World& be
   return forEachCoveredCell(world, change, [&](int cx, int cy) { world.set(cx, cy, value); });
 }
 
-World worldOfSession(const World& base, const ChangeSet& changes, int session) {
+namespace {
+
+// Applies the changes of sessions 0..session to `base` in their order, calling
+// before(change, world, beneath) ahead of each; returns the world. Two layers: every change, and
+// beneath the doors, the boxes alone (what an opened door gives back).
+template <class Before>
+World replayChanges(const World& base, const ChangeSet& changes, int session, Before before) {
   std::vector<const WorldChange*> due;
   for (const WorldChange& c : changes.changes) {
     if (c.session <= session) due.push_back(&c);
@@ -152,14 +160,36 @@ World worldOfSession(const World& base, const ChangeSet& changes, int session) {
   std::stable_sort(due.begin(), due.end(), [](const WorldChange* a, const WorldChange* b) {
     return a->session < b->session;
   });
-  // Two layers: every change, and beneath the doors, the boxes alone.
   World world = base;
   World beneath = base;
   for (const WorldChange* c : due) {
+    before(*c, world, beneath);
     applyChange(world, *c, beneath);
     if (c->kind == WorldChange::Kind::kBox) applyChange(beneath, *c, beneath);
   }
   return world;
+}
+
+}  // namespace
+
+void validateOpenings(const ChangeSet& changes, const World& base) {
+  const auto check = [&](const WorldChange& c, const World& world, const World& beneath) {
+    if (c.kind != WorldChange::Kind::kDoor || c.adds) return;
+    std::size_t closed = 0;
+    forEachCoveredCell(world, c,
+                       [&](int cx, int cy) { closed += world.at(cx, cy) != beneath.at(cx, cy); });
+    if (closed > 0) return;
+    throw core::InputError(c.path.empty() ? changes.path : c.path, c.line,
+                           c.label +
+                               ": opens a door no earlier change closed: its cells would not "
+                               "change (to cut an opening into a wall, remove a box there)");
+  };
+  replayChanges(base, changes, std::numeric_limits<int>::max(), check);
+}
+
+World worldOfSession(const World& base, const ChangeSet& changes, int session) {
+  return replayChanges(base, changes, session,
+                       [](const WorldChange&, const World&, const World&) {});
 }
 
 }  // namespace rrr_graphslam::sim

@@ -164,6 +164,7 @@ int main(int argc, char** argv) {
       sim::validateChanges(set, base);
       changes.changes.insert(changes.changes.end(), set.changes.begin(), set.changes.end());
     }
+    sim::validateOpenings(changes, base);
     sim::Route route;
     if (!route_path.empty()) route = sim::readRoute(route_path);
     std::size_t due = 0;

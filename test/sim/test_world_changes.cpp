@@ -115,6 +115,7 @@ TEST(WorldChanges, AnOpenedDoorKeepsTheBoxesBeneathIt) {
                                               "  - {session: 3, kind: door, action: open, "
                                               "from: [4.1, 1.0], to: [4.1, 2.0]}\n"));
   validateChanges(cut, base);
+  validateOpenings(cut, base);
   EXPECT_EQ(cellAt(worldOfSession(base, cut, 1), 4.1, 1.5), Cell::kFree);
   EXPECT_EQ(cellAt(worldOfSession(base, cut, 2), 4.1, 1.5), Cell::kOccupied);
   EXPECT_TRUE(worldOfSession(base, cut, 3).cells == worldOfSession(base, cut, 1).cells);
@@ -131,16 +132,28 @@ TEST(WorldChanges, AnOpenedDoorKeepsTheBoxesBeneathIt) {
   EXPECT_EQ(cellAt(reopened, 4.1, 3.6), Cell::kOccupied);
   EXPECT_EQ(cellAt(reopened, 4.1, 3.1), Cell::kFree);
   EXPECT_TRUE(reopened.cells == worldOfSession(base, box, 1).cells);
-  // Opening a door that no change closed changes nothing (a wall stays a wall).
-  const ChangeSet never_closed = readChanges(
-      writeTemp("open.yaml",
-                "changes:\n  - {session: 1, kind: door, action: open, from: [4.1, 1.0], "
-                "to: [4.1, 2.0]}\n"));
-  EXPECT_TRUE(worldOfSession(base, never_closed, 1).cells == base.cells);
+  validateOpenings(box, base);
+  // Opening a door that no change closed would change nothing (a wall stays a wall): refused,
+  // naming the file and the line.
+  const std::string open_path = writeTemp(
+      "open.yaml",
+      "changes:\n  - {session: 1, kind: box, action: add, center: [1, 1], size: [0.5, 0.5]}\n"
+      "  - {session: 1, kind: door, action: open, from: [4.1, 1.0], to: [4.1, 2.0]}\n");
+  const ChangeSet never_closed = readChanges(open_path);
+  EXPECT_EQ(cellAt(worldOfSession(base, never_closed, 1), 4.1, 1.5), Cell::kOccupied);
+  try {
+    validateOpenings(never_closed, base);
+    ADD_FAILURE() << "no error";
+  } catch (const core::InputError& e) {
+    EXPECT_EQ(e.source(), open_path);
+    EXPECT_EQ(e.line(), 3U);
+    EXPECT_NE(e.reason().find("change 2: opens a door no earlier change closed"), std::string::npos)
+        << e.what();
+  }
   // The world beneath must share the grid.
   World other(base.width, base.height, base.resolution_m * 2, base.origin_m);
   World scratch = base;
-  EXPECT_THROW(applyChange(scratch, never_closed.changes[0], other), std::invalid_argument);
+  EXPECT_THROW(applyChange(scratch, never_closed.changes[1], other), std::invalid_argument);
 }
 
 struct BadChange {
@@ -218,6 +231,7 @@ TEST(WorldChanges, TheBundledChangeSetsFitTheBundledWorld) {
     SCOPED_TRACE(name);
     const ChangeSet set = readChanges(dir + name);
     validateChanges(set, base);
+    validateOpenings(set, base);
     for (int session = 1; session <= 3; ++session) {
       EXPECT_FALSE(worldOfSession(base, set, session).cells ==
                    worldOfSession(base, set, session - 1).cells)

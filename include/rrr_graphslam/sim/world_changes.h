@@ -12,7 +12,8 @@
 // door is a segment whose cells become occupied (close) or what lies beneath the doors there
 // (open): the world file's drawing with the box changes so far, so a door drawn from wall to wall
 // leaves the walls whole, a doorway cut by a box stays cut and a box under the door stays. An
-// open door that no change closed therefore changes nothing: to cut an opening, remove a box.
+// open door that no change closed would change nothing and is refused (validateOpenings): to cut
+// an opening, remove a box.
 
 #include <cstddef>
 #include <string>
@@ -36,6 +37,7 @@ struct WorldChange {
   Eigen::Vector2d to_m = Eigen::Vector2d::Zero();
   double thickness_m = 0.1;  ///< door leaf (default 0.1; at least 1.5 cells are covered)
   std::string label;         ///< "change K" (1-based, in file order), for messages
+  std::string path;          ///< the file it was read from, for messages
   std::size_t line = 0;      ///< 1-based line of the entry in its file
 };
 
@@ -51,6 +53,11 @@ ChangeSet readChanges(const std::string& path);
 /// Throws core::InputError naming the entry for a change that covers no cell of `world` (e.g.
 /// coordinates in another frame or unit).
 void validateChanges(const ChangeSet& changes, const World& world);
+
+/// Throws core::InputError naming the entry (its file and line) for a door opened where no
+/// earlier change closed one: it would change no cell. `changes` may join the sets of several
+/// files in the order they apply (a door closed in one and opened in another is fine).
+void validateOpenings(const ChangeSet& changes, const World& base);
 
 /// Applies one change to `world`; `beneath` is the world beneath the doors (the world file's
 /// drawing with the box changes so far, as worldOfSession keeps it), whose cells an opened door
