@@ -101,6 +101,12 @@ std::size_t forEachCoveredCell(const World& world, const WorldChange& c, F&& f) 
   return n;
 }
 
+// A box's cells, or a closed door's, set to what the change makes them.
+std::size_t paint(World& world, const WorldChange& c) {
+  const Cell value = c.adds ? Cell::kOccupied : Cell::kFree;
+  return forEachCoveredCell(world, c, [&](int cx, int cy) { world.set(cx, cy, value); });
+}
+
 }  // namespace
 
 ChangeSet readChanges(const std::string& path) {
@@ -142,8 +148,7 @@ std::size_t applyChange(World& world, const WorldChange& change, const World& be
     return forEachCoveredCell(world, change,
                               [&](int cx, int cy) { world.set(cx, cy, beneath.at(cx, cy)); });
   }
-  const Cell value = change.adds ? Cell::kOccupied : Cell::kFree;
-  return forEachCoveredCell(world, change, [&](int cx, int cy) { world.set(cx, cy, value); });
+  return paint(world, change);
 }
 
 namespace {
@@ -165,7 +170,7 @@ World replayChanges(const World& base, const ChangeSet& changes, int session, Be
   for (const WorldChange* c : due) {
     before(*c, world, beneath);
     applyChange(world, *c, beneath);
-    if (c->kind == WorldChange::Kind::kBox) applyChange(beneath, *c, beneath);
+    if (c->kind == WorldChange::Kind::kBox) paint(beneath, *c);
   }
   return world;
 }
