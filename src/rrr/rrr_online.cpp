@@ -238,7 +238,7 @@ void Rrr::decideAgainstMap() {
   // rejected clusters that now fit its map are recovered.
   for (int round = 0; round < params_.max_rounds; ++round) {
     if (joint.empty() && unoptimized_accepts_ < params_.incremental_map_update_every) return;
-    unoptimized_accepts_ = 0;
+    const bool unoptimized = std::exchange(unoptimized_accepts_, 0) > 0;
     const bool placing = !placing_groups.empty();
     placing_groups.clear();
     // The increase test needs the decision before the joint test, to undo it (a placing group
@@ -247,6 +247,10 @@ void Rrr::decideAgainstMap() {
     std::optional<DecisionState> before;
     double good_chi2_before = 0.0;
     if (params_.online_increase_test && !placing && !joint.empty()) {
+      // The increase is the tested clusters' own: clusters accepted on the map's word since its
+      // last optimization are folded into it first, or the fall of their own chi2 as the joint
+      // test fits them would hide a group's excess.
+      if (unoptimized) optimizeGoodMap();
       before = decisionState();
       good_chi2_before = goodSetChi2();
     }
