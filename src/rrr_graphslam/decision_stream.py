@@ -24,6 +24,7 @@ class StreamRow:
     candidate: int
     previous: str
     verdict: str
+    cluster: int = -1  # the candidate's cluster, -1 while it is open
 
 
 def read_decision_stream(path: str) -> List[StreamRow]:
@@ -42,10 +43,11 @@ def read_decision_stream(path: str) -> List[StreamRow]:
             raise GraphFileError(path, number, "when must be online or final, verdicts one of "
                                                + ", ".join(VERDICTS))
         try:
-            rows.append(StreamRow(f[0] == "final", int(f[2]), float(f[3]), int(f[4]), f[8], f[9]))
+            rows.append(StreamRow(f[0] == "final", int(f[2]), float(f[3]), int(f[4]), f[8], f[9],
+                                  int(f[7])))
         except ValueError:
-            raise GraphFileError(path, number, "nodes and candidate must be integers, stamp a "
-                                               "number") from None
+            raise GraphFileError(path, number, "nodes, candidate and cluster must be integers, "
+                                               "stamp a number") from None
     return rows
 
 
@@ -115,6 +117,39 @@ def score_stream(rows: Sequence[StreamRow], truth: Sequence[Optional[bool]]) -> 
     s.transient_false_accepts = len(ever_false)
     s.undecided_online += len(arrived)
     return s
+
+
+@dataclass
+class HeldGroup:
+    """False links one online change accepted together (one cluster at one node)."""
+    cluster: int
+    candidates: List[int]
+    accepted_at: int  # nodes arrived when they were accepted
+    held: int         # nodes the longest-held of them stayed accepted from then
+
+
+def held_false_groups(rows: Sequence[StreamRow], truth: Sequence[Optional[bool]],
+                      longer_than: int = 100) -> List[HeldGroup]:
+    """The groups of false links an online change accepted together and the run then held
+    accepted for more than `longer_than` nodes (until rejected, or to the last node), in order of
+    acceptance."""
+    last_nodes = max((r.nodes for r in rows), default=0)
+    groups: Dict[tuple, HeldGroup] = {}
+    open_group: Dict[int, tuple] = {}  # false candidate -> its group while accepted
+    for r in rows:
+        if r.previous == r.verdict or truth[r.candidate] is not False or r.final:
+            continue
+        if r.verdict == "accepted":
+            key = (r.nodes, r.cluster)
+            groups.setdefault(key, HeldGroup(r.cluster, [], r.nodes, 0)).candidates.append(
+                r.candidate)
+            open_group[r.candidate] = key
+        elif r.previous == "accepted" and r.candidate in open_group:
+            g = groups[open_group.pop(r.candidate)]
+            g.held = max(g.held, r.nodes - g.accepted_at)
+    for key in open_group.values():  # held to the end of the run
+        groups[key].held = max(groups[key].held, last_nodes - groups[key].accepted_at)
+    return [g for _, g in sorted(groups.items()) if g.held > longer_than]
 
 
 def online_summary(s: OnlineScore) -> str:

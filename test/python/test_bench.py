@@ -98,6 +98,16 @@ print("time           0.250 s")
 # A clean optimum for the map harm: three poses on a line.
 LINE_GRAPH = ("VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0\nVERTEX_SE2 2 2 0 0\n"
               "EDGE_SE2 0 1 1 0 0 1 0 0 1 0 1\nEDGE_SE2 1 2 1 0 0 1 0 0 1 0 1\n")
+# rrr_optimize's stand-in: the input's poses are its optimum.
+FAKE_OPTIMIZE = """#!{python}
+import shutil, sys
+shutil.copy(sys.argv[1], sys.argv[sys.argv.index("--output") + 1])
+"""
+# fake_bench's input: 201 poses on a line, exact odometry and loops 0 -> 5, 1 -> 6, 3 -> 8; the
+# false 2 -> 7 lies 3 m aside (chi2 9 at the poses, the fake optimum, against chi2(0.95, 3) 7.8).
+CORRIDOR = "".join(f"VERTEX_SE2 {i} {i} 0 0\n" for i in range(201)) + "".join(
+    f"EDGE_SE2 {i} {i + 1} 1 0 0 1 0 0 1 0 1\n" for i in range(200)) + "".join(
+    f"EDGE_SE2 {i} {i + 5} 5 {3 if i == 2 else 0} 0 1 0 0 1 0 1\n" for i in range(4))
 HEADER = ("| input | configuration | precision | recall | time s | optimizations | "
           "fp / fn vs default |")
 
@@ -107,15 +117,18 @@ def fake_bench(tmp_path, *options):
     deselected; its stdout lines, the fake's calls and the cache folder."""
     cache = tmp_path / "cache"
     cache.mkdir(parents=True, exist_ok=True)
-    (cache / "g_random4_s1_gated.g2o").write_text("")  # the fake reads nothing
+    (cache / "g_random4_s1_gated.g2o").write_text(CORRIDOR)  # the fake rrr_offline reads nothing
     (cache / "g_random4_s1_gated.g2o.labels").write_text("0 5 1\n1 6 1\n2 7 0\n3 8 0\n")
     log = tmp_path / "calls"
     fake = tmp_path / "rrr_offline"
     fake.write_text(FAKE_OFFLINE.format(python=sys.executable, log=str(log), graph=LINE_GRAPH))
     fake.chmod(0o755)
+    optimize = tmp_path / "rrr_optimize"
+    optimize.write_text(FAKE_OPTIMIZE.format(python=sys.executable))
+    optimize.chmod(0o755)
     out = io.StringIO()
     with contextlib.redirect_stdout(out):
-        assert main(["--rrr-offline", str(fake), "--rrr-optimize", str(tmp_path / "none"),
+        assert main(["--rrr-offline", str(fake), "--rrr-optimize", str(optimize),
                      "--data", str(tmp_path), "--cache", str(cache), "--datasets", "--no-kitti",
                      "--no-b25b", "--incremental", *options]) == 0
     calls = log.read_text().splitlines() if log.exists() else []
@@ -193,6 +206,11 @@ def test_incremental_runs_are_scored_as_their_decisions_were_made(tmp_path):
     # Beside the stream, each candidate's verdicts and when (nodes, seconds after its arrival).
     history = (cache / "g_random4_s1_gated.g2o.incremental.stream.history.tsv").read_text().splitlines()
     assert history[3] == "2\tfalse\tpending@0/0.000s accepted@3/0.100s rejected@193/0.200s"
+    # The false link held over 100 nodes, against the outlier-free data: contradicted on arrival.
+    assert "| g random 4 | 2 (1) | 10 | 190 | 10 | 9.0 / 7.8 | 190 |" in lines
+    assert ("  of the 1 false links held over 100 nodes, 0 were not contradicted by the outlier-free "
+            "data within 100 nodes of their acceptance (no test on the stated noise could have "
+            "rejected them in time), 1 were (the online decision's own shortfall)") in lines
 
 
 def test_aliasing_pairs_each_aliased_input_with_random_outliers_of_its_count_and_seed(tmp_path):

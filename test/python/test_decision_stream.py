@@ -1,10 +1,15 @@
 """Scoring the decisions as a run made them: false links accepted for a while, true links
-reversed, time to a first verdict; a malformed stream is refused with its file and line."""
+reversed, time to a first verdict, the false groups held and when the outlier-free data could
+first contradict them; a malformed stream is refused with its file and line."""
+import os
+
 import pytest
 
-from rrr_graphslam.decision_stream import (candidate_histories, online_summary, percentile,
-                                           read_decision_stream, score_stream, write_histories)
-from rrr_graphslam.graph_io import GraphFileError
+from rrr_graphslam.decision_stream import (candidate_histories, held_false_groups, online_summary,
+                                           percentile, read_decision_stream, score_stream,
+                                           write_histories)
+from rrr_graphslam.graph_io import Edge, GraphFileError, PoseGraph
+from rrr_graphslam.stream_evidence import first_contradiction, outlier_free_prefix
 
 HEADER = "when\tscan\tnodes\tstamp\tcandidate\tfrom\tto\tcluster\tprevious\tverdict\treason\n"
 
@@ -73,3 +78,57 @@ def test_a_malformed_stream_names_its_file_and_line(tmp_path):
     path.write_text(HEADER + row("online", 10, 0.5, 7, "pending", "pending"))
     with pytest.raises(ValueError, match="candidate 7 but 1 truth labels"):
         score_stream(read_decision_stream(str(path)), [True])
+
+
+def test_the_false_groups_held_are_those_one_change_accepted_together(tmp_path):
+    def at(when, nodes, candidate, cluster, previous, verdict):
+        return (f"{when}\t{nodes}\t{nodes}\t{nodes}.0\t{candidate}\t1\t{nodes}\t{cluster}\t"
+                f"{previous}\t{verdict}\tr\n")
+    path = tmp_path / "stream.tsv"
+    path.write_text(HEADER
+                    + at("online", 10, 0, -1, "pending", "pending")
+                    + at("online", 11, 1, -1, "pending", "pending")
+                    + at("online", 12, 2, -1, "pending", "pending")
+                    + at("online", 12, 3, -1, "pending", "pending")
+                    + at("online", 20, 0, 4, "pending", "accepted")    # false, group (20, 4)
+                    + at("online", 20, 1, 4, "pending", "accepted")    # false, group (20, 4)
+                    + at("online", 20, 2, 4, "pending", "accepted")    # true
+                    + at("online", 25, 3, 5, "pending", "accepted")    # false, held 50
+                    + at("online", 75, 3, 5, "accepted", "rejected")
+                    + at("online", 90, 0, 4, "accepted", "rejected")   # 70 nodes
+                    + at("final", 300, 1, 4, "accepted", "rejected"))  # 280 nodes, to the end
+    rows = read_decision_stream(str(path))
+    assert [r.cluster for r in rows[4:7]] == [4, 4, 4]
+    truth = [False, False, True, False]
+    held = held_false_groups(rows, truth, 100)
+    assert [(g.cluster, g.candidates, g.accepted_at, g.held) for g in held] == [(4, [0, 1], 20, 280)]
+    assert [(g.cluster, g.held) for g in held_false_groups(rows, truth, 40)] == [(4, 280), (5, 50)]
+    assert held_false_groups(rows, truth, 280) == []
+
+
+OPTIMIZE = os.environ.get("RRR_OPTIMIZE")
+
+
+@pytest.mark.skipif(not OPTIMIZE, reason="RRR_OPTIMIZE not given")
+def test_a_false_link_is_contradicted_once_true_loops_pin_the_path_it_bends():
+    # A 30-node corridor along x; the false link claims node 10 lies 0.75 m aside of where node 2's
+    # odometry puts it, which 8 loose odometry steps can take (chi2 increase 3.9); a true loop
+    # 2 -> 20 and then 10 -> 21, tight, pin the path (12.6 >= chi2(0.95, 3) 7.81).
+    odometry, tight = (100.0, 0.0, 0.0, 100.0, 0.0, 1000.0), (1e3, 0.0, 0.0, 1e3, 0.0, 1e4)
+    graph = PoseGraph({i: (float(i), 0.0, 0.0) for i in range(30)},
+                      [Edge(i - 1, i, (1.0, 0.0, 0.0), odometry) for i in range(1, 30)])
+    graph.edges += [Edge(2, 10, (8.0, 0.75, 0.0), odometry), Edge(2, 20, (18.0, 0.0, 0.0), tight),
+                    Edge(10, 21, (11.0, 0.0, 0.0), tight)]
+    truth = [False, True, True]
+    prefix = outlier_free_prefix(graph, truth, 21, [0])
+    assert sorted(prefix.poses) == list(range(21))
+    assert [(e.source, e.target) for e in prefix.loops()] == [(2, 10), (2, 20)]
+    assert [(e.source, e.target) for e in outlier_free_prefix(graph, truth, 21).loops()] == [(2, 20)]
+    cache = {}
+    early = first_contradiction(graph, truth, [0], 11, 21, OPTIMIZE, step=5, cache=cache)
+    assert early.contradicted_at is None and early.increase == pytest.approx(6.7, abs=0.1)
+    assert early.gate == pytest.approx(7.815, abs=1e-3)
+    later = first_contradiction(graph, truth, [0], 11, 29, OPTIMIZE, step=5, cache=cache)
+    assert later.contradicted_at == 26 and later.increase == pytest.approx(12.6, abs=0.1)
+    assert first_contradiction(graph, truth, [0], 11, 29, OPTIMIZE, step=1).contradicted_at == 22
+    assert set(cache) == {11, 16, 21, 26}
