@@ -25,7 +25,7 @@ from .evaluation import (MapHarm, Score, map_harm, read_decisions, read_ground_t
                          read_truth, score)
 from .graph_io import read_graph, write_graph, write_text_atomically
 from .outliers import add_outliers
-from .stream_evidence import Evidence, first_contradiction
+from .stream_evidence import Evidence, first_batch_rejection, first_contradiction
 
 SYNTHETIC = ("manhattanOlson3500_olson", "intel", "city10000", "ringCity", "csail")
 KINDS = ("random", "local", "random-grouped", "local-grouped", "aliased")
@@ -74,9 +74,10 @@ class Row(NamedTuple):
     seed: int = 1  # of the generated outliers (synthetic inputs)
     harm: Optional[MapHarm] = None  # synthetic inputs: the map against the clean optimum
     online: Optional[OnlineScore] = None  # incremental mode: the decisions as they were made
-    # incremental mode: the false groups held over 100 nodes, and when the outlier-free data
-    # could first contradict each (stream_evidence)
-    held: Tuple[Tuple[HeldGroup, Evidence], ...] = ()
+    # incremental mode: the false groups held over 100 nodes, with when the outlier-free data
+    # could first contradict each and when batch RRR on the graph so far rejected it
+    # (stream_evidence)
+    held: Tuple[Tuple[HeldGroup, Evidence, Optional[int]], ...] = ()
 
 
 def run_offline(binary, graph, decisions, extra=()):
@@ -235,7 +236,7 @@ def main(argv=None):
             d = read_decisions(decisions)
             stream_rows, labels = read_decision_stream(stream), read_truth(truth, d)
             online = score_stream(stream_rows, labels)
-            held = held_evidence(graph, labels, stream_rows, optimizer)
+            held = held_evidence(graph, labels, stream_rows, optimizer, args.rrr_offline)
             # Each candidate's verdicts and when, beside the stream (STREAM.history.tsv).
             write_histories(stream[:-len(".tsv")] + ".history.tsv",
                             candidate_histories(stream_rows), labels)
@@ -311,48 +312,53 @@ def main(argv=None):
     return 0
 
 
-def held_evidence(graph_path, truth, stream_rows, optimizer, longer_than=100):
+def held_evidence(graph_path, truth, stream_rows, optimizer, rrr_offline, longer_than=100):
     """Each false group the stream held accepted for more than `longer_than` nodes, with the first
     moment (every 50 nodes from its acceptance, to the end of its hold) at which the outlier-free
-    data so far contradicts it."""
+    data so far contradicts it and the first at which batch RRR on the graph so far rejects it."""
     groups = held_false_groups(stream_rows, truth, longer_than)
     if not groups:
         return ()
     graph, cache = read_graph(graph_path), {}
     return tuple((g, first_contradiction(graph, truth, g.candidates, g.accepted_at,
-                                         g.accepted_at + g.held, optimizer, cache=cache))
+                                         g.accepted_at + g.held, optimizer, cache=cache),
+                  first_batch_rejection(graph, g.candidates, g.accepted_at, g.accepted_at + g.held,
+                                        rrr_offline))
                  for g in groups)
 
 
 def held_lines(rows, name, longer_than=100):
-    """The false groups held over `longer_than` nodes against the outlier-free data (the table
-    under the online one), and how many of their links no test could have rejected in time."""
-    held = [(r, g, e) for r in rows for g, e in r.held]
+    """The false groups held over `longer_than` nodes against the outlier-free data and against
+    batch RRR on the same data (the table under the online one), and how many of their links no
+    test could have rejected in time, how many batch RRR held as long, how many only the online
+    decision did."""
+    held = [(r, g, e, b) for r in rows for g, e, b in r.held]
     if not held:
         return []
     lines = ["", f"false groups held accepted over {longer_than} nodes, against the outlier-free "
-                 "data the robot had (odometry and true loops among the nodes arrived; "
-                 "rrr_graphslam.stream_evidence):", "",
+                 "data the robot had (odometry and the true loops among the nodes arrived) and "
+                 "against batch RRR deciding the graph so far (rrr_graphslam.stream_evidence):", "",
              "| input | cluster (false links) | accepted at node | held (nodes) | outlier-free data "
-             "contradicts it from node | its chi2 increase there / gate | held after that (nodes) |",
+             "contradicts it from node | its chi2 increase there / gate | batch RRR rejects it "
+             "from node |",
              "|---|---|---|---|---|---|---|"]
-    in_time = out_of_reach = 0
-    for r, g, e in held:
+    out_of_reach = batch_too = online_only = 0
+    for r, g, e, b in held:
         end = g.accepted_at + g.held
-        if e.contradicted_at is None:
-            since, after = f"not by node {end}", "-"
-        else:
-            since, after = str(e.contradicted_at), str(end - e.contradicted_at)
         lines.append(f"| {name(r)} | {g.cluster} ({len(g.candidates)}) | {g.accepted_at} | "
-                     f"{g.held} | {since} | {e.increase:.1f} / {e.gate:.1f} | {after} |")
-        if e.contradicted_at is not None and e.contradicted_at - g.accepted_at <= longer_than:
-            in_time += len(g.candidates)
-        else:
+                     f"{g.held} | {e.contradicted_at or f'not by node {end}'} | "
+                     f"{e.increase:.1f} / {e.gate:.1f} | {b or f'not by node {end}'} |")
+        if e.contradicted_at is None or e.contradicted_at - g.accepted_at > longer_than:
             out_of_reach += len(g.candidates)
-    lines += ["", f"  of the {in_time + out_of_reach} false links held over {longer_than} nodes, "
-                  f"{out_of_reach} were not contradicted by the outlier-free data within "
-                  f"{longer_than} nodes of their acceptance (no test on the stated noise could "
-                  f"have rejected them in time), {in_time} were (the online decision's own "
+        elif b is None or b - g.accepted_at > longer_than:
+            batch_too += len(g.candidates)
+        else:
+            online_only += len(g.candidates)
+    lines += ["", f"  of the {out_of_reach + batch_too + online_only} false links held over "
+                  f"{longer_than} nodes: {out_of_reach} not contradicted within {longer_than} nodes "
+                  "by the outlier-free data (no test on the stated noise could have rejected them "
+                  f"in time), {batch_too} contradicted but held as long by batch RRR on the same "
+                  f"data, {online_only} rejected in time by batch RRR (the online decision's own "
                   "shortfall)"]
     return lines
 

@@ -1,8 +1,12 @@
-"""When the data could first tell a false group from a true one: for a group of false links an
-online decision accepted, the first moment at which the outlier-free data the robot had so far
-(odometry and the true loops among nodes already arrived) contradicts it. Until then no test on the
-stated noise can reject it, however it is made; from then on, holding it is the decision's own
-shortfall. A reference the decisions did not produce: the truth labels and the stated noise.
+"""When the data could first tell a false group from a true one. For a group of false links an
+online decision accepted, two moments:
+
+- first_contradiction: the first at which the outlier-free data the robot had so far (odometry
+  and the true loops among the nodes already arrived) contradicts it. Until then no test on the
+  stated noise can reject it, however it is made. It knows which loops are true, which no verifier
+  does: a bound on what the data can tell, not a decision one could make.
+- first_batch_rejection: the first at which batch RRR, deciding every candidate of the graph so
+  far from scratch, rejects it: what the product's own full decision makes of the same data.
 
 The test at node count n: optimize the outlier-free prefix (nodes < n) with and without the
 group; the group is contradicted when it raises the optimum's chi2 by chi2(alpha, 3 x its links)
@@ -17,26 +21,29 @@ from typing import Dict, List, Optional, Sequence
 
 from scipy.stats import chi2
 
+from .evaluation import read_decisions
 from .graph_io import PoseGraph, read_graph, write_graph
 from .outliers import chi2_against
 
 
+def prefix(graph: PoseGraph, nodes: int) -> PoseGraph:
+    """Nodes < `nodes` with every edge among them (the graph as the robot had it)."""
+    return PoseGraph({i: p for i, p in graph.poses.items() if i < nodes},
+                     [e for e in graph.edges if e.source < nodes and e.target < nodes])
+
+
 def outlier_free_prefix(graph: PoseGraph, truth: Sequence[Optional[bool]], nodes: int,
                         extra: Sequence[int] = ()) -> PoseGraph:
-    """Nodes < `nodes` with their odometry and true loops, and the loop candidates `extra`
-    (indices among graph.loops(), in file order) whose ends have arrived. Candidates of unknown
-    truth are left out."""
-    keep = set(extra)
-    edges, k = [], 0
+    """prefix() with odometry and true loops only, and the loop candidates `extra` (indices among
+    graph.loops(), in file order). Candidates of unknown truth are left out."""
+    keep, edges, k = set(extra), [], -1
     for e in graph.edges:
         if e.is_loop:
-            wanted = truth[k] is True or k in keep
             k += 1
-            if not wanted:
+            if truth[k] is not True and k not in keep:
                 continue
-        if e.source < nodes and e.target < nodes:
-            edges.append(e)
-    return PoseGraph({i: p for i, p in graph.poses.items() if i < nodes}, edges)
+        edges.append(e)
+    return prefix(PoseGraph(graph.poses, edges), nodes)
 
 
 def optimum_chi2(graph: PoseGraph, optimizer: str, workdir: str) -> float:
@@ -63,6 +70,10 @@ class Evidence:
     gate: float                     # chi2(alpha, 3 x its links)
 
 
+def _counts(start: int, stop: int, step: int) -> List[int]:
+    return list(range(start, stop, step)) + [stop]
+
+
 def first_contradiction(graph: PoseGraph, truth: Sequence[Optional[bool]], group: Sequence[int],
                         start: int, stop: int, optimizer: str, step: int = 50,
                         alpha: float = 0.95, cache: Optional[Dict[int, float]] = None) -> Evidence:
@@ -71,7 +82,7 @@ def first_contradiction(graph: PoseGraph, truth: Sequence[Optional[bool]], group
     keeps the outlier-free optimum's chi2 per node count between calls on one graph."""
     cache = {} if cache is None else cache
     gate = float(chi2.ppf(alpha, 3 * len(group)))
-    counts = list(range(start, stop, step)) + [stop]
+    counts = _counts(start, stop, step)
     increase = 0.0
     with tempfile.TemporaryDirectory(prefix="rrr_evidence_") as workdir:
         for n in counts:
@@ -82,3 +93,26 @@ def first_contradiction(graph: PoseGraph, truth: Sequence[Optional[bool]], group
             if increase >= gate:
                 return Evidence(n, increase, gate)
     return Evidence(None, increase, gate)
+
+
+def first_batch_rejection(graph: PoseGraph, group: Sequence[int], start: int, stop: int,
+                          rrr_offline: str, step: int = 50) -> Optional[int]:
+    """The first node count in start, start + step, ..., stop at which batch RRR (rrr_offline with
+    its defaults) on the graph's prefix rejects every candidate of `group` (indices among
+    graph.loops()); None if none does. RuntimeError with rrr_offline's message if it fails."""
+    loops = list(enumerate(graph.loops()))
+    with tempfile.TemporaryDirectory(prefix="rrr_evidence_") as workdir:
+        path = os.path.join(workdir, "prefix.g2o")
+        decisions = os.path.join(workdir, "prefix.tsv")
+        for n in _counts(start, stop, step):
+            write_graph(prefix(graph, n), path)
+            run = subprocess.run([rrr_offline, path, "--decisions", decisions, "--quiet"],
+                                 capture_output=True, text=True)
+            if run.returncode != 0:
+                raise RuntimeError(f"{rrr_offline} on a prefix of {n} nodes: "
+                                   f"{run.stderr.strip() or run.stdout.strip()}")
+            index = [k for k, e in loops if e.source < n and e.target < n]
+            verdict = dict(zip(index, (d.verdict for d in read_decisions(decisions))))
+            if all(verdict.get(k) == "rejected" for k in group):
+                return n
+    return None

@@ -206,11 +206,15 @@ def test_incremental_runs_are_scored_as_their_decisions_were_made(tmp_path):
     # Beside the stream, each candidate's verdicts and when (nodes, seconds after its arrival).
     history = (cache / "g_random4_s1_gated.g2o.incremental.stream.history.tsv").read_text().splitlines()
     assert history[3] == "2\tfalse\tpending@0/0.000s accepted@3/0.100s rejected@193/0.200s"
-    # The false link held over 100 nodes, against the outlier-free data: contradicted on arrival.
-    assert "| g random 4 | 2 (1) | 10 | 190 | 10 | 9.0 / 7.8 | 190 |" in lines
-    assert ("  of the 1 false links held over 100 nodes, 0 were not contradicted by the outlier-free "
-            "data within 100 nodes of their acceptance (no test on the stated noise could have "
-            "rejected them in time), 1 were (the online decision's own shortfall)") in lines
+    # The false link held over 100 nodes, against the outlier-free data (contradicted on arrival)
+    # and against batch RRR on the graph so far (the fake's batch decision rejects it at once).
+    assert "| g random 4 | 2 (1) | 10 | 190 | 10 | 9.0 / 7.8 | 10 |" in lines
+    assert ("  of the 1 false links held over 100 nodes: 0 not contradicted within 100 nodes by the "
+            "outlier-free data (no test on the stated noise could have rejected them in time), 0 "
+            "contradicted but held as long by batch RRR on the same data, 1 rejected in time by "
+            "batch RRR (the online decision's own shortfall)") in lines
+    batch_runs = [c for c in calls if "rrr_evidence_" in c]
+    assert len(batch_runs) == 1 and "--mode" not in batch_runs[0]
 
 
 def test_aliasing_pairs_each_aliased_input_with_random_outliers_of_its_count_and_seed(tmp_path):

@@ -9,7 +9,8 @@ from rrr_graphslam.decision_stream import (candidate_histories, held_false_group
                                            percentile, read_decision_stream, score_stream,
                                            write_histories)
 from rrr_graphslam.graph_io import Edge, GraphFileError, PoseGraph
-from rrr_graphslam.stream_evidence import first_contradiction, outlier_free_prefix
+from rrr_graphslam.stream_evidence import (first_batch_rejection, first_contradiction,
+                                           outlier_free_prefix, prefix)
 
 HEADER = "when\tscan\tnodes\tstamp\tcandidate\tfrom\tto\tcluster\tprevious\tverdict\treason\n"
 
@@ -107,22 +108,29 @@ def test_the_false_groups_held_are_those_one_change_accepted_together(tmp_path):
 
 
 OPTIMIZE = os.environ.get("RRR_OPTIMIZE")
+OFFLINE = os.environ.get("RRR_OFFLINE")
+
+
+def corridor(offset):
+    """30 poses along x; a false link 2 -> 10 claiming node 10 lies `offset` m aside (candidate
+    0), then true tight loops 2 -> 20 and 10 -> 21 (candidates 1 and 2)."""
+    odometry, tight = (100.0, 0.0, 0.0, 100.0, 0.0, 1000.0), (1e3, 0.0, 0.0, 1e3, 0.0, 1e4)
+    graph = PoseGraph({i: (float(i), 0.0, 0.0) for i in range(30)},
+                      [Edge(i - 1, i, (1.0, 0.0, 0.0), odometry) for i in range(1, 30)])
+    graph.edges += [Edge(2, 10, (8.0, offset, 0.0), odometry),
+                    Edge(2, 20, (18.0, 0.0, 0.0), tight), Edge(10, 21, (11.0, 0.0, 0.0), tight)]
+    return graph
 
 
 @pytest.mark.skipif(not OPTIMIZE, reason="RRR_OPTIMIZE not given")
 def test_a_false_link_is_contradicted_once_true_loops_pin_the_path_it_bends():
-    # A 30-node corridor along x; the false link claims node 10 lies 0.75 m aside of where node 2's
-    # odometry puts it, which 8 loose odometry steps can take (chi2 increase 3.9); a true loop
-    # 2 -> 20 and then 10 -> 21, tight, pin the path (12.6 >= chi2(0.95, 3) 7.81).
-    odometry, tight = (100.0, 0.0, 0.0, 100.0, 0.0, 1000.0), (1e3, 0.0, 0.0, 1e3, 0.0, 1e4)
-    graph = PoseGraph({i: (float(i), 0.0, 0.0) for i in range(30)},
-                      [Edge(i - 1, i, (1.0, 0.0, 0.0), odometry) for i in range(1, 30)])
-    graph.edges += [Edge(2, 10, (8.0, 0.75, 0.0), odometry), Edge(2, 20, (18.0, 0.0, 0.0), tight),
-                    Edge(10, 21, (11.0, 0.0, 0.0), tight)]
-    truth = [False, True, True]
-    prefix = outlier_free_prefix(graph, truth, 21, [0])
-    assert sorted(prefix.poses) == list(range(21))
-    assert [(e.source, e.target) for e in prefix.loops()] == [(2, 10), (2, 20)]
+    # 0.75 m aside: 8 loose odometry steps take it (chi2 increase 3.9), the loop 2 -> 20 alone
+    # too (6.7), both loops pin the path (12.6 >= chi2(0.95, 3) 7.81).
+    graph, truth = corridor(0.75), [False, True, True]
+    assert [(e.source, e.target) for e in prefix(graph, 21).loops()] == [(2, 10), (2, 20)]
+    assert sorted(prefix(graph, 21).poses) == list(range(21))
+    assert [(e.source, e.target) for e in outlier_free_prefix(graph, truth, 21, [0]).loops()] == [
+        (2, 10), (2, 20)]
     assert [(e.source, e.target) for e in outlier_free_prefix(graph, truth, 21).loops()] == [(2, 20)]
     cache = {}
     early = first_contradiction(graph, truth, [0], 11, 21, OPTIMIZE, step=5, cache=cache)
@@ -132,3 +140,15 @@ def test_a_false_link_is_contradicted_once_true_loops_pin_the_path_it_bends():
     assert later.contradicted_at == 26 and later.increase == pytest.approx(12.6, abs=0.1)
     assert first_contradiction(graph, truth, [0], 11, 29, OPTIMIZE, step=1).contradicted_at == 22
     assert set(cache) == {11, 16, 21, 26}
+
+
+@pytest.mark.skipif(not (OFFLINE and OPTIMIZE), reason="RRR_OFFLINE, RRR_OPTIMIZE not given")
+def test_batch_rrr_on_the_graph_so_far_rejects_the_false_link_once_both_true_loops_arrived():
+    # 0.9 m aside: the loop 2 -> 20 alone already contradicts it (9.7 >= 7.81 knowing it true),
+    # but batch RRR, which does not, rejects it only beside both loops.
+    graph = corridor(0.9)
+    assert first_contradiction(graph, [False, True, True], [0], 11, 29, OPTIMIZE,
+                               step=1).contradicted_at == 21
+    assert first_batch_rejection(graph, [0], 11, 29, OFFLINE, step=1) == 22
+    assert first_batch_rejection(graph, [0], 11, 21, OFFLINE, step=5) is None
+    assert first_batch_rejection(graph, [0, 1], 11, 29, OFFLINE, step=1) is None  # 2 -> 20 stays
