@@ -344,10 +344,10 @@ def held_lines(rows, name, longer_than=100):
              "|---|---|---|---|---|---|---|"]
     out_of_reach = batch_too = online_only = 0
     for r, g, e, b in held:
-        end = g.accepted_at + g.held
+        never = f"not by node {g.accepted_at + g.held}"
         lines.append(f"| {name(r)} | {g.cluster} ({len(g.candidates)}) | {g.accepted_at} | "
-                     f"{g.held} | {e.contradicted_at or f'not by node {end}'} | "
-                     f"{e.increase:.1f} / {e.gate:.1f} | {b or f'not by node {end}'} |")
+                     f"{g.held} | {never if e.contradicted_at is None else e.contradicted_at} | "
+                     f"{e.increase:.1f} / {e.gate:.1f} | {never if b is None else b} |")
         if e.contradicted_at is None or e.contradicted_at - g.accepted_at > longer_than:
             out_of_reach += len(g.candidates)
         elif b is None or b - g.accepted_at > longer_than:
