@@ -441,7 +441,9 @@ TEST(Rrr, OnlineIncreaseTestMeasuresTheGroupAgainstAMapHoldingEveryAcceptedClust
   // The true loops stay accepted online; at the end the batch decision of these 40 poses decides
   // (it keeps the group: nothing after node 39 contradicts it).
   for (const ReplayEvent& e : replay.events) {
-    if (e.candidate < true_loops && !e.final) EXPECT_NE(e.verdict, Verdict::kRejected) << e.reason;
+    if (e.candidate < true_loops && !e.final) {
+      EXPECT_NE(e.verdict, Verdict::kRejected) << e.reason;
+    }
   }
   VerificationGraph batch_graph(g, params.optimizer);
   std::vector<Verdict> batch;
