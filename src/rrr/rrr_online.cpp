@@ -108,7 +108,13 @@ bool Rrr::acceptAgreeingRevisits(const std::vector<int>& waiting) {
     // alone (the others removed) says no more than it did waiting. They only add to the good
     // set: were a good cluster reversed, its chi2 would leave the increase with it.
     if (passed.size() >= 2 && good_kept && increaseFits(goodSetChi2() - good_chi2_before, links)) {
-      return true;
+      if (!params_.online_scratch_check) return true;
+      const std::vector<std::pair<int, std::string>> rejected = rejectedFromScratch(passed);
+      if (rejected.empty()) return true;
+      restoreDecisionState(before);
+      rejectAsFromScratch(rejected, "revisits");
+      revisits_tried_.clear();  // the others wait, and are tried again
+      return false;
     }
     const bool retry = passed.size() >= 3 && graph_.optimizer().covarianceAvailable();
     if (retry) {
@@ -138,15 +144,58 @@ double Rrr::goodSetChi2() const {
   return d2;
 }
 
-bool Rrr::undoIfIncreaseFails(DecisionState before, double good_chi2_before) {
-  const Step step(*this, "online increase test");
+std::vector<int> Rrr::addedSince(const DecisionState& before) const {
   std::vector<int> added;
-  int links = 0;
   for (int c : clustersWith(Status::kGood)) {
-    if (before.clusters[static_cast<std::size_t>(c)].status == Status::kGood) continue;
-    added.push_back(c);
-    links += static_cast<int>(kept_links_[static_cast<std::size_t>(c)].size());
+    if (before.clusters[static_cast<std::size_t>(c)].status != Status::kGood) added.push_back(c);
   }
+  return added;
+}
+
+std::vector<std::pair<int, std::string>> Rrr::rejectedFromScratch(const std::vector<int>& added) {
+  std::vector<int> groups;
+  for (int c : added) {
+    if (kept_links_[static_cast<std::size_t>(c)].size() >= 2) groups.push_back(c);
+  }
+  if (groups.empty()) return {};
+  const Step step(*this, "online scratch check");
+  DecisionState online = decisionState();
+  decideFromScratch();
+  std::vector<std::pair<int, std::string>> rejected;
+  for (int c : groups) {
+    const Cluster& cluster = clusters_[static_cast<std::size_t>(c)];
+    if (cluster.status != Status::kGood) rejected.emplace_back(c, cluster.reason);
+  }
+  restoreDecisionState(std::move(online));
+  holdGoodMap();
+  factorGoodMap();
+  return rejected;
+}
+
+void Rrr::rejectAsFromScratch(const std::vector<std::pair<int, std::string>>& rejected,
+                              const char* step) {
+  for (const auto& [c, why] : rejected) {
+    setStatus(c, Status::kRejected,
+              std::string(step) + ": a decision from scratch rejects it (" + why + ")");
+  }
+  holdGoodMap();
+}
+
+bool Rrr::undoIfScratchRejects(DecisionState& before, std::vector<int>& tested) {
+  const std::vector<std::pair<int, std::string>> rejected = rejectedFromScratch(addedSince(before));
+  if (rejected.empty()) return false;
+  restoreDecisionState(std::move(before));
+  rejectAsFromScratch(rejected, "online");
+  for (const auto& [c, why] : rejected)
+    tested.erase(std::remove(tested.begin(), tested.end(), c), tested.end());
+  return true;
+}
+
+bool Rrr::undoIfIncreaseFails(DecisionState& before, double good_chi2_before) {
+  const Step step(*this, "online increase test");
+  const std::vector<int> added = addedSince(before);
+  int links = 0;
+  for (int c : added) links += static_cast<int>(kept_links_[static_cast<std::size_t>(c)].size());
   if (added.empty()) return false;
   const double increase = goodSetChi2() - good_chi2_before;
   if (increaseFits(increase, links)) return false;
@@ -241,12 +290,13 @@ void Rrr::decideAgainstMap() {
     const bool unoptimized = std::exchange(unoptimized_accepts_, 0) > 0;
     const bool placing = !placing_groups.empty();
     placing_groups.clear();
-    // The increase test needs the decision before the joint test, to undo it (a placing group
+    // The online checks need the decision before the joint test, to undo it (a placing group
     // moves a session that nothing held: its increase says nothing). A joint test of the good
     // set alone (a map update) cannot grow it: no copy then.
     std::optional<DecisionState> before;
     double good_chi2_before = 0.0;
-    if (params_.online_increase_test && !placing && !joint.empty()) {
+    if ((params_.online_increase_test || params_.online_scratch_check) && !placing &&
+        !joint.empty()) {
       // The increase is the tested clusters' own: clusters accepted on the map's word since its
       // last optimization are folded into it first, or the fall of their own chi2 as the joint
       // test fits them would hide a group's excess.
@@ -256,7 +306,14 @@ void Rrr::decideAgainstMap() {
     }
     bool grew =
         realize(joint, params_.warm_start ? base_ : graph_.initialPoses(), "realize", true, true);
-    if (grew && before && undoIfIncreaseFails(std::move(*before), good_chi2_before)) grew = false;
+    if (grew && before && params_.online_increase_test &&
+        undoIfIncreaseFails(*before, good_chi2_before)) {
+      grew = false;
+    }
+    // The others are tested again without the groups a decision from scratch rejects.
+    if (grew && before && params_.online_scratch_check && undoIfScratchRejects(*before, joint)) {
+      continue;
+    }
     joint.clear();
     // The joint test may have kept fewer of a placing group than tie a session.
     if (placing && holdLoosePlacements()) refreshGoodMap();

@@ -32,6 +32,7 @@ void applyPreset(const std::string& name, RrrParams& params) {
     p.online_untestable_ratio = 0.0;
     p.online_group_wait_nodes = 0;
     p.online_increase_test = false;
+    p.online_scratch_check = false;
     p.incremental_rebatch_every = 0;
     p.incremental_factor_updates = false;
   } else if (name != "default") {

@@ -43,7 +43,7 @@ ABLATION_INPUTS = ("manhattanOlson3500_olson:random:1000",
 # The switches the paper preset changes (applyPreset in src/rrr/rrr_params.cpp) that act in a batch
 # decision, each with the value that turns its addition off. The incremental-only ones
 # (online_map_check, online_untestable_ratio, online_group_wait_nodes, online_increase_test,
-# incremental_rebatch_every, incremental_factor_updates) change nothing here.
+# online_scratch_check, incremental_rebatch_every, incremental_factor_updates) change nothing here.
 ABLATION_SWITCHES = (
     ("reduced-intra-graph", "false"),
     ("intra-worst-link-removal", "false"),

@@ -25,6 +25,7 @@ class StreamRow:
     previous: str
     verdict: str
     cluster: int = -1  # the candidate's cluster, -1 while it is open
+    reason: str = ""
 
 
 def read_decision_stream(path: str) -> List[StreamRow]:
@@ -44,7 +45,7 @@ def read_decision_stream(path: str) -> List[StreamRow]:
                                                + ", ".join(VERDICTS))
         try:
             rows.append(StreamRow(f[0] == "final", int(f[2]), float(f[3]), int(f[4]), f[8], f[9],
-                                  int(f[7])))
+                                  int(f[7]), f[10]))
         except ValueError:
             raise GraphFileError(path, number, "nodes, candidate and cluster must be integers, "
                                                "stamp a number") from None

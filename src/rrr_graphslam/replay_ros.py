@@ -58,7 +58,8 @@ class PoseGraphReplay:
         self.sources.add(msg.source)
         self.stream.append(StreamRow(self.finishing, self.nodes_sent, msg.header.stamp.to_sec(), msg.candidate,
                                      VERDICT_NAMES.get(msg.previous_verdict, "pending"),
-                                     VERDICT_NAMES.get(msg.verdict, "pending"), msg.cluster))
+                                     VERDICT_NAMES.get(msg.verdict, "pending"), msg.cluster,
+                                     msg.reason))
         self.final[msg.candidate] = (msg.from_id, msg.to_id, VERDICT_NAMES.get(msg.verdict, "pending"),
                                      msg.cluster, msg.reason)
 

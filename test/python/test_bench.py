@@ -305,7 +305,7 @@ def test_ablation_switches_are_those_the_paper_preset_changes():
     paper = source[source.index('if (name == "paper")'):source.index("} else if")]
     changed = dict(re.findall(r"p\.(\w+) = ([^;]+);", paper))
     incremental_only = {"online_map_check", "online_untestable_ratio", "online_group_wait_nodes",
-                        "online_increase_test", "incremental_rebatch_every",
+                        "online_increase_test", "online_scratch_check", "incremental_rebatch_every",
                         "incremental_factor_updates"}
     # Acts only with placement_min_spread_m, which SLAM runs set and the bench's graphs do not.
     slam_only = {"placement_wider_reading"}

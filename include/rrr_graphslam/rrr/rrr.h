@@ -300,7 +300,20 @@ class Rrr {
   /// online_increase_test after a joint test that grew the good set from `before` (whose D2_G
   /// was `good_chi2_before`): if the clusters it added raised D2_G by chi2(alpha, 3 x their
   /// links) or more, `before` is restored and they are rejected. Returns whether it undid.
-  bool undoIfIncreaseFails(DecisionState before, double good_chi2_before);
+  bool undoIfIncreaseFails(DecisionState& before, double good_chi2_before);
+  /// The clusters good now that were not in `before`.
+  std::vector<int> addedSince(const DecisionState& before) const;
+  /// online_scratch_check: the clusters of two links or more among `added` (good now) that a
+  /// decision from scratch of every closed cluster, made now, rejects, each with its reason
+  /// there. The decision state is left as it was (the optimizer holding the good map, factored).
+  std::vector<std::pair<int, std::string>> rejectedFromScratch(const std::vector<int>& added);
+  /// Rejects them ("STEP: a decision from scratch rejects it (its reason)").
+  void rejectAsFromScratch(const std::vector<std::pair<int, std::string>>& rejected,
+                           const char* step);
+  /// online_scratch_check after a joint test that grew the good set from `before`: if a decision
+  /// from scratch rejects a group it added, `before` is restored (moved from), those groups are
+  /// rejected and removed from `tested`. Returns whether it undid.
+  bool undoIfScratchRejects(DecisionState& before, std::vector<int>& tested);
   /// A rise of D2_G by `increase` from `links` added links stays below chi2(alpha, 3 x links):
   /// the test of an innovation against its own degrees of freedom (far retry, online tests).
   bool increaseFits(double increase, int links) const;

@@ -139,6 +139,14 @@ struct RrrParams {
   /// joint test over every link absorbs the excess of one group that bends the map to fit
   /// (the far retry's increase test, online). Default true; false: off (paper).
   bool online_increase_test = true;
+  /// A cluster of two links or more that an online joint test (or the revisit rule) would add to
+  /// the good set is kept only if a decision from scratch of every closed cluster, made at that
+  /// moment, keeps it too; otherwise the joint test is undone and it is rejected. The online
+  /// decisions test a new group against the map they built, which their earlier decisions shaped;
+  /// the decision from scratch weighs it against every closed cluster, with the robust ordering
+  /// map and the leave-one-out check. One batch decision per group about to be accepted (a few
+  /// tens in a run of thousands of nodes). Default true; false: off (paper).
+  bool online_scratch_check = true;
   /// Re-optimize the good set after this many clusters were accepted without it; default 32.
   int incremental_map_update_every = 32;
   /// In a graph of several sessions (parts no trusted constraint joins), when the robot passes
@@ -243,6 +251,10 @@ void forEachParam(Params& p, F&& f) {
               "incremental: a joint test whose added links raise the good set's chi2 beyond "
               "their own chi2 quantile is undone"},
     p.online_increase_test);
+  f(ParamInfo{"online_scratch_check", 0, 1,
+              "incremental: a group a joint test would add is kept only if a decision from "
+              "scratch of the closed clusters keeps it too"},
+    p.online_scratch_check);
   f(ParamInfo{"incremental_map_update_every", 1, 1e9,
               "incremental: re-optimize the map after this many accepted clusters"},
     p.incremental_map_update_every);
