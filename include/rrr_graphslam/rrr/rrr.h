@@ -305,7 +305,8 @@ class Rrr {
   std::vector<int> addedSince(const DecisionState& before) const;
   /// online_scratch_check: the clusters of two links or more among `added` (good now) that a
   /// decision from scratch of every closed cluster, made now, rejects, each with its reason
-  /// there. The decision state is left as it was (the optimizer holding the good map, factored).
+  /// there; none in a graph of several sessions. The decision state is left as it was (the
+  /// optimizer holding the good map, factored).
   std::vector<std::pair<int, std::string>> rejectedFromScratch(const std::vector<int>& added);
   /// Rejects them ("STEP: a decision from scratch rejects it (its reason)").
   void rejectAsFromScratch(const std::vector<std::pair<int, std::string>>& rejected,
