@@ -190,8 +190,9 @@ bool Rrr::undoIfScratchRejects(DecisionState& before, std::vector<int>& tested) 
   if (rejected.empty()) return false;
   restoreDecisionState(std::move(before));
   rejectAsFromScratch(rejected, "online");
-  for (const auto& [c, why] : rejected)
-    tested.erase(std::remove(tested.begin(), tested.end(), c), tested.end());
+  for (const auto& rejection : rejected) {
+    tested.erase(std::remove(tested.begin(), tested.end(), rejection.first), tested.end());
+  }
   return true;
 }
 

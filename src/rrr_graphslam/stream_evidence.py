@@ -27,7 +27,8 @@ from .outliers import chi2_against
 
 
 def prefix(graph: PoseGraph, nodes: int) -> PoseGraph:
-    """Nodes < `nodes` with every edge among them (the graph as the robot had it)."""
+    """Nodes < `nodes` with every edge among them (the graph as the robot had it); dense factors
+    (a trimmed map's) are not kept."""
     return PoseGraph({i: p for i, p in graph.poses.items() if i < nodes},
                      [e for e in graph.edges if e.source < nodes and e.target < nodes])
 
