@@ -348,12 +348,13 @@ def held_lines(rows, name, longer_than=100):
         lines.append(f"| {name(r)} | {g.cluster} ({len(g.candidates)}) | {g.accepted_at} | "
                      f"{g.held} | {never if e.contradicted_at is None else e.contradicted_at} | "
                      f"{e.increase:.1f} / {e.gate:.1f} | {never if b is None else b} |")
-        if e.contradicted_at is None or e.contradicted_at - g.accepted_at > longer_than:
-            out_of_reach += len(g.candidates)
-        elif b is None or b - g.accepted_at > longer_than:
-            batch_too += len(g.candidates)
-        else:
+        # Batch RRR's own rejection in time shows it could be rejected, whatever the evidence.
+        if b is not None and b - g.accepted_at <= longer_than:
             online_only += len(g.candidates)
+        elif e.contradicted_at is None or e.contradicted_at - g.accepted_at > longer_than:
+            out_of_reach += len(g.candidates)
+        else:
+            batch_too += len(g.candidates)
     lines += ["", f"  of the {out_of_reach + batch_too + online_only} false links held over "
                   f"{longer_than} nodes: {out_of_reach} not contradicted within {longer_than} nodes "
                   "by the outlier-free data (no test on the stated noise could have rejected them "
