@@ -146,8 +146,9 @@ struct RrrParams {
   /// the decision from scratch weighs it against every closed cluster, with the robust ordering
   /// map and the leave-one-out check. One batch decision per group about to be accepted (a few
   /// tens in a run of thousands of nodes), under the online decisions' optimizer settings
-  /// (incremental_relative_tolerance, incremental_factor_updates). A graph of one session only (several are decided from
-  /// scratch every incremental_rebatch_every nodes). Default true; false: off (paper).
+  /// (incremental_relative_tolerance, incremental_factor_updates). A graph of one session only
+  /// (several are decided from scratch every incremental_rebatch_every nodes). Default true; false:
+  /// off (paper).
   bool online_scratch_check = true;
   /// Re-optimize the good set after this many clusters were accepted without it; default 32.
   int incremental_map_update_every = 32;
