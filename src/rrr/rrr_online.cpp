@@ -153,15 +153,14 @@ std::vector<int> Rrr::addedSince(const DecisionState& before) const {
 }
 
 std::vector<std::pair<int, std::string>> Rrr::rejectedFromScratch(const std::vector<int>& added) {
-  // Several sessions are decided from scratch every incremental_rebatch_every nodes already, and
-  // such a decision (placements, the previous map as a contender) costs far more than one of a
-  // single run.
-  if (graph_.numTrustedComponents() > 1) return {};
   std::vector<int> groups;
   for (int c : added) {
     if (kept_links_[static_cast<std::size_t>(c)].size() >= 2) groups.push_back(c);
   }
-  if (groups.empty()) return {};
+  // Several sessions are decided from scratch every incremental_rebatch_every nodes already, and
+  // such a decision (placements, the previous map as a contender) costs far more than one of a
+  // single run. (Counting the components walks the graph: only when there is a group.)
+  if (groups.empty() || graph_.numTrustedComponents() > 1) return {};
   const Step step(*this, "online scratch check");
   DecisionState online = decisionState();
   decideFromScratch();

@@ -7,6 +7,7 @@ import os
 import subprocess
 
 import pytest
+from conftest import DATA
 
 from rrr_graphslam.bench import synthetic_input
 from rrr_graphslam.decision_stream import held_false_groups, read_decision_stream
@@ -15,7 +16,6 @@ from rrr_graphslam.stream_evidence import prefix
 
 OFFLINE = os.environ.get("RRR_OFFLINE")
 OPTIMIZE = os.environ.get("RRR_OPTIMIZE")
-DATA = os.path.join(os.path.dirname(__file__), "..", "data")
 
 
 @pytest.mark.skipif(not (OFFLINE and OPTIMIZE), reason="RRR_OFFLINE, RRR_OPTIMIZE not given")
@@ -24,7 +24,8 @@ def test_a_false_revisit_the_decision_from_scratch_rejects_is_not_held(tmp_path)
     graph, nodes = read_graph(source), 1350
     path = str(tmp_path / "ringCity_aliased300_s1_1350.g2o")
     write_graph(prefix(graph, nodes), path)
-    is_true = [line.split()[2] == "1" for line in open(labels)]
+    with open(labels) as f:
+        is_true = [line.split()[2] == "1" for line in f]
     truth = [is_true[k] for k, e in enumerate(graph.loops()) if e.source < nodes and e.target < nodes]
 
     def held(*options):
